@@ -1,0 +1,72 @@
+"""Motion import: BVH, CMU ASF/AMC, C3D and TRC files to :class:`~imesh.motion.MarkerMotion`.
+
+``load_motion(path)`` picks the reader by extension, converts to metres, Z up, floor at z = 0 and
+logs each decision (units, up axis, floor) so it can be checked and overridden.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..errors import MotionFileError, UnsupportedFormatError
+from ..motion import MarkerMotion
+from .raw import RawMotion
+from .units import UNIT_SCALES_M, UP_AXES, finalize
+
+__all__ = ["load_motion", "read_raw", "finalize", "RawMotion", "UNIT_SCALES_M", "UP_AXES",
+           "SUPPORTED_EXTENSIONS"]
+
+SUPPORTED_EXTENSIONS = (".bvh", ".amc", ".c3d", ".trc")
+
+
+def read_raw(path: str | os.PathLike, *, asf: str | os.PathLike | None = None,
+             fps: float | None = None) -> RawMotion:
+    """Parse a motion file without unit/axis conversion.
+
+    Args:
+        path: .bvh, .amc (with its .asf), .c3d or .trc file.
+        asf: skeleton file for .amc input; by default the single .asf in the same folder whose
+            name is a prefix of the .amc name (``cmu_07.asf`` for ``cmu_07_05.amc``).
+        fps: frame rate for formats that do not store one (AMC; default 120 as in the CMU
+            listing); ignored otherwise.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise MotionFileError(str(p), "no such file")
+    ext = p.suffix.lower()
+    if ext == ".bvh":
+        from .bvh import read_bvh
+        return read_bvh(p)
+    if ext == ".amc":
+        from .asf_amc import read_asf_amc
+        return read_asf_amc(p, asf_path=asf, fps=fps)
+    if ext == ".c3d":
+        from .c3d import read_c3d
+        return read_c3d(p)
+    if ext == ".trc":
+        from .trc import read_trc
+        return read_trc(p)
+    raise UnsupportedFormatError(
+        str(p), f"unsupported extension {ext!r}; valid: {', '.join(SUPPORTED_EXTENSIONS)}"
+    )
+
+
+def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
+                up_axis: str | None = None, ground: str | float = "auto",
+                fps: float | None = None, asf: str | os.PathLike | None = None) -> MarkerMotion:
+    """Read a motion file into a MarkerMotion (metres, Z up, floor at z = 0).
+
+    Args:
+        path: .bvh, .amc, .c3d or .trc file.
+        units: override the detected unit ("m", "cm", "mm", "in", "cmu") or metres per unit.
+        up_axis: override the detected up axis ("+Y", "+Z", ...).
+        ground: "auto" (shift to the floor when off by > 3 cm), "none", or a shift in metres.
+        fps: frame rate for AMC files, which store none (default 120).
+        asf: the skeleton for an .amc file (default: found beside it).
+
+    Returns:
+        The motion; ``motion.meta`` records every decision taken.
+    """
+    raw = read_raw(path, asf=asf, fps=fps)
+    return finalize(raw, units=units, up_axis=up_axis, ground=ground)

@@ -1,0 +1,173 @@
+"""Units, up axis and floor: detection with logged decisions, and the conversion to MarkerMotion."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from ..errors import OptionError
+from ..motion import MarkerMotion
+from .raw import RawMotion
+
+log = logging.getLogger(__name__)
+
+#: Metres per unit for the unit names imesh understands.
+UNIT_SCALES_M: dict[str, float] = {
+    "m": 1.0,
+    "cm": 0.01,
+    "mm": 0.001,
+    "in": 0.0254,
+    "cmu": 0.0254 / 0.45,  # CMU ASF/BVH length unit: 1/0.45 inch = 0.05644 m
+}
+UP_AXES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
+#: Plausible joint-extent heights of an adult performer [m] (joint rigs understate stature).
+PLAUSIBLE_HEIGHT_M = (1.0, 2.1)
+TYPICAL_HEIGHT_M = 1.55
+
+
+def rotation_to_z_up(up_axis: str) -> np.ndarray:
+    """Proper rotation R (3x3) with ``R @ up = +Z`` for an axis name like "+Y".
+
+    +Y up maps by the cyclic permutation (x, y, z) -> (z, x, y), the usual BVH/C3D convention
+    (file Z, pointing at the viewer, becomes world X).
+    """
+    if up_axis not in UP_AXES:
+        raise OptionError("up axis", up_axis, UP_AXES)
+    sign = 1.0 if up_axis[0] == "+" else -1.0
+    axis = "XYZ".index(up_axis[1])
+    # cyclic permutation putting `axis` last keeps det = +1
+    order = [(axis + 1) % 3, (axis + 2) % 3, axis]
+    r = np.zeros((3, 3))
+    for row, col in enumerate(order):
+        r[row, col] = 1.0
+    if sign < 0:  # rotate 180 deg about the new X to flip Z (and Y) keeping handedness
+        r = np.diag([1.0, -1.0, -1.0]) @ r
+    return r
+
+
+def _frame_extents(positions: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(T, 3) extent of the valid markers per frame per axis (NaN for too-sparse frames)."""
+    enough = valid.sum(axis=1) >= max(2, positions.shape[1] // 2)
+    ext = np.full((positions.shape[0], 3), np.nan)
+    if enough.any():
+        p = positions[enough]
+        ext[enough] = np.nanmax(p, axis=1) - np.nanmin(p, axis=1)
+    return ext
+
+
+def detect_up_axis(raw: RawMotion) -> tuple[str, str]:
+    """Up axis and the reason: the file's declaration, else the axis of largest median extent
+    per frame, signed by the median coordinate (lab floors sit at 0 with the body above)."""
+    if raw.declared_up is not None:
+        return raw.declared_up, "declared by the file format"
+    ext = np.nanmedian(_frame_extents(raw.positions, raw.valid), axis=0)
+    axis = int(np.nanargmax(ext))
+    median = np.nanmedian(raw.positions[..., axis])
+    sign = "+" if median >= 0 else "-"
+    why = (f"axis of largest per-frame extent ({ext[axis]:.4g} file units), signed by the "
+           "median coordinate")
+    return f"{sign}{'XYZ'[axis]}", why
+
+
+def detect_units(raw: RawMotion, height_file_units: float) -> tuple[str, float, str]:
+    """Unit name, metres per unit, and the reason.
+
+    Declared units win. Otherwise the candidate whose height lands in the plausible range
+    closest to a typical height is chosen; CMU rigs prefer the CMU unit when it is plausible.
+    """
+    if raw.declared_scale_m is not None:
+        name = raw.declared_units or f"{raw.declared_scale_m:.6g} m"
+        return name, float(raw.declared_scale_m), "declared by the file"
+    if raw.declared_units is not None:
+        unit = raw.declared_units.lower()
+        if unit not in UNIT_SCALES_M:
+            raise OptionError("unit", raw.declared_units, UNIT_SCALES_M)
+        return unit, UNIT_SCALES_M[unit], "declared by the file"
+    hint = raw.meta.get("unit_hint_m")
+    if hint is not None:
+        return (f"{float(hint):.6g} m", float(hint),
+                str(raw.meta.get("unit_hint_reason", "reader hint")))
+    lo, hi = PLAUSIBLE_HEIGHT_M
+    if raw.rig.startswith("cmu"):
+        h = height_file_units * UNIT_SCALES_M["cmu"]
+        if lo <= h <= hi:
+            return "cmu", UNIT_SCALES_M["cmu"], f"CMU rig and height {h:.3f} m is plausible"
+    best = None
+    for name, scale in UNIT_SCALES_M.items():
+        if name == "cmu":
+            continue
+        h = height_file_units * scale
+        score = abs(np.log(h / TYPICAL_HEIGHT_M)) if h > 0 else np.inf
+        plausible = lo <= h <= hi
+        key = (not plausible, score)
+        if best is None or key < best[0]:
+            best = (key, name, scale, h)
+    _, name, scale, h = best
+    return name, scale, f"height {height_file_units:.4g} units -> {h:.3f} m is the most plausible"
+
+
+def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str | None = None,
+             ground: str | float = "auto") -> MarkerMotion:
+    """Convert a RawMotion to a MarkerMotion in metres, Z up, floor at z = 0.
+
+    Args:
+        raw: the parsed file.
+        units: override: a unit name (m, cm, mm, in, cmu) or metres per file unit.
+        up_axis: override: "+X", "-X", "+Y", "-Y", "+Z" or "-Z".
+        ground: "auto" shifts the motion vertically so the floor (the 2nd percentile of the
+            per-frame lowest marker) is at z = 0 when it is more than 3 cm away; "none" keeps the
+            file's vertical origin; a number shifts by that many metres (up).
+    """
+    if up_axis is not None:
+        up, up_why = up_axis, "given by the user"
+        if up not in UP_AXES:
+            raise OptionError("up axis", up, UP_AXES)
+    else:
+        up, up_why = detect_up_axis(raw)
+    rot = rotation_to_z_up(up)
+    pos = raw.positions @ rot.T
+    ext = _frame_extents(pos, raw.valid)
+    height_units = float(np.nanmedian(ext[:, 2])) if np.isfinite(ext[:, 2]).any() else float("nan")
+
+    if units is None:
+        unit_name, scale, unit_why = detect_units(raw, height_units)
+    elif isinstance(units, str):
+        if units.lower() not in UNIT_SCALES_M:
+            raise OptionError("units", units, list(UNIT_SCALES_M))
+        unit_name, scale = units.lower(), UNIT_SCALES_M[units.lower()]
+        unit_why = "given by the user"
+    else:
+        unit_name, scale, unit_why = f"{float(units):.6g} m", float(units), "given by the user"
+    pos = pos * scale
+
+    floor = 0.0
+    if ground == "auto":
+        z = np.where(raw.valid, pos[..., 2], np.nan)
+        seen = raw.valid.any(axis=1)
+        lowest = np.nanmin(z[seen], axis=1) if seen.any() else np.zeros(0)
+        est = float(np.percentile(lowest, 2)) if lowest.size else 0.0
+        if abs(est) > 0.03:
+            floor = est
+            ground_why = f"lowest markers sit at {est:+.3f} m: shifted to the floor"
+        else:
+            ground_why = f"lowest markers at {est:+.3f} m: kept"
+    elif ground == "none":
+        ground_why = "kept (ground='none')"
+    else:
+        try:
+            floor = -float(ground)
+        except (TypeError, ValueError):
+            raise OptionError("ground", ground, "'auto', 'none' or a number of metres") from None
+        ground_why = "given by the user"
+    pos[..., 2] -= floor
+
+    log.info("%s: units %s (%.6g m/unit; %s); up axis %s (%s); floor %s", raw.path, unit_name,
+             scale, unit_why, up, up_why, ground_why)
+    meta = dict(raw.meta)
+    meta.update(
+        format=raw.format, rig=raw.rig, units=unit_name, unit_scale_m=scale, units_reason=unit_why,
+        up_axis=up, up_axis_reason=up_why, floor_offset_m=floor, floor_reason=ground_why,
+    )
+    return MarkerMotion(positions_m=pos, fps=raw.fps, names=raw.names, valid=raw.valid,
+                        bones=raw.bones, source=raw.path, meta=meta)

@@ -1,0 +1,200 @@
+"""MorphProblem: what one spacetime morph sequence must achieve, validated once.
+
+A morph moves the markers of all frames from the source motion towards target bone lengths and
+positional constraints over ``steps`` morph steps (Nakaoka & Komura 2012, sec. III, eq. 6):
+
+    min_V'  sum_i  E_L(V'_i) + w_A E_A + E_C    s.t.  H_i V'_i = h_i
+
+with E_L the Laplacian deformation energy (eq. 2), E_A the acceleration energy, E_C the soft
+positional constraints (eq. 5), and the hard constraints H_i V'_i = h_i made of linearized bone
+lengths (eq. 3) and positional constraints (eq. 4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConstraintError, InvalidMotionError, OptionError
+from ..mesh.bones import bone_lengths, check_target_lengths
+from ..mesh.interaction import WEIGHTINGS
+from ..motion import MarkerMotion
+
+
+@dataclass(frozen=True)
+class MorphConfig:
+    """Weights and solver settings of the spacetime morph.
+
+    Attributes:
+        steps: number of morph steps K; targets move linearly from source to final over them.
+        accel_weight: w_A, weight of the acceleration energy, defined on the change of the
+            per-frame second difference relative to the source motion, normalized to 30 fps:
+            E_A = w_A (fps/30)^4 / 2 sum_i |(V'-V)_{i-1} - 2 (V'-V)_i + (V'-V)_{i+1}|^2, so a given
+            w_A means the same smoothing at any frame rate.
+        anchor_weight: small proximal weight pulling every marker towards its position of the
+            previous morph step; removes the null space (a translation linear in time costs no
+            Laplacian or acceleration energy) without biasing the result towards the source.
+        soft_weight: default weight of soft positional constraints (eq. 5).
+        weighting: Laplacian weights, "inverse_distance" or "uniform".
+        bone_tolerance_m: every constrained length ends within this of its target: after the K
+            steps, up to ``max_polish_steps`` re-solves at the final targets, then a Newton
+            projection onto the exact lengths (``projection.project_lengths``).
+        max_polish_steps: re-solves of the whole problem at the final targets.
+        constraint_tolerance_m: residual of the linearized hard constraints per solve.
+        penalty: augmented-Lagrangian penalty relative to the mean diagonal of the Hessian.
+        max_al_iterations: limit on multiplier updates per solve.
+        window_frames: clips longer than this are solved in windows (memory stays bounded).
+        window_lookahead: frames a window solves beyond what it keeps, so its end is not
+            shaped by the artificial window boundary.
+        threads: BLAS threads for the banded factorization (None: all cores, at most 2 here).
+    """
+
+    steps: int = 10
+    accel_weight: float = 1.0
+    anchor_weight: float = 1e-3
+    soft_weight: float = 1.0
+    weighting: str = "inverse_distance"
+    bone_tolerance_m: float = 1e-9
+    max_polish_steps: int = 1
+    constraint_tolerance_m: float = 1e-10
+    penalty: float = 1e3
+    max_al_iterations: int = 30
+    window_frames: int = 2000
+    window_lookahead: int = 60
+    threads: int | None = None
+
+    def __post_init__(self) -> None:
+        if int(self.steps) < 1:
+            raise OptionError("morph steps", self.steps, "an integer >= 1")
+        for name in ("accel_weight", "soft_weight"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise OptionError(name, v, "a finite number >= 0")
+        for name in ("anchor_weight", "bone_tolerance_m", "constraint_tolerance_m", "penalty"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise OptionError(name, v, "a finite number > 0")
+        if self.weighting not in WEIGHTINGS:
+            raise OptionError("weighting", self.weighting, WEIGHTINGS)
+        if self.window_frames < 8 or not (0 <= self.window_lookahead < self.window_frames // 2):
+            raise OptionError("window_frames/window_lookahead",
+                              (self.window_frames, self.window_lookahead),
+                              "window_frames >= 8 and 0 <= window_lookahead < window_frames / 2")
+
+
+@dataclass(frozen=True, eq=False)
+class MorphProblem:
+    """A validated morph: source motion, final targets and constraints.
+
+    Attributes:
+        source: (T, M, 3) source positions [m], complete (no NaN).
+        fps: frame rate [1/s].
+        names: (M,) marker names.
+        bones: (B, 2) marker pairs whose lengths are hard-constrained (skeleton bones and any
+            extra pairs that make segments rigid).
+        source_lengths_m: (T, B) bone lengths of the source.
+        target_lengths_m: (T, B) final target bone lengths.
+        hard_positions_m: (T, M, 3) final hard positional targets, NaN where free (eq. 4).
+        soft_positions_m: (T, M, 3) final soft positional targets, NaN where free (eq. 5).
+        soft_weights: (T, M) weights of the soft targets.
+        config: MorphConfig.
+    """
+
+    source: np.ndarray
+    fps: float
+    names: tuple[str, ...]
+    bones: np.ndarray
+    source_lengths_m: np.ndarray
+    target_lengths_m: np.ndarray
+    hard_positions_m: np.ndarray
+    soft_positions_m: np.ndarray
+    soft_weights: np.ndarray
+    config: MorphConfig
+
+    @property
+    def n_frames(self) -> int:
+        return self.source.shape[0]
+
+    @property
+    def n_markers(self) -> int:
+        return self.source.shape[1]
+
+    def frames(self, start: int, stop: int) -> MorphProblem:
+        """The sub-problem of frames start:stop (for windowed solves)."""
+        sl = slice(start, stop)
+        return MorphProblem(
+            source=self.source[sl], fps=self.fps, names=self.names, bones=self.bones,
+            source_lengths_m=self.source_lengths_m[sl], target_lengths_m=self.target_lengths_m[sl],
+            hard_positions_m=self.hard_positions_m[sl], soft_positions_m=self.soft_positions_m[sl],
+            soft_weights=self.soft_weights[sl], config=self.config,
+        )
+
+
+def _position_array(name: str, value, shape: tuple[int, int, int], names) -> np.ndarray:
+    if value is None:
+        return np.full(shape, np.nan)
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != shape:
+        raise ConstraintError(f"{name} must have shape {shape} (NaN where free), got {arr.shape}")
+    if np.isinf(arr).any():
+        t, j, _ = np.argwhere(np.isinf(arr))[0]
+        raise ConstraintError(f"{name} is infinite at frame {t}, marker {names[j]}")
+    return arr
+
+
+def build_morph_problem(motion: MarkerMotion, *, pairs: np.ndarray | None = None,
+                        target_lengths_m: np.ndarray | None = None,
+                        hard_positions_m: np.ndarray | None = None,
+                        soft_positions_m: np.ndarray | None = None,
+                        soft_weights: np.ndarray | float | None = None,
+                        config: MorphConfig | None = None) -> MorphProblem:
+    """Assemble and validate a morph problem.
+
+    Args:
+        motion: source motion with ``bones``; must be complete (see ``imesh.gaps.fill_gaps``).
+        pairs: (B, 2) length-constrained marker pairs; default ``motion.bones``. Extra pairs
+            (e.g. hip-hip, shoulder-neck) make segments rigid (Nakaoka & Komura sec. IV-A).
+        target_lengths_m: (T, B) or (B,) final lengths of the pairs [m]; default: the source
+            lengths.
+        hard_positions_m: (T, M, 3) final hard targets [m], NaN for free coordinates.
+        soft_positions_m: (T, M, 3) final soft targets [m], NaN for free coordinates.
+        soft_weights: (T, M) or scalar weight of the soft targets (default config.soft_weight).
+        config: MorphConfig (defaults if None).
+
+    Raises:
+        InvalidMotionError: the motion has gaps or no bones.
+        ConstraintError: targets of the wrong shape, non-finite, or zero bone lengths.
+    """
+    config = config or MorphConfig()
+    src = motion.positions_m
+    if not motion.valid.all():
+        t, j = np.argwhere(~motion.valid)[0]
+        raise InvalidMotionError(
+            f"{motion.source}: marker {motion.names[j]} is missing at frame {t}; fill gaps "
+            "before morphing (imesh.gaps.fill_gaps)"
+        )
+    pairs = motion.bones if pairs is None else np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        raise InvalidMotionError(f"{motion.source}: the motion has no bones to morph")
+    if pairs.min() < 0 or pairs.max() >= motion.n_markers or (pairs[:, 0] == pairs[:, 1]).any():
+        raise ConstraintError(f"length pairs must join two different markers in "
+                              f"[0, {motion.n_markers})")
+    shape = src.shape
+    src_len = bone_lengths(src, pairs)
+    check_target_lengths(src_len, pairs, motion.names, motion.n_frames)
+    if target_lengths_m is None:
+        target = src_len.copy()
+    else:
+        target = np.array(check_target_lengths(target_lengths_m, pairs, motion.names,
+                                               motion.n_frames))
+    hard = _position_array("hard_positions_m", hard_positions_m, shape, motion.names)
+    soft = _position_array("soft_positions_m", soft_positions_m, shape, motion.names)
+    if soft_weights is None:
+        soft_weights = config.soft_weight
+    w = np.broadcast_to(np.asarray(soft_weights, dtype=float), shape[:2]).copy()
+    if not (np.isfinite(w).all() and (w >= 0).all()):
+        raise ConstraintError("soft_weights must be finite and >= 0")
+    return MorphProblem(source=src, fps=motion.fps, names=motion.names, bones=pairs,
+                        source_lengths_m=src_len, target_lengths_m=target, hard_positions_m=hard,
+                        soft_positions_m=soft, soft_weights=w, config=config)

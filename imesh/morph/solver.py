@@ -1,0 +1,303 @@
+"""Spacetime morphing: K morph steps, each one exact constrained solve over all frames.
+
+``solve_morph(problem)`` runs the morph of Nakaoka & Komura 2012 (sec. III, eq. 6). Each step:
+
+1. targets move a fraction s/K of the way from the source (bone lengths, eq. 3; positional
+   constraints, eq. 4; soft targets, eq. 5);
+2. bone lengths are linearized at the current solution, u . (p'_a - p'_b) = l(s);
+3. one constrained solve over all frames of the window (``kkt.solve_constrained``).
+
+After step K the constraints are re-linearized at the final targets until every bone length is
+within ``bone_tolerance_m`` (Newton on the nonlinear constraint). The Hessian (eq. 6) does not
+change across steps: the interaction mesh and its Laplacian come from the source motion.
+
+Long clips are solved in windows of ``window_frames``; each window after the first fixes its two
+first frames to the previous window's solution at the same morph step, which makes the
+acceleration energy across the seam exact (the second difference only reaches two frames back),
+and solves ``window_lookahead`` frames beyond what it keeps.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from threadpoolctl import threadpool_limits
+
+from ..mesh.bones import bone_directions, bone_lengths
+from ..mesh.interaction import build_interaction_mesh
+from .kkt import BandedKKT
+from .problem import MorphProblem
+from .projection import project_lengths
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class MorphStepReport:
+    """One morph step of one window.
+
+    Attributes:
+        window: window index.
+        step: 1..K for morph steps, > K for the re-linearizations at the final targets.
+        alpha: fraction of the way to the final targets.
+        bone_residual_m: max | |p_a - p_b| - l(alpha) | after the step (nonlinear).
+        linear_residual_m: max |A x - c| of the linearized hard constraints.
+        al_iterations: multiplier updates used.
+        seconds: wall time of the step.
+    """
+
+    window: int
+    step: int
+    alpha: float
+    bone_residual_m: float
+    linear_residual_m: float
+    al_iterations: int
+    seconds: float
+
+
+@dataclass(frozen=True, eq=False)
+class MorphResult:
+    """Adapted positions and the evidence that the constraints hold.
+
+    Attributes:
+        positions_m: (T, M, 3) adapted marker positions [m].
+        bone_residual_m: max over frames and bones of | |p_a - p_b| - target | [m].
+        position_residual_m: max over hard positional constraints of |p - target| [m].
+        steps: per-step reports (all windows).
+        windows: number of windows solved.
+        seconds: wall time [s] of the whole morph.
+        timings: seconds per stage: "mesh", "assemble", "solve", "projection".
+    """
+
+    positions_m: np.ndarray
+    bone_residual_m: float
+    position_residual_m: float
+    steps: tuple[MorphStepReport, ...]
+    windows: int
+    seconds: float
+    timings: dict
+
+    @property
+    def morph_steps(self) -> int:
+        """Morph steps plus re-linearizations of the longest window."""
+        return max((s.step for s in self.steps), default=0)
+
+
+def default_threads() -> int:
+    return max(1, min(2, os.cpu_count() or 1))
+
+
+def _second_difference(n: int) -> sp.csr_matrix:
+    """(n-2, n) second difference operator (empty for n < 3)."""
+    if n < 3:
+        return sp.csr_matrix((0, n))
+    i = np.arange(n - 2)
+    return sp.csr_matrix(
+        (np.tile([1.0, -2.0, 1.0], n - 2), (np.repeat(i, 3), (i[:, None] + [0, 1, 2]).ravel())),
+        shape=(n - 2, n),
+    )
+
+
+class _Window:
+    """The fixed parts of one window's problem: Hessian, its band, constant gradient."""
+
+    def __init__(self, problem: MorphProblem, fixed_frames: int):
+        cfg = problem.config
+        t0 = time.perf_counter()
+        n, m = problem.n_frames, problem.n_markers
+        self.problem = problem
+        self.fixed_frames = fixed_frames
+        mesh = build_interaction_mesh(problem.source, weighting=cfg.weighting)
+        t1 = time.perf_counter()
+        lap = mesh.laplacian
+        w_accel = cfg.accel_weight * (problem.fps / 30.0) ** 4
+        d2 = _second_difference(n)
+        h_scalar = (lap.T @ lap + w_accel * sp.kron(d2.T @ d2, sp.identity(m))).tocsr()
+        h_shape = sp.kron(h_scalar, sp.identity(3), format="csr")
+        self.v_src = problem.source.reshape(-1)
+        self.g_shape = h_shape @ self.v_src
+        soft_mask = np.isfinite(problem.soft_positions_m)
+        self.soft_w = (problem.soft_weights[..., None] * soft_mask).reshape(-1)
+        self.soft_target_final = np.where(soft_mask, problem.soft_positions_m,
+                                          problem.source).reshape(-1)
+        self.anchor = cfg.anchor_weight
+        diag = self.anchor + self.soft_w
+        hessian = (h_shape + sp.diags(diag)).tocsr()
+        self.hessian = hessian
+        # Hard positional rows: user targets, plus every coordinate of the fixed seam frames.
+        hard = np.isfinite(problem.hard_positions_m)
+        hard[:fixed_frames] = True
+        self.pos_cols = np.flatnonzero(hard.reshape(-1))
+        self.pos_final = np.where(np.isfinite(problem.hard_positions_m), problem.hard_positions_m,
+                                  problem.source).reshape(-1)[self.pos_cols]
+        # Bone rows on all frames that are not fixed (fixed frames are pinned entirely).
+        self.bone_frames = np.arange(fixed_frames, n)
+        b = problem.bones
+        fr = self.bone_frames
+        marker_cols = (fr[:, None, None] * m + b[None, :, :])  # (F, B, 2)
+        bone_cols = marker_cols[..., None] * 3 + np.arange(3)  # (F, B, 2, 3)
+        # Constraint rows couple 2 markers of one frame: inside the 6M band of the Hessian.
+        kd = 6 * m if n >= 3 else 3 * m - 1
+        self.kkt = BandedKKT(hessian, kd, bone_cols.reshape(-1, 2, 3), self.pos_cols,
+                             cfg.penalty)
+        self.seconds_mesh = t1 - t0
+        self.seconds_assemble = time.perf_counter() - t1
+
+    def targets(self, alpha: float, seam: np.ndarray | None) -> np.ndarray:
+        """c (R,): bone lengths then positional targets at fraction alpha."""
+        p = self.problem
+        fr = self.bone_frames
+        lengths = (1 - alpha) * p.source_lengths_m[fr] + alpha * p.target_lengths_m[fr]
+        pos_target = (1 - alpha) * self.v_src[self.pos_cols] + alpha * self.pos_final
+        if seam is not None:
+            k = self.fixed_frames * p.n_markers * 3
+            is_seam = self.pos_cols < k
+            pos_target[is_seam] = seam.reshape(-1)[self.pos_cols[is_seam]]
+        return np.concatenate([lengths.reshape(-1), pos_target])
+
+    def directions(self, current: np.ndarray) -> np.ndarray:
+        """(R_b, 3) unit bone directions at the current solution (the linearization point)."""
+        p = self.problem
+        return bone_directions(current.reshape(p.source.shape)[self.bone_frames],
+                               p.bones).reshape(-1, 3)
+
+    def gradient(self, previous: np.ndarray, alpha: float) -> np.ndarray:
+        soft_target = (1 - alpha) * self.v_src + alpha * self.soft_target_final
+        return self.g_shape + self.anchor * previous + self.soft_w * soft_target
+
+
+def _run_window(problem: MorphProblem, index: int, seams: list | None, keep_frames: int,
+                progress: Callable[[MorphStepReport], None] | None = None,
+                ) -> tuple[np.ndarray, list[MorphStepReport], list[np.ndarray], dict]:
+    """All morph steps of one window.
+
+    Args:
+        problem: the window's frames.
+        index: window index (for reports).
+        seams: per step (K entries, then the final), the (2, M, 3) positions of the window's
+            first two frames from the previous window; None for the first window.
+        keep_frames: frames of this window that are kept; the two before that index are the
+            next window's seam, recorded at every step.
+
+    Returns:
+        (positions (T_w, M, 3), step reports, seam snapshots for the next window, timings).
+    """
+    cfg = problem.config
+    fixed = 2 if seams is not None else 0
+    win = _Window(problem, fixed)
+    x = win.v_src.copy()
+    lam = None
+    reports: list[MorphStepReport] = []
+    snapshots: list[np.ndarray] = []
+    shape = problem.source.shape
+    solve_seconds = 0.0
+    step = 0
+    polish = 0
+    while True:
+        step += 1
+        alpha = min(1.0, step / cfg.steps)
+        seam = None
+        if seams is not None:
+            seam = seams[min(step, len(seams)) - 1]
+        t0 = time.perf_counter()
+        win.kkt.factor(win.directions(x))
+        a = win.kkt.constraint_matrix
+        # Solve for the increment dx = x' - x: for an identity morph it is exactly zero, and
+        # round-off scales with the step, not with the distance of the markers from the origin.
+        sol = win.kkt.solve(win.gradient(x, alpha) - win.hessian @ x,
+                            win.targets(alpha, seam) - a @ x, multipliers=lam,
+                            tolerance=cfg.constraint_tolerance_m,
+                            max_iterations=cfg.max_al_iterations)
+        x, lam = x + sol.x, sol.multipliers
+        pos = x.reshape(shape)
+        target = (1 - alpha) * problem.source_lengths_m + alpha * problem.target_lengths_m
+        bone_res = float(np.abs(bone_lengths(pos, problem.bones) - target)[fixed:].max())
+        dt = time.perf_counter() - t0
+        solve_seconds += dt
+        reports.append(MorphStepReport(index, step, alpha, bone_res, sol.residual,
+                                       sol.iterations, dt))
+        if progress is not None:
+            progress(reports[-1])
+        log.debug("window %d step %d alpha %.3f: bone residual %.3g m, %d AL iterations, %.3f s",
+                  index, step, alpha, bone_res, sol.iterations, dt)
+        if step <= cfg.steps:
+            snapshots.append(pos[keep_frames - 2:keep_frames].copy())
+        if step >= cfg.steps and (bone_res <= cfg.bone_tolerance_m
+                                  or polish >= cfg.max_polish_steps):
+            break
+        if step >= cfg.steps:
+            polish += 1
+    final = x.reshape(shape)
+    snapshots[-1] = final[keep_frames - 2:keep_frames].copy()
+    timings = {"mesh": win.seconds_mesh, "assemble": win.seconds_assemble, "solve": solve_seconds}
+    return final, reports, snapshots, timings
+
+
+def window_layout(n_frames: int, window: int, lookahead: int) -> list[tuple[int, int, int]]:
+    """(start, stop, keep_stop) per window; window k keeps frames [start + 2, keep_stop) for
+    k > 0 and [0, keep_stop) for k = 0; consecutive windows share exactly two (fixed) frames."""
+    if n_frames <= window:
+        return [(0, n_frames, n_frames)]
+    layout = []
+    start = 0
+    while True:
+        stop = min(n_frames, start + window)
+        keep = stop if stop == n_frames else stop - lookahead
+        layout.append((start, stop, keep))
+        if stop == n_frames:
+            return layout
+        start = keep - 2
+
+
+def solve_morph(problem: MorphProblem,
+                progress: Callable[[MorphStepReport], None] | None = None) -> MorphResult:
+    """Run the morph steps of ``problem`` over all frames (windowed for long clips).
+
+    Args:
+        problem: the validated problem (``build_morph_problem``).
+        progress: called with each step's report as it completes (progress bars).
+
+    Returns:
+        MorphResult with positions, final residuals and per-step reports.
+
+    Raises:
+        SolverError: a solve failed to meet ``constraint_tolerance_m``.
+    """
+    cfg = problem.config
+    t_start = time.perf_counter()
+    out = np.empty_like(problem.source)
+    reports: list[MorphStepReport] = []
+    timings = {"mesh": 0.0, "assemble": 0.0, "solve": 0.0}
+    layout = window_layout(problem.n_frames, cfg.window_frames, cfg.window_lookahead)
+    seams = None
+    with threadpool_limits(limits=cfg.threads or default_threads(), user_api="blas"):
+        for k, (start, stop, keep) in enumerate(layout):
+            sub = problem.frames(start, stop)
+            pos, rep, snaps, tim = _run_window(sub, k, seams, keep - start, progress)
+            first = 0 if k == 0 else 2
+            out[start + first:keep] = pos[first:keep - start]
+            reports.extend(rep)
+            seams = snaps
+            for key in timings:
+                timings[key] += tim[key]
+    hard = np.isfinite(problem.hard_positions_m)
+    t_proj = time.perf_counter()
+    out, proj_iter, bone_res = project_lengths(out, problem.bones, problem.target_lengths_m,
+                                               hard, tolerance_m=cfg.bone_tolerance_m)
+    timings["projection"] = time.perf_counter() - t_proj
+    if bone_res > cfg.bone_tolerance_m:
+        log.warning("morph: bone residual %.3g m after %d projection iterations (tolerance "
+                    "%.3g m)", bone_res, proj_iter, cfg.bone_tolerance_m)
+    pos_res = float(np.abs(out[hard] - problem.hard_positions_m[hard]).max()) if hard.any() else 0.0
+    seconds = time.perf_counter() - t_start
+    log.info("morph: %d frames x %d markers, %d window(s), %d steps: bone residual %.2e m, "
+             "position residual %.2e m, %.2f s", problem.n_frames, problem.n_markers, len(layout),
+             cfg.steps, bone_res, pos_res, seconds)
+    return MorphResult(positions_m=out, bone_residual_m=bone_res, position_residual_m=pos_res,
+                       steps=tuple(reports), windows=len(layout), seconds=seconds, timings=timings)
