@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .gaps import fill_gaps
-from .markerset import BONE_GROUPS, STANDARD_MARKERS, STANDARD_TORSO_PAIRS, to_standard
+from .markerset import BONE_GROUPS, STANDARD_MARKERS, to_standard
 from .mesh.bones import bone_lengths, scale_bones_naive
 from .metrics import close_pair_error
 from .morph.problem import MorphConfig, build_morph_problem
@@ -84,15 +84,6 @@ def group_factors(motion: MarkerMotion, scales: dict[str, float]) -> np.ndarray:
     return factor
 
 
-def torso_pairs(motion: MarkerMotion) -> np.ndarray:
-    """(P, 2) index pairs of STANDARD_TORSO_PAIRS present in the motion (per performer)."""
-    lookup = {n: i for i, n in enumerate(motion.names)}
-    prefixes = [""] + [p for p in PERSON_PREFIXES if any(n.startswith(p) for n in motion.names)]
-    out = [(lookup[p + a], lookup[p + b]) for p in prefixes for a, b in STANDARD_TORSO_PAIRS
-           if p + a in lookup and p + b in lookup]
-    return np.array(out, dtype=np.int64).reshape(-1, 2)
-
-
 def prepare_markers(motion: MarkerMotion, people: MarkerMotion | None = None) -> MarkerMotion:
     """Standard markers, gaps filled; with ``people``, both performers in one motion
     (names prefixed "a:" and "b:")."""
@@ -116,9 +107,7 @@ def adapt_motion(motion: MarkerMotion, *, scales: dict[str, float] | None = None
             with bones).
         scales: bone group -> factor (arms, forearms, legs, spine, all); ignored when
             ``target_lengths_m`` is given.
-        target_lengths_m: (T, B) or (B,) explicit target lengths of the motion's bones [m]
-            (then only the bones are constrained; otherwise the torso pairs of
-            STANDARD_TORSO_PAIRS keep their source distances too).
+        target_lengths_m: (T, B) or (B,) explicit target lengths of the motion's bones [m].
         hard_positions_m: (T, M, 3) hard positional targets [m], NaN where free.
         soft_positions_m: (T, M, 3) soft positional targets [m], NaN where free.
         people: a second performer recorded in the same world frame, adapted in the same mesh.
@@ -136,19 +125,14 @@ def adapt_motion(motion: MarkerMotion, *, scales: dict[str, float] | None = None
         src = prepare_markers(motion, people)
     pairs = src.bones
     if target_lengths_m is None:
-        extra = torso_pairs(src)
-        pairs = np.concatenate([src.bones, extra])
-        scales = scales or {}
-        factor = np.concatenate([group_factors(src, scales),
-                                 np.full(len(extra), scales.get("all", 1.0))])
-        target_lengths_m = bone_lengths(src.positions_m, pairs) * factor
+        target_lengths_m = bone_lengths(src.positions_m, pairs) * group_factors(src, scales or {})
     problem = build_morph_problem(src, pairs=pairs, target_lengths_m=target_lengths_m,
                                   hard_positions_m=hard_positions_m,
                                   soft_positions_m=soft_positions_m, config=config)
     result = solve_morph(problem, progress=progress)
     adapted = src.with_positions(result.positions_m, source=f"adapted:{src.source}")
     naive = src.with_positions(scale_bones_naive(src.positions_m, src.bones,
-                                                 problem.target_lengths_m[:, :len(src.bones)]),
+                                                 problem.target_lengths_m),
                                source=f"naive:{src.source}")
     seconds = time.perf_counter() - t0
     return AdaptResult(source=src, adapted=adapted, naive=naive, morph=result, seconds=seconds)

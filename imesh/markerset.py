@@ -45,14 +45,6 @@ STANDARD_BONES: np.ndarray = np.array(
     dtype=np.int64,
 )
 
-#: Extra length-constrained pairs for human adaptation: they keep the torso's triangles
-#: (pelvis width, shoulder girdle) at their source distances in every frame, as the added bones
-#: of Nakaoka & Komura sec. IV-A make segments rigid. Not bones: the skeleton stays a tree.
-STANDARD_TORSO_PAIRS: tuple[tuple[str, str], ...] = (
-    ("hip_l", "hip_r"), ("shoulder_l", "shoulder_r"), ("neck", "shoulder_l"),
-    ("neck", "shoulder_r"), ("spine", "hip_l"), ("spine", "hip_r"),
-)
-
 #: Bone groups for ``--scale GROUP=FACTOR`` (child marker names of the standard bones).
 BONE_GROUPS: dict[str, tuple[str, ...]] = {
     "arms": ("elbow_l", "wrist_l", "hand_l", "elbow_r", "wrist_r", "hand_r"),
@@ -213,30 +205,3 @@ def to_standard(motion: MarkerMotion, rig: str | os.PathLike | None = None) -> M
              motion.source, motion.n_markers, table.name, 100 * valid.mean())
     return MarkerMotion(positions_m=pos, fps=motion.fps, names=STANDARD_MARKERS, valid=valid,
                         bones=STANDARD_BONES, source=motion.source, meta=meta)
-
-
-def scaled_bone_lengths(motion: MarkerMotion, scales: dict[str, float]) -> np.ndarray:
-    """Target bone lengths (T, B) [m]: the source lengths with bone groups scaled.
-
-    Args:
-        motion: a standard-marker motion (bones = STANDARD_BONES) or any motion with bones; for
-            non-standard motions only the group "all" applies.
-        scales: group -> factor, groups from BONE_GROUPS (arms, forearms, legs, spine, all).
-            Factors multiply: arms=1.3 with forearms=1.1 gives forearms 1.43.
-    """
-    from .mesh.bones import bone_lengths
-
-    factor = np.ones(len(motion.bones))
-    child_names = [motion.names[b] for _, b in motion.bones]
-    for group, value in scales.items():
-        if group not in BONE_GROUPS:
-            raise OptionError("bone group", group, BONE_GROUPS)
-        if not (np.isfinite(value) and value > 0):
-            raise OptionError(f"scale for {group}", value, "a positive number")
-        members = set(BONE_GROUPS[group]) if group != "all" else set(child_names)
-        hit = np.array([c in members for c in child_names])
-        if not hit.any():
-            raise OptionError("bone group", group,
-                              f"a group with bones in this motion (children: {child_names})")
-        factor[hit] *= value
-    return bone_lengths(motion.positions_m, motion.bones) * factor

@@ -69,7 +69,7 @@ def tetrahedralize(points: np.ndarray) -> tuple[np.ndarray, bool]:
         simplices = Delaunay(points).simplices
     except QhullError:
         degenerate = True
-        simplices = Delaunay(points, qhull_options="QJ Qbb Qc Qz").simplices
+        simplices = Delaunay(points, qhull_options="QJ Qbb Qc").simplices
     e = simplices[:, _TET_EDGES].reshape(-1, 2)
     e = np.sort(e, axis=1)
     e = np.unique(e, axis=0)

@@ -64,50 +64,75 @@ class StepSolution:
 
 
 class BandedKKT:
-    """Exact solver of min 1/2 x^T H x - g^T x s.t. A x = c for bone and positional rows.
+    """Exact solver of min 1/2 x^T K0 x - g^T x s.t. A x = c on the band.
+
+    K0 = H + S^T S: H fixed, S the soft pair rows (linearized distance terms, re-weighted at
+    every factorization). A holds the hard rows: pair rows (bone lengths, eq. 3) and positional
+    rows (eq. 4).
 
     Args:
         hessian: (N, N) CSR, symmetric positive definite, half bandwidth <= kd.
         kd: half bandwidth.
-        bone_cols: (R_b, 2, 3) variable indices of the two markers of each bone row.
-        pos_cols: (R_p,) variable index of each positional row.
+        bone_cols: (R_b, 2, 3) variable indices of the two markers of each hard pair row.
+        pos_cols: (R_p,) variable index of each hard positional row.
         penalty: rho relative to the mean diagonal of H.
+        soft_cols: (R_s, 2, 3) variable indices of the soft pair rows (may be empty).
     """
 
     def __init__(self, hessian: sp.csr_matrix, kd: int, bone_cols: np.ndarray,
-                 pos_cols: np.ndarray, penalty: float):
+                 pos_cols: np.ndarray, penalty: float, soft_cols: np.ndarray | None = None):
         self.hessian = hessian
         self.kd = kd
         self.n = hessian.shape[0]
         self.band = upper_band(hessian, kd)
         self.work = np.empty_like(self.band, order="F")
         self.rho = penalty * float(np.mean(self.band[-1]))
-        self.bone_cols = bone_cols.reshape(-1, 6)
+        bone_cols = bone_cols.reshape(-1, 6)
+        soft_cols = np.zeros((0, 6), dtype=np.int64) if soft_cols is None else soft_cols.reshape(
+            -1, 6)
+        self.n_bone_rows = len(bone_cols)
+        self.n_soft_rows = len(soft_cols)
+        self.pair_cols = np.concatenate([bone_cols, soft_cols])
         self.pos_cols = np.asarray(pos_cols, dtype=np.int64)
-        self.n_rows = len(self.bone_cols) + len(self.pos_cols)
-        # Pattern of A^T A in the band: per bone row the 6x6 outer product, upper part only.
-        rr = np.repeat(self.bone_cols, 6, axis=1)  # (R, 36) row index
-        cc = np.tile(self.bone_cols, (1, 6))  # (R, 36) column index
+        self.n_rows = self.n_bone_rows + len(self.pos_cols)
+        # Pattern of the pair rows' outer products in the band (upper part), fixed across steps.
+        rr = np.repeat(self.pair_cols, 6, axis=1)  # (R, 36) row index
+        cc = np.tile(self.pair_cols, (1, 6))  # (R, 36) column index
         self._upper = rr <= cc
         flat = cc * (kd + 1) + (kd + rr - cc)
         flat = np.concatenate([flat[self._upper], self.pos_cols * (kd + 1) + kd])
         self._band_index, self._inverse = np.unique(flat, return_inverse=True)
         sign = np.array([1.0, 1.0, 1.0, -1.0, -1.0, -1.0])
         self._sign = np.outer(sign, sign).reshape(-1)  # (36,)
-        self._row_idx = np.concatenate([np.repeat(np.arange(len(self.bone_cols)), 6),
-                                        len(self.bone_cols) + np.arange(len(self.pos_cols))])
-        self._col_idx = np.concatenate([self.bone_cols.reshape(-1), self.pos_cols])
+        self._row_idx = np.concatenate([np.repeat(np.arange(self.n_bone_rows), 6),
+                                        self.n_bone_rows + np.arange(len(self.pos_cols))])
+        self._col_idx = np.concatenate([bone_cols.reshape(-1), self.pos_cols])
+        self._soft_row_idx = np.repeat(np.arange(self.n_soft_rows), 6)
         self._factor = None
         self._a = None
+        self._s = sp.csr_matrix((0, self.n))
 
-    def factor(self, directions: np.ndarray) -> None:
-        """Factor K = H + rho A^T A for bone rows with unit directions (R_b, 3)."""
-        u6 = np.concatenate([directions, directions], axis=1)  # (R, 6), signs in _sign
+    def factor(self, directions: np.ndarray, soft_directions: np.ndarray | None = None,
+               soft_weights: np.ndarray | None = None) -> None:
+        """Factor K = H + S^T S + rho A^T A.
+
+        Args:
+            directions: (R_b, 3) unit directions of the hard pair rows.
+            soft_directions: (R_s, 3) unit directions of the soft pair rows.
+            soft_weights: (R_s,) weights of the soft pair rows.
+        """
+        if self.n_soft_rows:
+            u = np.concatenate([directions, soft_directions])
+            scale = np.concatenate([np.full(self.n_bone_rows, self.rho), soft_weights])
+        else:
+            u, scale = directions, np.full(self.n_bone_rows, self.rho)
+        u6 = np.concatenate([u, u], axis=1)  # (R, 6), signs in _sign
         outer = (u6[:, :, None] * u6[:, None, :]).reshape(len(u6), 36) * self._sign
-        vals = np.concatenate([outer[self._upper], np.ones(len(self.pos_cols))])
+        outer *= scale[:, None]
+        vals = np.concatenate([outer[self._upper], np.full(len(self.pos_cols), self.rho)])
         add = np.bincount(self._inverse, weights=vals, minlength=len(self._band_index))
         np.copyto(self.work, self.band)
-        self.work.reshape(-1, order="F")[self._band_index] += self.rho * add
+        self.work.reshape(-1, order="F")[self._band_index] += add
         factor, info = dpbtrf(self.work, lower=0, overwrite_ab=1)
         if info != 0:
             raise SolverError(f"banded Cholesky failed (LAPACK info {info}): the morph Hessian is "
@@ -117,13 +142,25 @@ class BandedKKT:
                                  np.ones(len(self.pos_cols))])
         self._a = sp.csr_matrix((vals_a, (self._row_idx, self._col_idx)),
                                 shape=(self.n_rows, self.n))
+        if self.n_soft_rows:
+            root = np.sqrt(soft_weights)[:, None] * soft_directions
+            vals_s = np.concatenate([root, -root], axis=1).reshape(-1)
+            self._s = sp.csr_matrix(
+                (vals_s, (self._soft_row_idx, self.pair_cols[self.n_bone_rows:].reshape(-1))),
+                shape=(self.n_soft_rows, self.n))
+
+    @property
+    def soft_matrix(self) -> sp.csr_matrix:
+        """S (R_s, N): rows sqrt(w) [u, -u] of the soft pair terms of the last factorization."""
+        return self._s
 
     @property
     def constraint_matrix(self) -> sp.csr_matrix:
         return self._a
 
     def _apply_k(self, v: np.ndarray) -> np.ndarray:
-        return self.hessian @ v + self.rho * (self._a.T @ (self._a @ v))
+        return (self.hessian @ v + self.rho * (self._a.T @ (self._a @ v))
+                + self._s.T @ (self._s @ v))
 
     def _solve_k(self, rhs: np.ndarray) -> np.ndarray:
         x, _ = dpbtrs(self._factor, rhs, lower=0)

@@ -37,6 +37,12 @@ class MorphConfig:
             Laplacian or acceleration energy) without biasing the result towards the source.
         soft_weight: default weight of soft positional constraints (eq. 5).
         weighting: Laplacian weights, "inverse_distance" or "uniform".
+        contact_weight: w_D, weight of the soft term that keeps the source distance of close
+            marker pairs (closer than ``contact_fraction`` x body height in the source frame,
+            not joined by a constrained pair): w_D (1 - d/d_max) (|p'_a - p'_b| - s d)^2 / 2,
+            linearized like the bones, with s the median target/source length ratio. Hands
+            that touch keep touching; 0 turns it off (pure Laplacian energy of eq. 2).
+        contact_fraction: closeness threshold relative to the body height.
         bone_tolerance_m: every constrained length ends within this of its target: after the K
             steps, up to ``max_polish_steps`` re-solves at the final targets, then a Newton
             projection onto the exact lengths (``projection.project_lengths``).
@@ -55,6 +61,8 @@ class MorphConfig:
     anchor_weight: float = 1e-3
     soft_weight: float = 1.0
     weighting: str = "inverse_distance"
+    contact_weight: float = 30.0
+    contact_fraction: float = 0.15
     bone_tolerance_m: float = 1e-9
     max_polish_steps: int = 1
     constraint_tolerance_m: float = 1e-10
@@ -67,7 +75,7 @@ class MorphConfig:
     def __post_init__(self) -> None:
         if int(self.steps) < 1:
             raise OptionError("morph steps", self.steps, "an integer >= 1")
-        for name in ("accel_weight", "soft_weight"):
+        for name in ("accel_weight", "soft_weight", "contact_weight", "contact_fraction"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise OptionError(name, v, "a finite number >= 0")
@@ -98,6 +106,7 @@ class MorphProblem:
         hard_positions_m: (T, M, 3) final hard positional targets, NaN where free (eq. 4).
         soft_positions_m: (T, M, 3) final soft positional targets, NaN where free (eq. 5).
         soft_weights: (T, M) weights of the soft targets.
+        height_m: body height of the source (median vertical extent) [m].
         config: MorphConfig.
     """
 
@@ -110,6 +119,7 @@ class MorphProblem:
     hard_positions_m: np.ndarray
     soft_positions_m: np.ndarray
     soft_weights: np.ndarray
+    height_m: float
     config: MorphConfig
 
     @property
@@ -127,7 +137,7 @@ class MorphProblem:
             source=self.source[sl], fps=self.fps, names=self.names, bones=self.bones,
             source_lengths_m=self.source_lengths_m[sl], target_lengths_m=self.target_lengths_m[sl],
             hard_positions_m=self.hard_positions_m[sl], soft_positions_m=self.soft_positions_m[sl],
-            soft_weights=self.soft_weights[sl], config=self.config,
+            soft_weights=self.soft_weights[sl], height_m=self.height_m, config=self.config,
         )
 
 
@@ -197,4 +207,5 @@ def build_morph_problem(motion: MarkerMotion, *, pairs: np.ndarray | None = None
         raise ConstraintError("soft_weights must be finite and >= 0")
     return MorphProblem(source=src, fps=motion.fps, names=motion.names, bones=pairs,
                         source_lengths_m=src_len, target_lengths_m=target, hard_positions_m=hard,
-                        soft_positions_m=soft, soft_weights=w, config=config)
+                        soft_positions_m=soft, soft_weights=w, height_m=motion.height_m,
+                        config=config)

@@ -142,12 +142,54 @@ class _Window:
         fr = self.bone_frames
         marker_cols = (fr[:, None, None] * m + b[None, :, :])  # (F, B, 2)
         bone_cols = marker_cols[..., None] * 3 + np.arange(3)  # (F, B, 2, 3)
+        self._build_contacts(problem)
         # Constraint rows couple 2 markers of one frame: inside the 6M band of the Hessian.
         kd = 6 * m if n >= 3 else 3 * m - 1
         self.kkt = BandedKKT(hessian, kd, bone_cols.reshape(-1, 2, 3), self.pos_cols,
-                             cfg.penalty)
+                             cfg.penalty, soft_cols=self.contact_cols)
         self.seconds_mesh = t1 - t0
         self.seconds_assemble = time.perf_counter() - t1
+
+    def _build_contacts(self, problem: MorphProblem) -> None:
+        """Soft pair rows for close non-constrained marker pairs of every source frame."""
+        cfg = problem.config
+        m = problem.n_markers
+        ratio = problem.target_lengths_m / problem.source_lengths_m
+        self.shape_scale = float(np.median(ratio))
+        self.contact_frames = np.zeros(0, dtype=np.int64)
+        self.contact_pairs = np.zeros((0, 2), dtype=np.int64)
+        self.contact_cols = np.zeros((0, 2, 3), dtype=np.int64)
+        if cfg.contact_weight <= 0:
+            return
+        i, j = np.triu_indices(m, k=1)
+        joined = np.zeros((m, m), dtype=bool)
+        joined[problem.bones[:, 0], problem.bones[:, 1]] = True
+        joined |= joined.T
+        keep = ~joined[i, j]
+        pairs = np.stack([i[keep], j[keep]], axis=1)
+        d = np.linalg.norm(problem.source[:, pairs[:, 0]] - problem.source[:, pairs[:, 1]],
+                           axis=2)  # (T, P)
+        d_max = cfg.contact_fraction * problem.height_m
+        fr, k = np.nonzero(d < d_max)
+        self.contact_frames = fr
+        self.contact_pairs = pairs[k]
+        self.contact_d0 = d[fr, k]
+        self.contact_w = cfg.contact_weight * (1.0 - self.contact_d0 / d_max)
+        marker_cols = fr[:, None] * m + self.contact_pairs  # (R, 2)
+        self.contact_cols = marker_cols[..., None] * 3 + np.arange(3)
+
+    def contact_terms(self, current: np.ndarray, alpha: float
+                      ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """(directions (R_s, 3), weights (R_s,), target distances (R_s,)) at fraction alpha."""
+        if not len(self.contact_frames):
+            return None, None, None
+        pos = current.reshape(self.problem.source.shape)
+        d = pos[self.contact_frames, self.contact_pairs[:, 0]] - pos[
+            self.contact_frames, self.contact_pairs[:, 1]]
+        length = np.linalg.norm(d, axis=1)
+        u = d / np.maximum(length, 1e-12)[:, None]
+        target = self.contact_d0 * (1.0 - alpha + alpha * self.shape_scale)
+        return u, self.contact_w, target - length
 
     def targets(self, alpha: float, seam: np.ndarray | None) -> np.ndarray:
         """c (R,): bone lengths then positional targets at fraction alpha."""
@@ -169,7 +211,12 @@ class _Window:
 
     def gradient(self, previous: np.ndarray, alpha: float) -> np.ndarray:
         soft_target = (1 - alpha) * self.v_src + alpha * self.soft_target_final
-        return self.g_shape + self.anchor * previous + self.soft_w * soft_target
+        # The reference shape grows with the overall scale s of the targets: Laplacian
+        # coordinates and accelerations are not scale invariant, and a uniformly scaled
+        # skeleton should cost nothing.
+        shape_scale = 1.0 - alpha + alpha * self.shape_scale
+        return (shape_scale * self.g_shape + self.anchor * previous
+                + self.soft_w * soft_target)
 
 
 def _run_window(problem: MorphProblem, index: int, seams: list | None, keep_frames: int,
@@ -206,12 +253,15 @@ def _run_window(problem: MorphProblem, index: int, seams: list | None, keep_fram
         if seams is not None:
             seam = seams[min(step, len(seams)) - 1]
         t0 = time.perf_counter()
-        win.kkt.factor(win.directions(x))
+        u_soft, w_soft, gap_soft = win.contact_terms(x, alpha)
+        win.kkt.factor(win.directions(x), u_soft, w_soft)
         a = win.kkt.constraint_matrix
+        rhs = win.gradient(x, alpha) - win.hessian @ x
+        if u_soft is not None:
+            rhs += win.kkt.soft_matrix.T @ (np.sqrt(w_soft) * gap_soft)
         # Solve for the increment dx = x' - x: for an identity morph it is exactly zero, and
         # round-off scales with the step, not with the distance of the markers from the origin.
-        sol = win.kkt.solve(win.gradient(x, alpha) - win.hessian @ x,
-                            win.targets(alpha, seam) - a @ x, multipliers=lam,
+        sol = win.kkt.solve(rhs, win.targets(alpha, seam) - a @ x, multipliers=lam,
                             tolerance=cfg.constraint_tolerance_m,
                             max_iterations=cfg.max_al_iterations)
         x, lam = x + sol.x, sol.multipliers
