@@ -238,13 +238,13 @@ def synthetic_walk_clap(*, steps: int = 4, fps: float = 60.0, height_m: float = 
     """Synthetic clip: stand, walk ``steps`` steps along +X, stop, clap three times, stand.
 
     The performer is a procedural joint-centre skeleton in the standard marker set, not captured
-    data. Timeline (``steps = 4``, about 6.8 s): stand 0.5 s; weight shift and gait initiation
-    with the right foot; ``steps`` footfalls 0.55 s apart, alternating right/left, each with
-    heel rise (pivot about the toe), toe-off, a swing clearing the floor by a few cm, heel strike
-    and heel rocker (pivot about the heel); the last footfall closes beside the other foot; arms
-    swing in counter-phase with the legs, the pelvis bobs, sways towards the support foot and
-    rotates; then the hands rise in front of the chest (0.7 s), clap three times (0.5 s each,
-    hand centres within 1.5 cm at each clap), lower (0.7 s), and the body stands for 0.6 s.
+    data. Timeline (``steps = 4``: 6.68 s, 402 frames at 60 fps): stand 0.5 s; weight shift and gait
+    initiation with the right foot; ``steps`` footfalls 0.55 s apart, alternating right/left, each
+    with heel rise (pivot about the toe), toe-off, a swing clearing the floor by a few cm, heel
+    strike and heel rocker (pivot about the heel); the last footfall closes beside the other foot;
+    arms swing in counter-phase with the legs, the pelvis bobs, sways towards the support foot and
+    rotates; then the hands rise in front of the chest (0.7 s), clap three times (0.5 s each, hand
+    centres within 1.5 cm at each clap), lower (0.7 s), and the body stands for 0.6 s.
 
     Support feet are exactly static on the floor (foot flat and heel rise keep the toe marker
     fixed). Bone lengths are exactly constant (forward kinematics plus analytic two-link IK).
@@ -258,9 +258,9 @@ def synthetic_walk_clap(*, steps: int = 4, fps: float = 60.0, height_m: float = 
         height_m: body height [m]: the standing joint extent (head centre to toe marker); the
             proportions are scaled to it. Between 0.5 and 2.5.
         seed: None for the canonical deterministic clip. An integer adds small reproducible
-            variability (step lengths +-5 %, sway and arm swing amplitudes +-10 %, clap position
-            +-1 cm); it perturbs the motion parameters, not the markers, so bones stay rigid and
-            support feet stay fixed.
+            variability (standard deviations, clipped at two: step lengths 2.5 %, sway and arm
+            swing amplitudes 10 %, clap position 1 cm); it perturbs the motion parameters, not
+            the markers, so bones stay rigid and support feet stay fixed.
 
     Returns:
         MarkerMotion with ``positions_m`` (T, 21, 3) [m] in ``STANDARD_MARKERS`` order, all

@@ -53,7 +53,8 @@ class MorphConfig:
         window_frames: clips longer than this are solved in windows (memory stays bounded).
         window_lookahead: frames a window solves beyond what it keeps, so its end is not
             shaped by the artificial window boundary.
-        threads: BLAS threads for the banded factorization (None: all cores, at most 2 here).
+        threads: BLAS threads for the banded factorization (None: 1, see
+            ``solver.default_threads``).
     """
 
     steps: int = 10
