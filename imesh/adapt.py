@@ -84,14 +84,21 @@ def group_factors(motion: MarkerMotion, scales: dict[str, float]) -> np.ndarray:
     return factor
 
 
+def _standardize(motion: MarkerMotion) -> MarkerMotion:
+    """The standard marker set, or the motion itself when it is already standard or is a
+    skeleton of an unknown rig (then its own joints and bones are morphed)."""
+    if motion.names == STANDARD_MARKERS or (len(motion.bones) and not motion.meta.get("rig")):
+        return fill_gaps(motion)
+    return fill_gaps(to_standard(motion))
+
+
 def prepare_markers(motion: MarkerMotion, people: MarkerMotion | None = None) -> MarkerMotion:
     """Standard markers, gaps filled; with ``people``, both performers in one motion
     (names prefixed "a:" and "b:")."""
-    std = fill_gaps(to_standard(motion))
+    std = _standardize(motion)
     if people is None:
         return std
-    other = fill_gaps(to_standard(people))
-    return std.concat_markers(other, *PERSON_PREFIXES)
+    return std.concat_markers(_standardize(people), *PERSON_PREFIXES)
 
 
 def adapt_motion(motion: MarkerMotion, *, scales: dict[str, float] | None = None,
@@ -118,11 +125,7 @@ def adapt_motion(motion: MarkerMotion, *, scales: dict[str, float] | None = None
         AdaptResult (adapted and naive motions, solver residuals, timings).
     """
     t0 = time.perf_counter()
-    if motion.names == STANDARD_MARKERS or (people is None and len(motion.bones)
-                                            and motion.meta.get("rig") is None):
-        src = fill_gaps(motion)
-    else:
-        src = prepare_markers(motion, people)
+    src = prepare_markers(motion, people)
     pairs = src.bones
     if target_lengths_m is None:
         target_lengths_m = bone_lengths(src.positions_m, pairs) * group_factors(src, scales or {})

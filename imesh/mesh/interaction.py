@@ -71,8 +71,9 @@ def tetrahedralize(points: np.ndarray) -> tuple[np.ndarray, bool]:
         degenerate = True
         simplices = Delaunay(points, qhull_options="QJ Qbb Qc").simplices
     e = simplices[:, _TET_EDGES].reshape(-1, 2)
-    e = np.sort(e, axis=1)
-    e = np.unique(e, axis=0)
+    # unique undirected edges via one integer key per edge (much faster than unique(axis=0))
+    key = np.unique(np.minimum(e[:, 0], e[:, 1]) * m + np.maximum(e[:, 0], e[:, 1]))
+    e = np.stack([key // m, key % m], axis=1)
     if len(np.unique(e)) < m:  # a marker left out (duplicate point): connect it to its nearest
         degenerate = True
         missing = np.setdiff1d(np.arange(m), np.unique(e))

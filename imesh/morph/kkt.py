@@ -32,17 +32,19 @@ from ..errors import SolverError
 
 
 def upper_band(matrix: sp.spmatrix, kd: int) -> np.ndarray:
-    """LAPACK upper band storage ``ab[kd + r - c, c] = A[r, c]`` (r <= c), Fortran order."""
+    """LAPACK upper band storage ``ab[kd + r - c, c] = A[r, c]`` (r <= c), Fortran order.
+
+    The matrix must have no duplicate entries (CSR/CSC after sum_duplicates): entries are
+    assigned, not accumulated, so the cost is O(nnz) besides zeroing the band.
+    """
     coo = matrix.tocoo()
+    coo.sum_duplicates()
     keep = coo.row <= coo.col
     r, c, v = coo.row[keep], coo.col[keep], coo.data[keep]
     if len(r) and int((c - r).max()) > kd:
         raise ValueError(f"matrix half bandwidth {(c - r).max()} exceeds kd={kd}")
-    n = matrix.shape[0]
-    ab = np.zeros((kd + 1, n), order="F")
-    # Fortran order: element [i, j] sits at j*(kd+1) + i in memory
-    flat = c * (kd + 1) + (kd + r - c)
-    ab.reshape(-1, order="F")[:] += np.bincount(flat, weights=v, minlength=(kd + 1) * n)
+    ab = np.zeros((kd + 1, matrix.shape[0]), order="F")
+    ab[kd + r - c, c] = v
     return ab
 
 
@@ -158,16 +160,9 @@ class BandedKKT:
     def constraint_matrix(self) -> sp.csr_matrix:
         return self._a
 
-    def _apply_k(self, v: np.ndarray) -> np.ndarray:
-        return (self.hessian @ v + self.rho * (self._a.T @ (self._a @ v))
-                + self._s.T @ (self._s @ v))
-
     def _solve_k(self, rhs: np.ndarray) -> np.ndarray:
         x, _ = dpbtrs(self._factor, rhs, lower=0)
-        # one step of iterative refinement: the penalty makes K ill-conditioned along directions
-        # H barely resists (global translations); refinement recovers full accuracy
-        corr, _ = dpbtrs(self._factor, rhs - self._apply_k(x), lower=0)
-        return x + corr
+        return x
 
     def solve(self, gradient: np.ndarray, c: np.ndarray, *, multipliers: np.ndarray | None = None,
               tolerance: float = 1e-10, fail_tolerance: float = 1e-5,

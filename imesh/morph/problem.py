@@ -67,7 +67,7 @@ class MorphConfig:
     bone_tolerance_m: float = 1e-9
     max_polish_steps: int = 1
     constraint_tolerance_m: float = 1e-10
-    penalty: float = 1e3
+    penalty: float = 1e5
     max_al_iterations: int = 30
     window_frames: int = 2000
     window_lookahead: int = 60

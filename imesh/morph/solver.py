@@ -127,7 +127,7 @@ class _Window:
         h_scalar = (lap.T @ lap + w_accel * sp.kron(d2.T @ d2, sp.identity(m))).tocsr()
         h_shape = sp.kron(h_scalar, sp.identity(3), format="csr")
         self.v_src = problem.source.reshape(-1)
-        self.g_shape = h_shape @ self.v_src
+        self.h_shape = h_shape
         soft_mask = np.isfinite(problem.soft_positions_m)
         self.soft_w = (problem.soft_weights[..., None] * soft_mask).reshape(-1)
         self.soft_target_final = np.where(soft_mask, problem.soft_positions_m,
@@ -215,14 +215,17 @@ class _Window:
         return bone_directions(current.reshape(p.source.shape)[self.bone_frames],
                                p.bones).reshape(-1, 3)
 
-    def gradient(self, previous: np.ndarray, alpha: float) -> np.ndarray:
-        soft_target = (1 - alpha) * self.v_src + alpha * self.soft_target_final
-        # The reference shape grows with the overall scale s of the targets: Laplacian
-        # coordinates and accelerations are not scale invariant, and a uniformly scaled
-        # skeleton should cost nothing.
+    def residual_gradient(self, x: np.ndarray, alpha: float) -> np.ndarray:
+        """-(gradient of the step's objective) at x: the right-hand side for the increment.
+
+        E = 1/2 |V' - s V|_{H_shape}^2 + soft + anchor(V' - x), whose anchor gradient vanishes
+        at x. The reference shape grows with the overall target scale s (Laplacian coordinates
+        and accelerations are not scale invariant; a uniformly scaled skeleton costs nothing).
+        Written as H_shape (s V - x) so an identity morph gives exactly zero.
+        """
         shape_scale = 1.0 - alpha + alpha * self.shape_scale
-        return (shape_scale * self.g_shape + self.anchor * previous
-                + self.soft_w * soft_target)
+        soft_target = (1 - alpha) * self.v_src + alpha * self.soft_target_final
+        return self.h_shape @ (shape_scale * self.v_src - x) + self.soft_w * (soft_target - x)
 
 
 def _run_window(problem: MorphProblem, index: int, seams: list | None, keep_frames: int,
@@ -262,7 +265,7 @@ def _run_window(problem: MorphProblem, index: int, seams: list | None, keep_fram
         u_soft, w_soft, gap_soft = win.contact_terms(x, alpha)
         win.kkt.factor(win.directions(x), u_soft, w_soft)
         a = win.kkt.constraint_matrix
-        rhs = win.gradient(x, alpha) - win.hessian @ x
+        rhs = win.residual_gradient(x, alpha)
         if u_soft is not None:
             rhs += win.kkt.soft_matrix.T @ (np.sqrt(w_soft) * gap_soft)
         # Solve for the increment dx = x' - x: for an identity morph it is exactly zero, and
