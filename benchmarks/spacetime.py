@@ -5,7 +5,7 @@ built-in synthetic walker (21 standard markers, real skeleton structure); ~40 ma
 performers of different heights side by side in one mesh. The morph scales the arms by 1.3 with
 the default MorphConfig (10 steps + re-linearization + projection).
 
-    python benchmarks/spacetime.py                 # full table (300..8000 frames, 21 and 42 markers)
+    python benchmarks/spacetime.py        # full table: 300..8000 frames, 21 and 42 markers
     python benchmarks/spacetime.py --frames 300 1000 --markers 21
 """
 

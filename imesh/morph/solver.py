@@ -20,7 +20,6 @@ and solves ``window_lookahead`` frames beyond what it keeps.
 from __future__ import annotations
 
 import logging
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
