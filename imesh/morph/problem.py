@@ -48,6 +48,8 @@ class MorphConfig:
             projection onto the exact lengths (``projection.project_lengths``).
         max_polish_steps: re-solves of the whole problem at the final targets.
         constraint_tolerance_m: residual of the linearized hard constraints per solve.
+        fail_tolerance_m: at the final targets, a residual still above this after
+            ``max_al_iterations`` means conflicting hard constraints (SolverError).
         penalty: augmented-Lagrangian penalty relative to the mean diagonal of the Hessian.
         max_al_iterations: limit on multiplier updates per solve.
         window_frames: clips longer than this are solved in windows (memory stays bounded).
@@ -67,6 +69,7 @@ class MorphConfig:
     bone_tolerance_m: float = 1e-9
     max_polish_steps: int = 1
     constraint_tolerance_m: float = 1e-10
+    fail_tolerance_m: float = 1e-5
     penalty: float = 1e5
     max_al_iterations: int = 30
     window_frames: int = 2000
