@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .adapt import prepare_markers
-from .arrange import Arrangement, arrange_for_robot, load_marker_model
+from .arrange import Arrangement, arrange_for_robot
 from .contacts import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_contacts
 from .morph.problem import MorphConfig, build_morph_problem
 from .morph.solver import MorphResult, MorphStepReport, solve_morph
@@ -114,20 +114,21 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
     human = prepare_markers(motion)
-    model = load_marker_model(robot.markers_toml)
-    arrangement = arrange_for_robot(human, robot, model)
+    arrangement = arrange_for_robot(human, robot)
     source = arrangement.motion
     contacts = detect_contacts(source, config.contacts)
-    hard = None
+    hard = soft = soft_w = None
     if config.support is not None:
         heights, lengths = foot_geometry(arrangement)
-        hard = support_foot_targets(source, contacts, heights, lengths, config.support)
+        hard, soft, soft_w = support_foot_targets(source, contacts, heights, lengths,
+                                                  config.support)
     seconds["prepare"] = time.perf_counter() - t0
 
     t1 = time.perf_counter()
     problem = build_morph_problem(source, pairs=arrangement.pairs,
                                   target_lengths_m=arrangement.target_lengths_m,
-                                  hard_positions_m=hard, config=config.morph)
+                                  hard_positions_m=hard, soft_positions_m=soft,
+                                  soft_weights=soft_w, config=config.morph)
     morph = solve_morph(problem, progress=progress)
     adapted = source.with_positions(morph.positions_m, source=f"adapted:{source.source}")
     seconds["morph"] = time.perf_counter() - t1

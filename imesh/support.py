@@ -7,7 +7,10 @@ During a support phase the foot markers (toe and ankle) get hard positional cons
   source to these values);
 - horizontal: the phase mean of the source foot (no skating), unless the source foot really
   slides during the phase (travel above ``slide_threshold_m``), with the toe-ankle vector
-  shortened or lengthened to the robot's foot so the constraints are consistent with the bone.
+  shortened or lengthened to the robot's foot so the targets agree with the bone. These are
+  *soft* targets with a large weight: in double support the robot's legs (other proportions,
+  other hip width) cannot always reach two pinned human footprints exactly, and a hard
+  constraint there would make the morph infeasible; the weight keeps the slip sub-millimetre.
 """
 
 from __future__ import annotations
@@ -26,16 +29,19 @@ class SupportConfig:
         horizontal: also pin the support foot horizontally (no skating).
         slide_threshold_m: a source foot travelling more than this during a support phase is
             sliding for real and keeps its horizontal motion.
+        horizontal_weight: weight of the soft horizontal targets (the Laplacian rows weigh ~1).
     """
 
     horizontal: bool = True
     slide_threshold_m: float = 0.05
+    horizontal_weight: float = 1e3
 
 
 def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
                          foot_heights_m: dict[str, float], foot_lengths_m: dict[str, float],
-                         config: SupportConfig | None = None) -> np.ndarray:
-    """Hard positional targets (T, M, 3) for the support feet, NaN elsewhere.
+                         config: SupportConfig | None = None
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positional targets for the support feet.
 
     Args:
         motion: the (arranged, scaled) source motion with toe_* and ankle_* markers.
@@ -44,9 +50,15 @@ def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
             the floor when the robot stands flat [m].
         foot_lengths_m: side -> robot toe-ankle distance [m].
         config: SupportConfig.
+
+    Returns:
+        (hard (T, M, 3) vertical targets, soft (T, M, 3) horizontal targets, soft weights
+        (T, M)); NaN where free.
     """
     config = config or SupportConfig()
     targets = np.full(motion.positions_m.shape, np.nan)
+    soft = np.full(motion.positions_m.shape, np.nan)
+    weights = np.zeros(motion.positions_m.shape[:2])
     for side in SIDES:
         toe_name, ankle_name = FOOT_MARKERS[side]
         toe, ankle = motion.index(toe_name), motion.index(ankle_name)
@@ -66,6 +78,7 @@ def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
             back = motion.positions_m[sl, ankle, :2].mean(axis=0) - toe_xy
             norm = np.linalg.norm(back)
             back = back / norm if norm > 1e-9 else np.array([-1.0, 0.0])
-            targets[sl, toe, :2] = toe_xy
-            targets[sl, ankle, :2] = toe_xy + horizontal_len * back
-    return targets
+            soft[sl, toe, :2] = toe_xy
+            soft[sl, ankle, :2] = toe_xy + horizontal_len * back
+            weights[sl, [toe, ankle]] = config.horizontal_weight
+    return targets, soft, weights

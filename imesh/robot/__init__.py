@@ -1,0 +1,49 @@
+"""Humanoid robot models for imesh: configuration files, reduced pinocchio models, collision
+proxies and soles.
+
+Robots live in ``robots/<name>/`` (``robot.toml`` + ``markers.toml``); models come from installed
+packages (JVRC-1: jvrc-description; Unitree G1: example-robot-data, ``pip install imesh[g1]``) or
+from a URDF the user passes (HRP-4C). Only this subpackage imports pinocchio, lazily.
+
+Example:
+    >>> robot = load_robot("jvrc1")
+    >>> q = robot.q_nominal
+    >>> robot.frame_positions(q, [robot.frame_id("L_KNEE_S")])
+"""
+
+from .collision import CollisionShape, fit_primitive
+from .config import (
+    ROBOTS_DIR,
+    AddedMarker,
+    Direction,
+    Keypoint,
+    MarkerConfig,
+    RobotConfig,
+    RobotConfigError,
+    SoleRectangle,
+    load_markers_config,
+    load_robot_config,
+)
+from .model import Robot, load_robot, resolve_urdf
+from .registry import list_robots, resolve_robot_toml, robot_names
+
+__all__ = [
+    "ROBOTS_DIR",
+    "AddedMarker",
+    "CollisionShape",
+    "Direction",
+    "Keypoint",
+    "MarkerConfig",
+    "Robot",
+    "RobotConfig",
+    "RobotConfigError",
+    "SoleRectangle",
+    "fit_primitive",
+    "list_robots",
+    "load_markers_config",
+    "load_robot",
+    "load_robot_config",
+    "resolve_robot_toml",
+    "resolve_urdf",
+    "robot_names",
+]
