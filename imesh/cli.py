@@ -69,12 +69,23 @@ def build_parser() -> argparse.ArgumentParser:
     _add_load_options(p)
     _add_morph_options(p)
 
-    p = sub.add_parser("retarget", help="run the pipeline on a motion file")
+    p = sub.add_parser("retarget", help="adapt a motion file to a robot")
     p.add_argument("clip")
-    p.add_argument("-o", "--output", required=True, help="output (.npz or .csv)")
+    p.add_argument("--robot", default="jvrc1",
+                   help="robot: a folder of robots/ (jvrc1, g1, hrp4c) or a robot.toml")
+    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
+    p.add_argument("-o", "--output", required=True,
+                   help="robot motion (.npz or .csv: base position, base quaternion xyzw, joints)")
     p.add_argument("--json", dest="report", help="write the report (JSON) here")
+    p.add_argument("--no-support", action="store_true",
+                   help="no support-foot constraints in the morph")
+    p.add_argument("--markers", help="also write the adapted markers (.npz or .csv)")
     _add_load_options(p)
-    _add_morph_options(p)
+    p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
+    p.add_argument("--window-frames", type=int, default=2000,
+                   help="solve longer clips in windows of this many frames (default 2000)")
+
+    sub.add_parser("robots", help="list the robots imesh knows")
 
     p = sub.add_parser("demo", help="run the main job on the built-in synthetic clip")
     p.add_argument("-o", "--output", required=True, help="output folder")
@@ -163,8 +174,53 @@ def cmd_adapt(args) -> int:
     return 0
 
 
+def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, support: bool = True):
+    from .morph.problem import MorphConfig
+    from .retarget import RetargetConfig, retarget
+    from .support import SupportConfig
+
+    config = RetargetConfig(morph=MorphConfig(steps=steps, window_frames=window_frames),
+                            support=SupportConfig() if support else None)
+    bar, update = _progress(args, steps, f"morph for {robot.name}")
+    try:
+        return retarget(motion, robot, config=config, progress=update)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
 def cmd_retarget(args) -> int:
-    return cmd_adapt(argparse.Namespace(**vars(args), people=None))
+    from .export import save_marker_motion, write_json
+    from .robot import load_robot
+    from .robot_motion import save_robot_motion
+
+    robot = load_robot(args.robot, urdf=args.urdf)
+    motion = _load(args)
+    result = _retarget(args, motion, robot, args.steps, args.window_frames,
+                       support=not args.no_support)
+    report = result.report()
+    save_robot_motion(args.output, result.motion)
+    if args.markers:
+        save_marker_motion(args.markers, result.adapted)
+    if args.report:
+        write_json(args.report, report)
+    fit = report["fit"]
+    print(f"retargeted {report['frames']} frames to {robot.name} in "
+          f"{report['seconds']['total']:.2f} s: bone residual {report['bone_residual_m']:.1e} m, "
+          f"key-point RMS {1e3 * fit.get('keypoint_rms_m', float('nan')):.1f} mm -> "
+          f"{args.output}")
+    return 0
+
+
+def cmd_robots(args) -> int:
+    from .robot import list_robots
+
+    rows = list_robots()
+    print(f"{'robot':<8} {'DOF':>4}  {'licence':<14} source")
+    for r in rows:
+        dof = r.get("dof", "?")
+        print(f"{r['name']:<8} {dof!s:>4}  {r.get('licence', ''):<14} {r.get('source', '')}")
+    return 0
 
 
 def cmd_demo(args) -> int:
@@ -204,7 +260,7 @@ def cmd_demo(args) -> int:
 
 
 COMMANDS = {"inspect": cmd_inspect, "adapt": cmd_adapt, "retarget": cmd_retarget,
-            "demo": cmd_demo}
+            "robots": cmd_robots, "demo": cmd_demo}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
