@@ -1,8 +1,9 @@
 """Spacetime morph speed and memory: frames x markers table with the fitted time exponent.
 
 Each configuration runs in a fresh subprocess (peak memory = its max RSS). The motion is the
-built-in synthetic walker (21 standard markers, real skeleton structure); ~40 markers are two
-performers of different heights side by side in one mesh. The morph scales the arms by 1.3 with
+built-in synthetic walker (21 standard markers, real skeleton structure). Marker counts: 21 (one
+performer), 40 (two performers of different heights side by side in one mesh, each without the
+spine marker, as the robot-arranged marker models have it) and 42 (two full performers). The morph scales the arms by 1.3 with
 the default MorphConfig (10 steps + re-linearization + projection).
 
     python benchmarks/spacetime.py        # full table: 300..8000 frames, 21 and 42 markers
@@ -21,19 +22,33 @@ import time
 import numpy as np
 
 
-def run_one(frames: int, markers: int) -> dict:
-    from imesh.adapt import adapt_motion
+def _performer(steps: int, frames: int, height: float, shift_y: float, spine: bool):
+    from imesh.adapt import prepare_markers
+    from imesh.markerset import STANDARD_MARKERS
     from imesh.synthetic import synthetic_walk_clap
 
+    m = synthetic_walk_clap(steps=steps, fps=60.0, height_m=height)
+    m = m.with_positions(m.positions_m + [0.0, shift_y, 0.0]).frames(0, frames)
+    if not spine:  # drop the spine marker, re-attaching the chest to the pelvis
+        m = prepare_markers(m)
+        keep = [n for n in STANDARD_MARKERS if n != "spine"]
+        sub = m.subset(keep)
+        bones = np.concatenate([sub.bones, [[keep.index("pelvis"), keep.index("chest")]]])
+        m = sub.replace(bones=bones, meta={**m.meta, "rig": ""})
+    return m
+
+
+def run_one(frames: int, markers: int, threads: int | None = None) -> dict:
+    from imesh.adapt import adapt_motion
+    from imesh.morph.problem import MorphConfig
+
     steps = max(4, int(frames / 60 / 0.55) + 2)
-    a = synthetic_walk_clap(steps=steps, fps=60.0, height_m=1.45).frames(0, frames)
-    people = None
-    if markers > 21:
-        b = synthetic_walk_clap(steps=steps, fps=60.0, height_m=1.62)
-        b = b.with_positions(b.positions_m[:frames] + [0.0, 0.9, 0.0])
-        people = b
+    spine = markers != 40
+    a = _performer(steps, frames, 1.45, 0.0, spine)
+    people = _performer(steps, frames, 1.62, 0.9, spine) if markers > 21 else None
     t0 = time.perf_counter()
-    result = adapt_motion(a, scales={"arms": 1.3}, people=people)
+    result = adapt_motion(a, scales={"arms": 1.3}, people=people,
+                          config=MorphConfig(threads=threads))
     total = time.perf_counter() - t0
     morph = result.morph
     steps_per_window = len(morph.steps) / morph.windows
@@ -52,11 +67,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, nargs="+", default=[300, 1000, 3000, 8000])
-    parser.add_argument("--markers", type=int, nargs="+", default=[21, 42])
+    parser.add_argument("--markers", type=int, nargs="+", default=[21, 40, 42],
+                        help="21 (one performer), 40 (two without spine) or 42 (two)")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="BLAS threads for the band factorization (default 1)")
     parser.add_argument("--one", nargs=2, type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
-        print(json.dumps(run_one(*args.one)))
+        print(json.dumps(run_one(*args.one, threads=args.threads)))
         return
     rows = []
     header = (f"{'frames':>6} {'markers':>7} {'win':>3} {'steps':>5} {'s/step':>8} "
@@ -66,7 +84,8 @@ def main() -> None:
     print("-" * len(header))
     for m in args.markers:
         for f in args.frames:
-            out = subprocess.run([sys.executable, __file__, "--one", str(f), str(m)],
+            out = subprocess.run([sys.executable, __file__, "--one", str(f), str(m),
+                                  "--threads", str(args.threads)],
                                  capture_output=True, text=True, check=True)
             r = json.loads(out.stdout.strip().splitlines()[-1])
             rows.append(r)
