@@ -19,6 +19,7 @@ import numpy as np
 from .adapt import prepare_markers
 from .arrange import Arrangement, arrange_for_robot
 from .contacts import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_contacts
+from .filtering import lowpass
 from .morph.problem import MorphConfig, build_morph_problem
 from .morph.solver import MorphResult, MorphStepReport, solve_morph
 from .motion import MarkerMotion
@@ -36,12 +37,15 @@ class RetargetConfig:
         contacts: ContactConfig of the support detection.
         support: SupportConfig; None disables the support-foot constraints.
         fit: an :class:`imesh.fit.FitConfig` (None: defaults).
+        lowpass_hz: cut-off of the zero-phase low-pass applied to the human markers first
+            (``imesh.filtering``); None keeps them as recorded.
     """
 
     morph: MorphConfig = field(default_factory=MorphConfig)
     contacts: ContactConfig = field(default_factory=ContactConfig)
     support: SupportConfig | None = field(default_factory=SupportConfig)
     fit: object | None = None
+    lowpass_hz: float | None = 8.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,6 +99,63 @@ def foot_geometry(arrangement: Arrangement) -> tuple[dict[str, float], dict[str,
     return heights, lengths
 
 
+def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
+                        weight: float = 1.0) -> tuple[MarkerMotion, tuple]:
+    """Virtual markers and key directions that fix each foot's roll and the base's roll/yaw.
+
+    The toe and ankle markers fix a foot's position, yaw and pitch but not its roll about the
+    toe-ankle line; left free, the fit rolls soles by tens of degrees. For each foot a virtual
+    marker ``foot_up_<side>`` is placed 0.1 m from the ankle along the zero-roll "up" vector of
+    the foot (perpendicular to ankle->toe and to the pelvis's lateral axis), and a key
+    direction asks the robot's matching sole axis (the sole normal made perpendicular to the
+    robot's own ankle->toe vector) to point there. With the toe and ankle at their support
+    heights this makes the sole flat on the ground.
+
+    Returns:
+        (markers with the virtual markers appended, the extra Direction targets).
+    """
+    from .robot.config import Direction
+
+    names = list(adapted.names)
+    pos = adapted.positions_m
+    pts = arrangement.meta["robot_points_m"]
+    extra_pos, extra_names, directions = [], [], []
+    # the foot's zero-roll lateral axis: the pelvis's right-pointing axis (hip_l -> hip_r) made
+    # perpendicular to the foot; f x z would flip when the foot points straight down (toe-off)
+    pelvis_right = pos[:, names.index("hip_r")] - pos[:, names.index("hip_l")]
+    for side in SIDES:
+        toe_name, ankle_name = FOOT_MARKERS[side]
+        toe, ankle = names.index(toe_name), names.index(ankle_name)
+        f = pos[:, toe] - pos[:, ankle]
+        f /= np.linalg.norm(f, axis=1, keepdims=True)
+        lateral = pelvis_right - np.sum(pelvis_right * f, axis=1, keepdims=True) * f
+        lateral /= np.maximum(np.linalg.norm(lateral, axis=1, keepdims=True), 1e-9)
+        up = np.cross(lateral, f)
+        extra_pos.append(pos[:, ankle] + 0.1 * up)
+        extra_names.append(f"foot_up_{side[0]}")
+        sole = robot.soles[side]
+        rot = robot.frame_rotations(robot.q_nominal, [robot.frame_id(sole.frame)])[0]
+        d = rot.T @ (pts[toe] - pts[ankle])
+        d /= np.linalg.norm(d)
+        axis = sole.normal - (sole.normal @ d) * d
+        directions.append(Direction(frame=sole.frame, axis=axis / np.linalg.norm(axis),
+                                    from_marker=ankle_name, to_marker=extra_names[-1],
+                                    weight=weight))
+    # The base: its lateral axis along hip_r -> hip_l (the free-flyer's roll and yaw from the
+    # pelvis, as the paper fits the waist 6-DOF first).
+    if "hip_l" in names and "hip_r" in names:
+        waist = robot.frame_id(robot.waist_frame)
+        rot = robot.frame_rotations(robot.q_nominal, [waist])[0]
+        lat = rot.T @ (pts[names.index("hip_l")] - pts[names.index("hip_r")])
+        directions.append(Direction(frame=robot.waist_frame, axis=lat / np.linalg.norm(lat),
+                                    from_marker="hip_r", to_marker="hip_l", weight=weight))
+    markers = MarkerMotion(positions_m=np.concatenate([pos, np.stack(extra_pos, axis=1)], axis=1),
+                           fps=adapted.fps, names=tuple(names + extra_names),
+                           valid=np.ones((adapted.n_frames, len(names) + 2), dtype=bool),
+                           bones=adapted.bones, source=adapted.source, meta=adapted.meta)
+    return markers, tuple(directions)
+
+
 def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = None,
              progress: Callable[[MorphStepReport], None] | None = None) -> RetargetResult:
     """Adapt a human motion to ``robot`` (an :class:`imesh.robot.Robot`).
@@ -114,6 +175,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
     human = prepare_markers(motion)
+    if config.lowpass_hz is not None:
+        human = lowpass(human, config.lowpass_hz)
     arrangement = arrange_for_robot(human, robot)
     source = arrangement.motion
     contacts = detect_contacts(source, config.contacts)
@@ -134,8 +197,9 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     seconds["morph"] = time.perf_counter() - t1
 
     t2 = time.perf_counter()
-    fit = fit_motion(robot, adapted, keypoints=arrangement.keypoints,
-                     directions=arrangement.directions,
+    fit_markers, extra_dirs = orientation_targets(adapted, robot, arrangement)
+    fit = fit_motion(robot, fit_markers, keypoints=arrangement.keypoints,
+                     directions=arrangement.directions + extra_dirs,
                      config=config.fit if config.fit is not None else FitConfig())
     seconds["fit"] = time.perf_counter() - t2
     seconds["total"] = time.perf_counter() - t0

@@ -272,8 +272,11 @@ def _run_window(problem: MorphProblem, index: int, seams: list | None, keep_fram
         sol = win.kkt.solve(rhs, win.targets(alpha, seam) - a @ x, multipliers=lam,
                             tolerance=cfg.constraint_tolerance_m,
                             # intermediate targets (linear in alpha) need not be exactly
-                            # consistent; only the final ones must be
-                            fail_tolerance=cfg.fail_tolerance_m if alpha >= 1.0 else np.inf,
+                            # consistent, and the first solve at the final targets starts
+                            # from a stale linearization; only the last solve must succeed
+                            fail_tolerance=(cfg.fail_tolerance_m
+                                            if step >= cfg.steps + cfg.max_polish_steps
+                                            else np.inf),
                             max_iterations=cfg.max_al_iterations)
         x, lam = x + sol.x, sol.multipliers
         pos = x.reshape(shape)

@@ -1,0 +1,156 @@
+"""Joint fitting speed and accuracy per robot: seconds per frame, key-point RMS, frames at limits.
+
+Two kinds of rows, printed by the same table (:func:`fit_table`):
+
+- FK round trip: a smooth random within-limit joint trajectory with a walking, turning base;
+  key points and direction markers by forward kinematics; fitted back with the default
+  FitConfig (the exact answer is known, so RMS measures the solver).
+- real clips: the full pipeline (``imesh.retarget.retarget``: arrangement, contacts, morph)
+  on clips of ``IMESH_DATA/mocap``; the fitting stage's numbers are reported.
+
+    python benchmarks/fitting.py                           # FK rows, 600 frames, 3 robots
+    python benchmarks/fitting.py --frames 2000 --robots jvrc1
+    python benchmarks/fitting.py --clips cmu_02_01_walk.bvh cmu_141_16_wave_hello.bvh
+    python benchmarks/fitting.py --frames 0 --clips cmu_02_01_walk.bvh --acceleration-limit 0
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOTS = ("jvrc1", "g1", "hrp4c")
+
+
+def data_root() -> Path:
+    return Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data")).resolve()
+
+
+def load(name: str):
+    """A robot by name (HRP-4C from the shared URDF, as a user-supplied model)."""
+    from imesh.robot import load_robot
+
+    if name == "hrp4c":
+        return load_robot(name, urdf=data_root().parent / "robots" / "hrp4c"
+                          / "HRP4Cmain_reduced.urdf")
+    return load_robot(name)
+
+
+def row_from_fit(result, source: str, robot) -> dict:
+    """One table row from a FitResult."""
+    s = result.summary()
+    q = result.motion.joint_positions
+    v = np.abs(np.diff(q, axis=0)) * result.motion.fps
+    return {
+        "robot": robot.name, "source": source, "frames": s["frames"],
+        "fps": result.motion.fps, "s_per_frame": s["seconds_per_frame"],
+        "solves_per_frame": float(result.iterations[1:].mean()) if len(q) > 1 else 0.0,
+        "marker_rms_mm": s["marker_rms_mm"], "keypoint_max_mm": s["keypoint_max_mm"],
+        "direction_rms_deg": s["direction_rms_deg"],
+        "frames_at_position": s["frames_at_position_bound"],
+        "frames_at_velocity": s["frames_at_velocity_bound"],
+        "frames_at_acceleration": s["frames_at_acceleration_bound"],
+        "conflicts": s["conflict_frames"],
+        "max_v_ratio": float((v / robot.v_max).max()) if len(q) > 1 else 0.0,
+    }
+
+
+def fk_rows(robots=ROBOTS, frames: int = 600, fps: float = 30.0, seed: int = 1) -> list[dict]:
+    """FK round-trip rows: exact targets from a known smooth motion (see tests/test_fit.py)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_fit import fk_markers, smooth_trajectory
+
+    from imesh.fit import fit_motion, robot_targets
+
+    rows = []
+    for name in robots:
+        robot = load(name)
+        keypoints, directions = robot_targets(robot)
+        qs = smooth_trajectory(robot, frames, fps, seed=seed)
+        markers, dirs = fk_markers(robot, qs, fps, keypoints, directions)
+        result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs)
+        rows.append(row_from_fit(result, "fk round trip", robot))
+    return rows
+
+
+def clip_rows(clips, robots=ROBOTS, fit_config=None) -> list[dict]:
+    """Real-clip rows through the whole pipeline (imesh.retarget); fitting-stage numbers.
+
+    Args:
+        clips: file names in IMESH_DATA/mocap.
+        robots: robot names.
+        fit_config: an imesh.fit.FitConfig for the fitting stage (None: defaults).
+    """
+    import imesh
+    from imesh.retarget import RetargetConfig, retarget
+
+    config = RetargetConfig(fit=fit_config)
+
+    rows = []
+    for clip in clips:
+        motion = imesh.load_motion(data_root() / "mocap" / clip)
+        for name in robots:
+            robot = load(name)
+            t0 = time.perf_counter()
+            try:
+                result = retarget(motion, robot, config=config)
+            except imesh.ImeshError as exc:  # an earlier stage failed: report, go on
+                print(f"# {clip} on {name}: pipeline failed before fitting: {exc}")
+                continue
+            row = row_from_fit(result.fit, clip, robot)
+            row["pipeline_s"] = time.perf_counter() - t0
+            rows.append(row)
+    return rows
+
+
+def fit_table(rows: list[dict]) -> None:
+    """Print one line per row: robot, source, frames, ms/frame, key-point RMS/max [mm],
+    direction RMS [deg], frames at position/velocity/acceleration bounds, box conflicts."""
+    head = (f"{'robot':7s} {'source':32s} {'frames':>6s} {'fps':>5s} {'ms/frame':>8s} "
+            f"{'solves':>6s} {'RMS mm':>7s} {'max mm':>7s} {'dir deg':>7s} "
+            f"{'at pos/vel/acc':>15s} {'confl':>5s} {'max v/vmax':>10s}")
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        limits = (f"{r['frames_at_position']}/{r['frames_at_velocity']}/"
+                  f"{r['frames_at_acceleration']}")
+        print(f"{r['robot']:7s} {r['source'][:32]:32s} {r['frames']:6d} {r['fps']:5.0f} "
+              f"{1e3 * r['s_per_frame']:8.3f} {r['solves_per_frame']:6.2f} "
+              f"{r['marker_rms_mm']:7.3f} {r['keypoint_max_mm']:7.3f} "
+              f"{r['direction_rms_deg']:7.3f} {limits:>15s} {r['conflicts']:5d} "
+              f"{r['max_v_ratio']:10.2f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--robots", nargs="+", default=list(ROBOTS))
+    parser.add_argument("--frames", type=int, default=600)
+    parser.add_argument("--fps", type=float, default=30.0)
+    parser.add_argument("--clips", nargs="*", default=[],
+                        help="clips of IMESH_DATA/mocap to run through imesh.retarget")
+    parser.add_argument("--acceleration-limit", type=float, default=None,
+                        help="override every joint's a_max [rad/s^2] (0: no acceleration box)")
+    args = parser.parse_args()
+    from imesh.fit import FitConfig
+
+    if args.acceleration_limit is None:
+        config = FitConfig()
+    elif args.acceleration_limit > 0:
+        config = FitConfig(acceleration_limit=args.acceleration_limit)
+    else:
+        config = FitConfig(enforce_acceleration=False)
+    rows = fk_rows(args.robots, args.frames, args.fps) if args.frames > 0 else []
+    if args.clips:
+        rows += clip_rows(args.clips, args.robots, config)
+    fit_table(rows)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,32 @@
+"""Joint fitting: robot configurations from adapted marker trajectories.
+
+Per frame, warm started from the previous one, damped least squares (Nakaoka & Komura 2012,
+eqs 7-8) over the free-flyer base and all joints, with joint position / velocity / acceleration
+limits as bounds on the per-frame increment (Kim, Kim & Oh 2005, eqs 9, 13, 14). See
+``docs/fitting.md``.
+
+Example:
+    >>> from imesh.robot import load_robot
+    >>> from imesh.fit import fit_motion
+    >>> result = fit_motion(load_robot("jvrc1"), adapted_markers)
+    >>> result.motion            # RobotMotion (T, nq)
+    >>> result.summary()         # marker_rms_mm, frames at limits, seconds_per_frame ...
+"""
+
+from .boxqp import solve_box_dls, solve_box_qp
+from .dls import FitConfig, FitResult, fit_motion
+from .errors import FitError, UnknownFrameError
+from .targets import (
+    DirectionTarget,
+    KeypointTarget,
+    as_directions,
+    as_keypoints,
+    compile_targets,
+    robot_targets,
+)
+
+__all__ = [
+    "DirectionTarget", "FitConfig", "FitError", "FitResult", "KeypointTarget", "UnknownFrameError",
+    "as_directions", "as_keypoints", "compile_targets", "fit_motion",
+    "robot_targets", "solve_box_dls", "solve_box_qp",
+]

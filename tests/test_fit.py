@@ -1,0 +1,406 @@
+"""Joint fitting (imesh.fit): FK round trips on the real robots, limits, the box QP, bad input."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from imesh import ImeshError, MarkerMotion, MissingMarkerError
+from imesh.fit import (
+    DirectionTarget,
+    FitConfig,
+    FitError,
+    KeypointTarget,
+    UnknownFrameError,
+    fit_motion,
+    robot_targets,
+    solve_box_qp,
+)
+from imesh.robot import load_robot
+from imesh.robot_motion import RobotMotion
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOTS = ("jvrc1", "g1", "hrp4c")
+
+
+def hrp4c_urdf() -> Path:
+    data = Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data"))
+    path = data.parent / "robots" / "hrp4c" / "HRP4Cmain_reduced.urdf"
+    if not path.is_file():
+        pytest.fail(f"HRP-4C URDF {path} not found: set IMESH_DATA to the shared data folder")
+    return path
+
+
+_ROBOTS: dict = {}
+
+
+def get_robot(name: str):
+    if name not in _ROBOTS:
+        _ROBOTS[name] = (load_robot(name, urdf=hrp4c_urdf()) if name == "hrp4c"
+                         else load_robot(name))
+    return _ROBOTS[name]
+
+
+@pytest.fixture(params=ROBOTS)
+def robot(request):
+    return get_robot(request.param)
+
+
+# ---------------------------------------------------------------------------------- synthesis
+def yaw_roll_quat(yaw: np.ndarray, roll: np.ndarray) -> np.ndarray:
+    """(T, 4) xyzw quaternions of Rz(yaw) Rx(roll)."""
+    cz, sz, cx, sx = np.cos(yaw / 2), np.sin(yaw / 2), np.cos(roll / 2), np.sin(roll / 2)
+    return np.stack([cz * sx, sz * sx, sz * cx, cz * cx], axis=-1)
+
+
+def smooth_trajectory(robot, n_frames: int = 200, fps: float = 30.0, amp: float = 0.4,
+                      seed: int = 0) -> np.ndarray:
+    """(T, nq) smooth random joint motion strictly inside the position limits (velocities well
+    below v_max, accelerations below 10 rad/s^2) and a walking, turning, swaying base."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n_frames) / fps
+    q = np.tile(robot.q_nominal, (n_frames, 1))
+    lo, hi = robot.q_lower, robot.q_upper
+    for j in range(robot.nq - 7):
+        width = hi[j] - lo[j]
+        a = min(amp, 0.35 * width)
+        mid = float(np.clip(robot.q_nominal[7 + j], lo[j] + a + 0.02 * width,
+                            hi[j] - a - 0.02 * width))
+        f = rng.uniform(0.2, 0.6, 2)
+        ph = rng.uniform(0, 2 * np.pi, 2)
+        s = 0.5 * (np.sin(2 * np.pi * f[0] * t + ph[0]) + np.sin(2 * np.pi * f[1] * t + ph[1]))
+        q[:, 7 + j] = np.clip(mid + a * s, lo[j] + 1e-3, hi[j] - 1e-3)
+    q[:, 0] += 0.4 * t
+    q[:, 1] += 0.1 * np.sin(0.7 * t)
+    q[:, 2] += 0.02 * np.sin(2 * t)
+    q[:, 3:7] = yaw_roll_quat(0.3 + 0.4 * np.sin(0.5 * t), 0.05 * np.sin(t))
+    return q
+
+
+def fk_markers(robot, qs: np.ndarray, fps: float, keypoints, directions):
+    """Markers that the robot reproduces exactly: key points by FK under their human marker
+    names; per direction a synthesized head marker ``dirK_to`` = tail marker + 0.1 m * axis.
+
+    Returns (MarkerMotion, directions naming the synthesized heads)."""
+    names = [k.marker for k in keypoints]
+    frames = [k.frame for k in keypoints]
+    offsets = np.array([k.offset for k in keypoints])
+    axes = np.array([np.asarray(d.axis) / np.linalg.norm(d.axis) for d in directions])
+    rows = []
+    for q in qs:
+        points = robot.frame_positions(q, frames, offsets)
+        heads = []
+        if directions:
+            rot = robot.frame_rotations(q, [d.frame for d in directions])
+            for k, d in enumerate(directions):
+                heads.append(points[names.index(d.from_marker)] + 0.1 * rot[k] @ axes[k])
+        rows.append(np.vstack([points, *heads]) if heads else points)
+    pos = np.array(rows)
+    marker_names = names + [f"dir{k}_to" for k in range(len(directions))]
+    dirs = [DirectionTarget(d.frame, tuple(d.axis), d.from_marker, f"dir{k}_to", d.weight)
+            for k, d in enumerate(directions)]
+    motion = MarkerMotion(positions_m=pos, fps=fps, names=tuple(marker_names),
+                          valid=np.ones(pos.shape[:2], dtype=bool), source="fk")
+    return motion, dirs
+
+
+def check_limits(robot, result, dt: float, a_max=None) -> None:
+    """Position limits every frame, velocity limits every step, acceleration limits on every
+    frame without a box conflict."""
+    q = result.motion.joint_positions
+    assert np.all(q >= robot.q_lower - 1e-12) and np.all(q <= robot.q_upper + 1e-12)
+    v = np.diff(q, axis=0) / dt
+    assert np.all(np.abs(v) <= robot.v_max + 1e-9)
+    a = np.diff(q, n=2, axis=0) / dt**2
+    a_max = robot.a_max if a_max is None else np.broadcast_to(a_max, robot.a_max.shape)
+    free = ~result.conflict[2:]
+    assert np.all(np.abs(a[free]) <= a_max + 1e-6)
+
+
+# ---------------------------------------------------------------------------------- tests
+def test_fk_round_trip(robot):
+    """Exact targets from FK of a smooth within-limit motion are fitted back: per-frame
+    key-point RMS <= 1 mm, direction errors <= 0.5 deg, no limit violated."""
+    keypoints, directions = robot_targets(robot)
+    fps = 30.0
+    qs = smooth_trajectory(robot, 200, fps, seed=1)
+    markers, dirs = fk_markers(robot, qs, fps, keypoints, directions)
+    result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs)
+    assert isinstance(result.motion, RobotMotion)
+    assert result.motion.q.shape == (200, robot.nq)
+    assert result.motion.joint_names == tuple(robot.joint_names)
+    assert np.nanmax(result.keypoint_rms_m) <= 1e-3
+    assert np.nanmax(result.direction_error_deg) <= 0.5
+    assert result.marker_rms_mm <= 0.1
+    check_limits(robot, result, 1 / fps)
+    assert result.frames_at_position_bound == 0
+    assert result.frames_at_velocity_bound == 0
+    assert result.conflict_frames == 0
+    assert result.seconds_per_frame > 0 and result.iterations.min() >= 1
+    summary = result.summary()
+    assert summary["frames"] == 200 and summary["robot"] == robot.name
+
+
+def test_inconsistent_targets_stay_smooth():
+    """Targets the robot cannot meet (limbs 5 % longer, 2 cm RMS residual) leave flat valleys
+    in the objective; the residual-proportional smoothing keeps the fitted joints smooth
+    instead of chattering against their acceleration limits."""
+    robot = get_robot("hrp4c")
+    keypoints, directions = robot_targets(robot)
+    qs = smooth_trajectory(robot, 120, 30.0, seed=1)
+    markers, dirs = fk_markers(robot, qs, 30.0, keypoints, directions)
+    pos = markers.positions_m
+    pelvis = pos[:, markers.names.index("pelvis")][:, None]
+    markers = markers.with_positions(pelvis + 1.05 * (pos - pelvis))
+    # a tight acceleration limit (independent of the robot's default) makes chatter visible
+    result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs,
+                        config=FitConfig(acceleration_limit=20.0))
+    assert 10.0 < result.marker_rms_mm < 30.0
+    assert result.frames_at_acceleration_bound == 0
+    jerk = np.abs(np.diff(result.motion.joint_positions, n=3, axis=0)).max()
+    assert jerk < 0.02  # [rad per frame^3]; chatter at the acceleration box would be ~0.04
+    check_limits(robot, result, 1 / 30.0)
+    rough = fit_motion(robot, markers, keypoints=keypoints, directions=dirs,
+                       config=FitConfig(adaptive_smoothing=0.0, smoothing=0.0,
+                                        acceleration_limit=20.0))
+    assert rough.frames_at_acceleration_bound > 10
+
+
+def test_default_targets_from_markers_toml():
+    """keypoints/directions default to the robot's markers.toml (HRP-4C: with the arrangement's
+    added 'collar' marker); its directions are consistent with its key points."""
+    robot = get_robot("hrp4c")
+    keypoints, directions = robot_targets(robot)
+    assert "collar" in [k.marker for k in keypoints]
+    qs = smooth_trajectory(robot, 40, 30.0, seed=3)
+    markers, _ = fk_markers(robot, qs, 30.0, keypoints, [])
+    result = fit_motion(robot, markers)
+    assert len(result.keypoints) == len(keypoints)
+    assert len(result.directions) == len(directions) > 0
+    assert np.nanmax(result.keypoint_rms_m) <= 1e-3
+    assert np.nanmax(result.direction_error_deg) <= 0.5
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_velocity_limit_clamps(name):
+    """Joints asked to move at twice their velocity limit are clamped to v_max exactly."""
+    robot = get_robot(name)
+    fps = 60.0
+    qs = smooth_trajectory(robot, 90, fps, amp=0.05, seed=2)
+    width = robot.q_upper - robot.q_lower
+    fast = np.argsort(width)[::-1][:4]  # the four widest joints: room for a big fast move
+    t = np.arange(90) / fps
+    for j in fast:
+        amp = 0.3 * width[j]
+        tau = 1.875 * amp / (2.0 * robot.v_max[j])  # minimum-jerk peak speed = 2 v_max
+        s = np.clip((t - 0.3) / tau, 0.0, 1.0)
+        ramp = amp * (10 * s**3 - 15 * s**4 + 6 * s**5)
+        start = np.clip(robot.q_nominal[7 + j], robot.q_lower[j] + 0.05 * width[j],
+                        robot.q_upper[j] - 0.35 * width[j] - 0.05 * width[j])
+        qs[:, 7 + j] = start + ramp
+    v_true = np.abs(np.diff(qs[:, 7:], axis=0)) * fps
+    assert np.any(v_true > robot.v_max * 1.5)
+    keypoints, directions = robot_targets(robot)
+    markers, dirs = fk_markers(robot, qs, fps, keypoints, directions)
+    a_max = 5000.0  # high enough that the velocity box, not the acceleration box, binds
+    config = FitConfig(acceleration_limit=a_max)
+    result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs, config=config)
+    assert result.frames_at_velocity_bound >= 1
+    check_limits(robot, result, 1 / fps, a_max=a_max)
+    v = np.abs(np.diff(result.motion.joint_positions, axis=0)) * fps
+    assert np.any(np.isclose(v[:, fast], robot.v_max[fast], rtol=1e-9))
+    # after the fast move the fit catches up with the (static) target again
+    assert result.keypoint_rms_m[-1] <= 1e-3
+
+    # with the robot's acceleration limits the acceleration box binds first
+    slow = fit_motion(robot, markers, keypoints=keypoints, directions=dirs)
+    assert slow.frames_at_acceleration_bound >= 3
+    check_limits(robot, slow, 1 / fps)
+
+
+def test_position_limits_and_conflicts():
+    """Targets beyond a joint limit: the joint stops at the limit (position wins); a joint
+    driven at full speed into its limit with a low a_max is a counted box conflict unless it
+    brakes in time (brake_before_limits, the default)."""
+    robot = get_robot("jvrc1")
+    fps = 30.0
+    qs = smooth_trajectory(robot, 60, fps, amp=0.05, seed=4)
+    knee = robot.joint_names.index("L_KNEE")
+    elbow = robot.joint_names.index("R_ELBOW_P")
+    qs[:, 7 + knee] = np.linspace(0.6, -0.4, 60)            # straightens beyond 0 (its lower limit)
+    qs[:, 7 + elbow] = np.linspace(-1.5, 0.2, 60)           # beyond its upper limit 0
+    keypoints, directions = robot_targets(robot)
+    markers, dirs = fk_markers(robot, qs, fps, keypoints, directions)
+    result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs)
+    q = result.motion.joint_positions
+    assert q[:, knee].min() >= robot.q_lower[knee]
+    assert np.isclose(q[-1, knee], robot.q_lower[knee])
+    assert q[:, elbow].max() <= robot.q_upper[elbow]
+    assert result.frames_at_position_bound >= 10
+    check_limits(robot, result, 1 / fps)
+
+    fast = qs.copy()
+    fast[:, 7 + elbow] = np.concatenate([np.linspace(-2.4, 0.3, 20), np.full(40, 0.3)])
+    markers, dirs = fk_markers(robot, fast, fps, keypoints, directions)
+    greedy = FitConfig(acceleration_limit=30.0, brake_before_limits=False)
+    result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs, config=greedy)
+    assert result.conflict_frames >= 1
+    q = result.motion.joint_positions
+    assert q[:, elbow].max() <= robot.q_upper[elbow]
+    check_limits(robot, result, 1 / fps, a_max=30.0)
+    # braking in time (the default) avoids the conflict: all three limits hold every frame
+    braking = fit_motion(robot, markers, keypoints=keypoints, directions=dirs,
+                         config=FitConfig(acceleration_limit=30.0))
+    assert braking.conflict_frames == 0
+    assert braking.motion.joint_positions[:, elbow].max() <= robot.q_upper[elbow]
+    check_limits(robot, braking, 1 / fps, a_max=30.0)
+
+
+def test_turned_clip_and_missing_markers():
+    """The geometric first-frame guess handles any heading; frames with missing markers skip
+    them (their errors are NaN) and the fit stays accurate."""
+    robot = get_robot("jvrc1")
+    qs = smooth_trajectory(robot, 40, 30.0, seed=5)
+    half = 0.5 * 2.6  # turn the whole clip by 2.6 rad about z
+    turn = np.array([0.0, 0.0, np.sin(half), np.cos(half)])
+    for i in range(len(qs)):
+        x, y, z, w = qs[i, 3:7]
+        tx, ty, tz, tw = turn
+        qs[i, 3:7] = [tw * x + tx * w + ty * z - tz * y, tw * y - tx * z + ty * w + tz * x,
+                      tw * z + tx * y - ty * x + tz * w, tw * w - tx * x - ty * y - tz * z]
+        c, s = np.cos(2.6), np.sin(2.6)
+        qs[i, :2] = [c * qs[i, 0] - s * qs[i, 1], s * qs[i, 0] + c * qs[i, 1]]
+    keypoints, directions = robot_targets(robot)
+    markers, dirs = fk_markers(robot, qs, 30.0, keypoints, directions)
+    pos = markers.positions_m.copy()
+    elbow = markers.names.index("elbow_l")
+    pos[10:15, elbow] = np.nan
+    markers = markers.with_positions(pos)
+    result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs)
+    k = [kp.marker for kp in result.keypoints].index("elbow_l")
+    assert np.isnan(result.keypoint_error_m[10:15, k]).all()
+    assert np.nanmax(result.keypoint_rms_m) <= 1e-3
+
+
+def test_box_qp_is_optimal():
+    """The active-set box QP meets the KKT conditions and matches scipy's bounded least squares
+    where that converges, on random problems with unbounded and pinned variables."""
+    from scipy.optimize import lsq_linear
+
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        m, n = 40, 20
+        a = rng.normal(size=(m, n))
+        b = rng.normal(size=m)
+        lam = 0.1
+        lo = np.where(rng.random(n) < 0.3, -np.inf, -rng.random(n) * 0.2)
+        hi = np.where(rng.random(n) < 0.3, np.inf, rng.random(n) * 0.2)
+        h = a.T @ a + lam**2 * np.eye(n)
+        g = a.T @ b
+        x, _, (at_lo, at_hi) = solve_box_qp(h, g, lo, hi)
+        assert np.all(x >= lo) and np.all(x <= hi)
+        # started from any other active set (a wrong guess) it reaches the same minimizer
+        wrong = (rng.random(n) < 0.3, rng.random(n) < 0.3)
+        x2, _, _ = solve_box_qp(h, g, lo, hi, guess=(wrong[0] & ~wrong[1], wrong[1]))
+        assert np.allclose(x2, x, atol=1e-10)
+        x3, iterations, _ = solve_box_qp(h, g, lo, hi, guess=(at_lo, at_hi))
+        assert np.allclose(x3, x, atol=1e-12) and iterations == 0
+        grad = h @ x - g
+        at_lo, at_hi = x <= lo + 1e-12, x >= hi - 1e-12
+        free = ~(at_lo | at_hi)
+        assert np.all(np.abs(grad[free]) < 1e-9)
+        assert np.all(grad[at_lo] > -1e-9) and np.all(grad[at_hi] < 1e-9)
+        aug = np.vstack([a, lam * np.eye(n)])
+        ref = lsq_linear(aug, np.concatenate([b, np.zeros(n)]), bounds=(lo, hi), tol=1e-13,
+                         method="trf", lsmr_tol="auto", max_iter=10000).x
+        assert np.allclose(x, ref, atol=1e-5)
+        lo[0] = hi[0] = -0.05  # a pinned variable
+        x, _, _ = solve_box_qp(h, g, lo, hi)
+        assert x[0] == -0.05
+        grad = h @ x - g
+        free = ~((x <= lo + 1e-12) | (x >= hi - 1e-12))
+        assert np.all(np.abs(grad[free]) < 1e-9)
+
+
+# ---------------------------------------------------------------------------------- bad input
+def small_motion(robot, n_frames: int = 3):
+    keypoints, _ = robot_targets(robot)
+    qs = smooth_trajectory(robot, n_frames, 30.0, seed=6)
+    markers, _ = fk_markers(robot, qs, 30.0, keypoints, [])
+    return markers, keypoints
+
+
+def test_unknown_marker_lists_available():
+    robot = get_robot("jvrc1")
+    markers, keypoints = small_motion(robot)
+    bad = [*keypoints, KeypointTarget("thumb_tip", "L_WRIST_Y_S")]
+    with pytest.raises(MissingMarkerError, match="thumb_tip") as info:
+        fit_motion(robot, markers, keypoints=bad, directions=[])
+    assert "pelvis" in info.value.available
+    with pytest.raises(MissingMarkerError, match="nose"):
+        fit_motion(robot, markers, keypoints=keypoints,
+                   directions=[("NECK_P_S", (0, 0, 1), "neck", "nose", 1.0)])
+
+
+def test_unknown_frame_lists_valid_frames():
+    robot = get_robot("jvrc1")
+    markers, keypoints = small_motion(robot)
+    bad = [*keypoints, ("hand_l", "NO_SUCH_LINK", (0, 0, 0), 1.0)]
+    with pytest.raises(UnknownFrameError, match="NO_SUCH_LINK") as info:
+        fit_motion(robot, markers, keypoints=bad, directions=[])
+    assert isinstance(info.value, ImeshError)
+    assert info.value.missing == ["NO_SUCH_LINK"]
+    assert "R_WRIST_Y_S" in info.value.available
+    with pytest.raises(UnknownFrameError, match="NECK_Q"):
+        fit_motion(robot, markers, keypoints=keypoints,
+                   directions=[("NECK_Q", (0, 0, 1), "neck", "head", 1.0)])
+
+
+def test_initial_pose_outside_limits_names_the_joint():
+    robot = get_robot("jvrc1")
+    markers, keypoints = small_motion(robot)
+    j = robot.joint_names.index("L_KNEE")
+    q0 = robot.q_nominal.copy()
+    q0[7 + j] = -0.5
+    with pytest.raises(FitError, match="L_KNEE") as info:
+        fit_motion(robot, markers, keypoints=keypoints, directions=[], q_init=q0)
+    assert info.value.joint == "L_KNEE" and info.value.value == -0.5
+    assert info.value.lower == robot.q_lower[j] and "outside its limits" in str(info.value)
+
+    # a robot whose limits exclude its own nominal pose: no increment box for frame 0
+    saved = robot.q_upper.copy()
+    try:
+        robot.q_upper[j] = 0.2  # nominal knee is 0.5
+        with pytest.raises(FitError, match=r"L_KNEE.*0\.5.*\[0, 0\.2\]"):
+            fit_motion(robot, markers, keypoints=keypoints, directions=[])
+    finally:
+        robot.q_upper[:] = saved
+
+
+def test_bad_config_and_q_init():
+    robot = get_robot("jvrc1")
+    markers, keypoints = small_motion(robot)
+    with pytest.raises(FitError, match="damping"):
+        FitConfig(damping=0.0)
+    with pytest.raises(FitError, match="acceleration_limit"):
+        FitConfig(acceleration_limit=-1.0)
+    with pytest.raises(FitError, match="q_init"):
+        fit_motion(robot, markers, keypoints=keypoints, directions=[], q_init=np.zeros(5))
+    with pytest.raises(FitError, match="axis"):
+        fit_motion(robot, markers, keypoints=keypoints,
+                   directions=[("NECK_P_S", (0, 0, 0), "neck", "head", 1.0)])
+
+
+def test_refit_from_previous_solution_is_a_fixed_point():
+    """q_init = a previous fit (T, nq): refitting the same markers returns the same motion."""
+    robot = get_robot("jvrc1")
+    keypoints, directions = robot_targets(robot)
+    qs = smooth_trajectory(robot, 30, 30.0, seed=7)
+    markers, dirs = fk_markers(robot, qs, 30.0, keypoints, directions)
+    first = fit_motion(robot, markers, keypoints=keypoints, directions=dirs)
+    again = fit_motion(robot, markers, keypoints=keypoints, directions=dirs, q_init=first.motion)
+    assert np.abs(again.motion.q - first.motion.q).max() < 1e-4
+    assert again.iterations[1:].mean() <= first.iterations[1:].mean()

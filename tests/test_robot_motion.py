@@ -1,0 +1,209 @@
+"""RobotMotion and its .npz / .csv files: round trips, validation, bad files."""
+
+from __future__ import annotations
+
+import zipfile
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from imesh import InvalidMotionError, MotionFileError, OptionError, UnsupportedFormatError
+from imesh.robot_motion import (
+    CSV_BASE_COLUMNS,
+    NPZ_KEYS,
+    RobotMotion,
+    load_robot_motion,
+    save_robot_motion,
+)
+
+JOINTS = ("L_HIP_P", "L_KNEE", "R_HIP_P", "R_KNEE")
+
+
+def make_motion(n_frames: int = 25, fps: float = 30.0, robot: str = "toy") -> RobotMotion:
+    rng = np.random.default_rng(0)
+    yaw = np.linspace(0.0, 1.0, n_frames)
+    quat = np.stack([np.zeros(n_frames), np.zeros(n_frames), np.sin(yaw / 2), np.cos(yaw / 2)],
+                    axis=1)
+    base = np.column_stack([np.linspace(0, 1, n_frames), np.zeros(n_frames),
+                            np.full(n_frames, 0.8)])
+    joints = rng.uniform(-1, 1, (n_frames, len(JOINTS)))
+    return RobotMotion.from_parts(base, quat, joints, fps=fps, robot=robot, joint_names=JOINTS)
+
+
+TOY = SimpleNamespace(name="toy", joint_names=JOINTS)
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".csv"])
+def test_round_trip(tmp_path, suffix):
+    motion = make_motion()
+    path = tmp_path / f"motion{suffix}"
+    save_robot_motion(path, motion)
+    back = load_robot_motion(path)
+    assert back.robot == "toy" and back.joint_names == JOINTS
+    assert back.fps == pytest.approx(30.0)
+    np.testing.assert_allclose(back.q, motion.q, rtol=0, atol=1e-15)
+    again = load_robot_motion(path, robot=TOY)
+    np.testing.assert_array_equal(again.q, back.q)
+    assert not list(tmp_path.glob(".*"))  # no temporary files left behind
+
+
+def test_npz_keys_and_views(tmp_path):
+    motion = make_motion()
+    path = tmp_path / "m.npz"
+    save_robot_motion(path, motion)
+    with np.load(path, allow_pickle=False) as data:
+        assert sorted(data.files) == sorted(NPZ_KEYS)
+        assert data["base_position"].shape == (25, 3)
+        assert data["base_quat_xyzw"].shape == (25, 4)
+        assert data["joint_positions"].shape == (25, 4)
+        assert list(data["joint_names"]) == list(JOINTS)
+        assert str(data["robot"]) == "toy" and float(data["fps"]) == 30.0
+    np.testing.assert_array_equal(motion.base_position, motion.q[:, :3])
+    np.testing.assert_array_equal(motion.base_quat_xyzw, motion.q[:, 3:7])
+    np.testing.assert_array_equal(motion.joint_positions, motion.q[:, 7:])
+    assert motion.joint_index("R_KNEE") == 3
+    assert motion.joint_velocities().shape == (25, 4)
+    with pytest.raises(OptionError, match="L_HIP_P"):
+        motion.joint_index("KNEE")
+
+
+def test_csv_header_names_columns(tmp_path):
+    path = tmp_path / "m.csv"
+    save_robot_motion(path, make_motion(n_frames=3))
+    lines = path.read_text().splitlines()
+    assert lines[0].startswith("# imesh robot motion: robot=toy fps=30.0")
+    assert lines[1].split(",") == ["frame", "time_s", *CSV_BASE_COLUMNS, *JOINTS]
+    assert len(lines) == 2 + 3
+
+
+def test_reorders_joint_columns_to_the_robot(tmp_path):
+    motion = make_motion()
+    path = tmp_path / "m.npz"
+    save_robot_motion(path, motion)
+    robot = SimpleNamespace(name="toy", joint_names=tuple(reversed(JOINTS)))
+    back = load_robot_motion(path, robot=robot)
+    assert back.joint_names == robot.joint_names
+    np.testing.assert_array_equal(back.joint_positions, motion.joint_positions[:, ::-1])
+
+
+def test_real_robot_motion_round_trip(tmp_path):
+    from imesh.robot import load_robot
+
+    robot = load_robot("jvrc1")
+    q = np.tile(robot.q_nominal, (4, 1))
+    motion = RobotMotion(q=q, fps=50.0, robot=robot.name, joint_names=robot.joint_names)
+    path = tmp_path / "jvrc1.csv"
+    save_robot_motion(path, motion)
+    back = load_robot_motion(path, robot=robot)
+    np.testing.assert_allclose(back.q, q, atol=1e-15)
+    with pytest.raises(MotionFileError, match="robot 'jvrc1', not of 'g1'"):
+        load_robot_motion(path, robot="g1")
+
+
+# ---------------------------------------------------------------------------------- bad input
+def test_validation_errors():
+    good = make_motion()
+    with pytest.raises(InvalidMotionError, match="columns"):
+        RobotMotion(q=good.q[:, :-1], fps=30.0, robot="toy", joint_names=JOINTS)
+    q = good.q.copy()
+    q[4, 8] = np.nan
+    with pytest.raises(InvalidMotionError, match="frame 4, column L_KNEE"):
+        RobotMotion(q=q, fps=30.0, robot="toy", joint_names=JOINTS)
+    q = good.q.copy()
+    q[2, 3:7] *= 2.0
+    with pytest.raises(InvalidMotionError, match="quaternion.*frame 2"):
+        RobotMotion(q=q, fps=30.0, robot="toy", joint_names=JOINTS)
+    with pytest.raises(InvalidMotionError, match="fps"):
+        RobotMotion(q=good.q, fps=0.0, robot="toy", joint_names=JOINTS)
+    with pytest.raises(InvalidMotionError, match="duplicate"):
+        RobotMotion(q=good.q, fps=30.0, robot="toy", joint_names=("a", "a", "b", "c"))
+    with pytest.raises(InvalidMotionError, match="robot name"):
+        RobotMotion(q=good.q, fps=30.0, robot="", joint_names=JOINTS)
+    assert not good.q.flags.writeable
+
+
+def write_npz(path, **overrides):
+    motion = make_motion()
+    arrays = {"fps": np.float64(30.0), "robot": np.str_("toy"),
+              "joint_names": np.array(JOINTS), "base_position": motion.base_position,
+              "base_quat_xyzw": motion.base_quat_xyzw, "joint_positions": motion.joint_positions}
+    arrays.update(overrides)
+    arrays = {k: v for k, v in arrays.items() if v is not None}
+    np.savez(path, **arrays)
+
+
+def test_bad_npz_files(tmp_path):
+    path = tmp_path / "m.npz"
+    write_npz(path, joint_positions=make_motion().joint_positions[:, :3])
+    with pytest.raises(MotionFileError, match="3 columns but joint_names lists 4"):
+        load_robot_motion(path)
+    write_npz(path, joint_names=np.array(["L_HIP_P", "L_KNEE", "R_HIP_P", "R_ANKLE"]))
+    with pytest.raises(MotionFileError, match="unknown joint names R_ANKLE.*valid joints.*R_KNEE"):
+        load_robot_motion(path, robot=TOY)
+    nan = make_motion().joint_positions.copy()
+    nan[7, 1] = np.nan
+    write_npz(path, joint_positions=nan)
+    with pytest.raises(MotionFileError, match="frame 7"):
+        load_robot_motion(path)
+    write_npz(path, robot=np.str_("hrp4c"))
+    with pytest.raises(MotionFileError, match="robot 'hrp4c', not of 'toy'"):
+        load_robot_motion(path, robot=TOY)
+    write_npz(path, base_quat_xyzw=None)
+    with pytest.raises(MotionFileError, match="missing keys.*base_quat_xyzw"):
+        load_robot_motion(path)
+    write_npz(path, base_position=np.zeros((5, 3)))
+    with pytest.raises(MotionFileError, match="base_quat_xyzw must have shape"):
+        load_robot_motion(path)
+    path.write_bytes(b"not a zip file")
+    with pytest.raises(MotionFileError, match="not a readable .npz"):
+        load_robot_motion(path)
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr("fps.npy", b"garbage")
+    with pytest.raises(MotionFileError):
+        load_robot_motion(path)
+
+
+def test_bad_csv_files(tmp_path):
+    path = tmp_path / "m.csv"
+    save_robot_motion(path, make_motion(n_frames=4))
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(lines[1:]) + "\n")  # no comment: robot and fps unknown
+    with pytest.raises(MotionFileError, match="pass robot="):
+        load_robot_motion(path)
+    back = load_robot_motion(path, robot=TOY)  # fps from the time column
+    assert back.fps == pytest.approx(30.0)
+    path.write_text("\n".join(lines[:3] + [lines[3].replace(lines[3].split(",")[-1], "nan")]))
+    with pytest.raises(MotionFileError, match="line 4, frame 1: non-finite value in column R_KNEE"):
+        load_robot_motion(path)
+    path.write_text("\n".join(lines[:3] + [lines[3] + ",1.0"]))
+    with pytest.raises(MotionFileError, match="line 4"):
+        load_robot_motion(path)
+    path.write_text("\n".join([lines[0], "frame,time,x"] + lines[2:]))
+    with pytest.raises(MotionFileError, match="header must start with"):
+        load_robot_motion(path)
+    robot = SimpleNamespace(name="toy", joint_names=JOINTS + ("NECK_Y",))
+    save_robot_motion(path, make_motion())
+    with pytest.raises(MotionFileError, match="missing NECK_Y"):
+        load_robot_motion(path, robot=robot)
+
+
+def test_bad_paths_and_atomic_failure(tmp_path):
+    with pytest.raises(MotionFileError, match="no such file"):
+        load_robot_motion(tmp_path / "absent.npz")
+    (tmp_path / "m.bvh").write_text("x")
+    with pytest.raises(UnsupportedFormatError, match=".npz, .csv"):
+        load_robot_motion(tmp_path / "m.bvh")
+    with pytest.raises(OptionError, match=".npz"):
+        save_robot_motion(tmp_path / "m.txt", make_motion())
+    assert not (tmp_path / "m.txt").exists()
+    # a failed save leaves an existing file untouched and no temporary file
+    path = tmp_path / "keep.csv"
+    save_robot_motion(path, make_motion())
+    before = path.read_bytes()
+    bad = RobotMotion(q=make_motion().q, fps=30.0, robot="toy",
+                      joint_names=("a,b", "c", "d", "e"))
+    with pytest.raises(OptionError, match="commas"):
+        save_robot_motion(path, bad)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.csv", "m.bvh"]
