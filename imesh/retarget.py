@@ -9,6 +9,7 @@ Every stage is a public function of its own module; this one only wires them.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from collections.abc import Callable
@@ -37,6 +38,8 @@ class RetargetConfig:
         contacts: ContactConfig of the support detection.
         support: SupportConfig; None disables the support-foot constraints.
         fit: an :class:`imesh.fit.FitConfig` (None: defaults).
+        foot_weight: priority of the toe/ankle key points and the foot-roll directions in the
+            fit, relative to the markers.toml weights.
         lowpass_hz: cut-off of the zero-phase low-pass applied to the human markers first
             (``imesh.filtering``); None keeps them as recorded.
     """
@@ -46,6 +49,7 @@ class RetargetConfig:
     support: SupportConfig | None = field(default_factory=SupportConfig)
     fit: object | None = None
     lowpass_hz: float | None = 8.0
+    foot_weight: float = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,8 +201,14 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     seconds["morph"] = time.perf_counter() - t1
 
     t2 = time.perf_counter()
-    fit_markers, extra_dirs = orientation_targets(adapted, robot, arrangement)
-    fit = fit_motion(robot, fit_markers, keypoints=arrangement.keypoints,
+    fit_markers, extra_dirs = orientation_targets(adapted, robot, arrangement,
+                                                  weight=config.foot_weight)
+    # The feet carry the robot: their key points get a higher priority (W_e of eq. 7) so the
+    # whole-body fit does not trade sole placement against the upper body.
+    feet = {m for side in SIDES for m in FOOT_MARKERS[side]}
+    keypoints = {n: (dataclasses.replace(k, weight=k.weight * config.foot_weight)
+                     if n in feet else k) for n, k in arrangement.keypoints.items()}
+    fit = fit_motion(robot, fit_markers, keypoints=keypoints,
                      directions=arrangement.directions + extra_dirs,
                      config=config.fit if config.fit is not None else FitConfig())
     seconds["fit"] = time.perf_counter() - t2
