@@ -114,6 +114,9 @@ class FitConfig:
         base_step_m, base_step_rad: trust region of the free-flyer in one damped step
             (linear [m], angular [rad]); many steps may still move it far (frame 0), but no
             single step can flip the base into another basin.
+        base_speed_m_s, base_rate_rad_s: velocity box of the free-flyer (linear, angular), like
+            Kim eq. 13 for the joints: without it, when rate-limited leg joints lag, the fit
+            swings the unbounded base instead (seen: +-30 degrees of base yaw on a walk).
         extrapolate: warm start frame i from the constant-velocity prediction of frames i-2 and
             i-1 (clipped into the box) instead of frame i-1; saves ~1 solve per frame.
     """
@@ -134,6 +137,8 @@ class FitConfig:
     extrapolate: bool = True
     base_step_m: float = 0.05
     base_step_rad: float = 0.1
+    base_speed_m_s: float = 3.0
+    base_rate_rad_s: float = 3.0
 
     def __post_init__(self) -> None:
         positive = ("damping", "iterations", "first_frame_iterations", "tolerance")
@@ -489,7 +494,8 @@ def _residual(points, axes, target_p, w_p, ok_p, target_d, w_d):
 
 def _solve_frame(robot, kin: _Kinematics, q: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                  q_ref: np.ndarray, target_p, w_p, ok_p, target_d, w_d, unbounded,
-                 config: FitConfig, max_it: int, *, first: bool = False, mu: float = 0.0):
+                 config: FitConfig, max_it: int, *, first: bool = False, mu: float = 0.0,
+                 q_prev: np.ndarray | None = None, base_reach: np.ndarray | None = None):
     """Levenberg-Marquardt iterations of the box-bounded DLS step (eq. 7) for one frame.
 
     Minimizes ``E(q) = |W e(q)|^2 + mu^2 |q_j - q_ref|^2`` (joints only; see FitConfig)
@@ -519,6 +525,9 @@ def _solve_frame(robot, kin: _Kinematics, q: np.ndarray, lo: np.ndarray, hi: np.
         target_d, w_d: (D, 3) unit target directions, (3D,) row weights.
         unbounded: (6,) free-flyer bound of one step (linear [m], angular [rad]).
         config: the settings; max_it: solve budget; first: frame 0; mu: smoothing weight.
+        q_prev, base_reach: the previous frame's configuration and the (6,) largest base
+            displacement from it in this frame (base velocity bound times dt, in the base
+            frame): the free-flyer gets a velocity box like the joints (None: no box).
 
     Returns:
         (q, key points (K, 3), direction axes (D, 3), solves) at the last accepted pose.
@@ -553,8 +562,14 @@ def _solve_frame(robot, kin: _Kinematics, q: np.ndarray, lo: np.ndarray, hi: np.
         g = a_rows.T @ res
         if mu2:
             g[6:] -= mu2 * dev
-        step_lo = np.concatenate([-unbounded, lo - q[7:]])
-        step_hi = np.concatenate([unbounded, hi - q[7:]])
+        base_lo, base_hi = -unbounded, unbounded
+        if q_prev is not None:
+            # first-order: the base displacement so far plus this step stays in the box
+            moved = robot.difference(q_prev, q)[:6]
+            base_lo = np.maximum(base_lo, np.minimum(-base_reach - moved, 0.0))
+            base_hi = np.minimum(base_hi, np.maximum(base_reach - moved, 0.0))
+        step_lo = np.concatenate([base_lo, lo - q[7:]])
+        step_hi = np.concatenate([base_hi, hi - q[7:]])
         while True:
             h = h0.copy()
             h.flat[:: nv + 1] = diag0 + factor * (damp2 + _RESIDUAL_DAMPING * fit_cost)
@@ -692,6 +707,7 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
     # not, and one poorly damped step could turn it by 90 degrees into another basin (seen on
     # the CMU walk: the base yaw jumped 40 degrees in one frame and never came back).
     unbounded = np.array([config.base_step_m] * 3 + [config.base_step_rad] * 3)
+    base_reach = np.array([config.base_speed_m_s] * 3 + [config.base_rate_rad_s] * 3) / markers.fps
     q_posture = np.clip(np.asarray(robot.q_nominal, dtype=np.float64)[7:], lower, upper)
     has_acc = bool(np.any(np.isfinite(step_a)))
 
@@ -759,9 +775,12 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
             mu2, eta2 = mu * mu, config.posture ** 2
             q_ref = (mu2 * q_out[t - 1, 7:] + eta2 * q_posture) / max(mu2 + eta2, 1e-300)
             mu = float(np.sqrt(mu2 + eta2))
+        base_box = t >= 1 and config.enforce_velocity and np.isfinite(base_reach).any()
         q, points, axes, it = _solve_frame(robot, kin, q, lo, hi, q_ref, target_p, w_p, ok_p,
                                            target_d, w_d, unbounded, config, max_it,
-                                           first=t == 0, mu=mu)
+                                           first=t == 0, mu=mu,
+                                           q_prev=q_out[t - 1] if base_box else None,
+                                           base_reach=base_reach)
         q_out[t] = q
         iters[t] = it
         dist = np.linalg.norm(target_p - points, axis=1)
