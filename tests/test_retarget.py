@@ -10,8 +10,8 @@ import pytest
 
 from imesh import load_motion
 from imesh.cli import main
-from imesh.robot import load_robot
 from imesh.retarget import retarget
+from imesh.robot import load_robot
 
 HRP4C = (Path(os.environ.get("IMESH_DATA", Path(__file__).resolve().parents[2] / "shared/data"))
          .parent / "robots/hrp4c/HRP4Cmain_reduced.urdf")
