@@ -3,8 +3,9 @@
 Each configuration runs in a fresh subprocess (peak memory = its max RSS). The motion is the
 built-in synthetic walker (21 standard markers, real skeleton structure). Marker counts: 21 (one
 performer), 40 (two performers of different heights side by side in one mesh, each without the
-spine marker, as the robot-arranged marker models have it) and 42 (two full performers). The morph scales the arms by 1.3 with
-the default MorphConfig (10 steps + re-linearization + projection).
+spine marker, as the robot-arranged marker models have it) and 42 (two full performers). The
+morph scales the arms by 1.3 with the default MorphConfig (10 steps + re-linearization +
+projection).
 
     python benchmarks/spacetime.py        # full table: 300..8000 frames, 21 and 42 markers
     python benchmarks/spacetime.py --frames 300 1000 --markers 21

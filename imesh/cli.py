@@ -87,6 +87,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("robots", help="list the robots imesh knows")
 
+    from .evaluate import add_parser as add_evaluate_parser
+
+    add_evaluate_parser(sub)
+
     p = sub.add_parser("demo", help="run the main job on the built-in synthetic clip")
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
@@ -259,8 +263,14 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def cmd_evaluate(args) -> int:
+    from .evaluate import run
+
+    return run(args)
+
+
 COMMANDS = {"inspect": cmd_inspect, "adapt": cmd_adapt, "retarget": cmd_retarget,
-            "robots": cmd_robots, "demo": cmd_demo}
+            "robots": cmd_robots, "demo": cmd_demo, "evaluate": cmd_evaluate}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

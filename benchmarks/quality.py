@@ -1,0 +1,252 @@
+"""The quality scoreboard: every DESIGN.md metric (and the DART check) for real clips retargeted
+to every robot, plus each robot standing still for 5 s in DART (the physics baseline).
+
+A synthetic feasible motion (a slow squat with arm raises, soles flat) is scored first for
+every robot: the DART check must pass it, so falls in the clip rows are the motions', not the
+check's. Clip rows run the full pipeline (``imesh.retarget.retarget``) and score the result with
+``imesh.evaluate.evaluate_motion`` (adapted markers for ``marker_rms_mm``, the source clip for
+``close_pair_error``, the pipeline's stage timings for ``seconds_per_frame``). When the
+pipeline has a balance stage (a ``balance`` field of ``RetargetConfig``), every clip runs with
+and without it, so the table shows which motions fall only without balancing.
+
+    python benchmarks/quality.py                                # 3 clips x 3 robots + standing
+    python benchmarks/quality.py --robots jvrc1 --clips cmu_02_01_walk.bvh
+    python benchmarks/quality.py --no-physics --json quality.json --plots plots/
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import logging
+import os
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOTS = ("jvrc1", "g1", "hrp4c")
+CLIPS = ("cmu_02_01_walk.bvh", "cmu_141_16_wave_hello.bvh", "cmu_02_10_wash_self_cc3rig.bvh")
+
+#: (column title, metric, format) of the printed table.
+COLUMNS = (
+    ("mkRMS", "marker_rms_mm", "{:.0f}"), ("close", "close_pair_error", "{:.3f}"),
+    ("selfC", "self_collision_frames", "{:d}"), ("pen", "ground_penetration_mm", "{:.0f}"),
+    ("skid", "foot_skid_mm_per_frame", "{:.1f}"), ("lim", "limit_violation_frames", "{:d}"),
+    ("zmpIn", "zmp_inside_fraction", "{:.2f}"), ("zmpErr", "zmp_error_mm", "{:.0f}"),
+    ("fell", "physics_fell", "{}"), ("surv", "physics_survived_s", "{:.2f}"),
+    ("track", "tracking_rms_rad", "{:.3f}"), ("tau", "torque_ratio_max", "{:.2f}"),
+    ("s/fr", "seconds_per_frame", "{:.4f}"),
+)
+
+
+def data_root() -> Path:
+    return Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data")).resolve()
+
+
+def load(name: str):
+    """A robot by name (HRP-4C from the shared URDF, as a user-supplied model)."""
+    from imesh.robot import load_robot
+
+    if name == "hrp4c":
+        return load_robot(name, urdf=data_root().parent / "robots" / "hrp4c"
+                          / "HRP4Cmain_reduced.urdf")
+    return load_robot(name)
+
+
+#: Leg pitch joints (hip, knee, ankle per side) and two arm joints of each robot, for the
+#: feasible reference motion.
+SQUAT_JOINTS = {
+    "jvrc1": (("L_HIP_P", "L_KNEE", "L_ANKLE_P"), ("R_HIP_P", "R_KNEE", "R_ANKLE_P"),
+              ("L_SHOULDER_P", "R_SHOULDER_R")),
+    "hrp4c": (("L_HIP_P", "L_KNEE_P", "L_ANKLE_P"), ("R_HIP_P", "R_KNEE_P", "R_ANKLE_P"),
+              ("L_SHOULDER_P", "R_SHOULDER_R")),
+    "g1": (("left_hip_pitch_joint", "left_knee_joint", "left_ankle_pitch_joint"),
+           ("right_hip_pitch_joint", "right_knee_joint", "right_ankle_pitch_joint"),
+           ("left_shoulder_pitch_joint", "right_shoulder_roll_joint")),
+}
+
+
+def feasible_motion(robot, seconds: float = 3.0, fps: float = 30.0):
+    """A motion the robot can certainly do: one slow squat (knees +0.7 rad) with the soles
+    flat on the ground, one arm raised forward and the other sideways. The scoreboard's
+    reference row: the DART check must pass it."""
+    from imesh.robot_motion import RobotMotion
+
+    n = int(round(seconds * fps)) + 1
+    t = np.arange(n) / fps
+    q = np.repeat(robot.q_nominal[None], n, axis=0)
+    left, right, (arm_p, arm_r) = SQUAT_JOINTS[robot.name]
+    squat = 0.35 * (0.5 - 0.5 * np.cos(2 * np.pi * t / seconds))
+    for hip, knee, ankle in (left, right):
+        q[:, 7 + robot.joint_index(hip)] -= squat
+        q[:, 7 + robot.joint_index(knee)] += 2 * squat
+        q[:, 7 + robot.joint_index(ankle)] -= squat
+    q[:, 7 + robot.joint_index(arm_p)] -= 1.0 * np.sin(np.pi * t / seconds) ** 2
+    q[:, 7 + robot.joint_index(arm_r)] -= 0.5 * np.sin(2 * np.pi * t / seconds) ** 2
+    for i in range(n):  # the base follows the legs: soles stay on z = 0
+        q[i, 2] -= robot.sole_center(q[i], "left")[2]
+    return RobotMotion(q=q, fps=fps, robot=robot.name, joint_names=robot.joint_names,
+                       meta={"source": "feasible squat + arms (synthetic)"})
+
+
+def feasible_row(robot, physics: bool, physics_config, plots: Path | None) -> dict:
+    from imesh.evaluate import evaluate_motion
+
+    motion = feasible_motion(robot)
+    plot = plots / f"{robot.name}_feasible_squat.png" if plots is not None and physics else None
+    if plot is not None:
+        plots.mkdir(parents=True, exist_ok=True)
+    report = evaluate_motion(robot, motion, physics=physics, physics_config=physics_config,
+                             plot=plot)
+    return {"robot": robot.name, "clip": "(synthetic squat + arms)", "balance": "-",
+            "frames": motion.n_frames, "fps": motion.fps, "report": report}
+
+
+def balance_variants():
+    """[(label, RetargetConfig)]: with and without the balance stage when the pipeline has one,
+    else the default configuration only."""
+    from imesh.retarget import RetargetConfig
+
+    config = RetargetConfig()
+    if "balance" in {f.name for f in dataclasses.fields(RetargetConfig)}:
+        return [("on", config), ("off", dataclasses.replace(config, balance=None))]
+    return [("n/a", config)]
+
+
+def standing_row(robot, physics_config) -> dict:
+    """The robot's nominal pose held for 5 s in DART."""
+    from imesh.physics import simulate_motion
+    from imesh.robot_motion import RobotMotion
+
+    fps = 30.0
+    motion = RobotMotion(q=np.repeat(robot.q_nominal[None], 151, axis=0), fps=fps,
+                         robot=robot.name, joint_names=robot.joint_names)
+    res = simulate_motion(robot, motion, config=physics_config)
+    return {"robot": robot.name, "fell": res.fell, "base_height_drift_mm":
+            1e3 * res.base_height_drift_m, "base_drift_mm": 1e3 * res.base_drift_m,
+            "tracking_rms_rad": res.tracking_rms_rad, "real_time_factor": res.real_time_factor,
+            "controller_us_per_step": res.controller_us_per_step,
+            "physics_us_per_step": res.physics_us_per_step}
+
+
+def clip_row(robot, clip: str, label: str, config, physics: bool, physics_config,
+             plots: Path | None) -> dict:
+    from imesh.evaluate import evaluate_motion
+    from imesh.io import load_motion
+    from imesh.retarget import retarget
+
+    row = {"robot": robot.name, "clip": clip, "balance": label}
+    path = data_root() / "mocap" / clip
+    try:
+        human = load_motion(path)
+        result = retarget(human, robot, config=config)
+    except Exception as exc:  # a pipeline failure is a result of the benchmark too
+        row["error"] = f"{type(exc).__name__}: {exc}"
+        logging.getLogger("quality").debug("%s", traceback.format_exc())
+        return row
+    plot = None
+    if plots is not None and physics:
+        plots.mkdir(parents=True, exist_ok=True)
+        plot = plots / f"{robot.name}_{Path(clip).stem}_{label}.png"
+    t0 = time.perf_counter()
+    report = evaluate_motion(robot, result.motion, source=result.arrangement.motion,
+                             adapted=result.adapted, physics=physics,
+                             seconds=result.seconds, physics_config=physics_config, plot=plot)
+    row.update(frames=result.motion.n_frames, fps=result.motion.fps,
+               evaluate_s=time.perf_counter() - t0, report=report)
+    return row
+
+
+def _cell(row: dict, metric: str, fmt: str) -> str:
+    value = row["report"][metric]["value"]
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "FELL" if value else "ok"
+    try:
+        return fmt.format(value)
+    except (ValueError, TypeError):
+        return str(value)
+
+
+def print_tables(rows: list[dict], standing: list[dict]) -> None:
+    if standing:
+        print("\nStanding in the nominal pose for 5 s (DART, SPD + inverse-dynamics feed-forward)")
+        print(f"{'robot':<7} {'fell':>5} {'dz mm':>6} {'dxyz mm':>8} {'track rad':>10} "
+              f"{'RTF':>5} {'ctrl us':>8} {'phys us':>8}")
+        for s in standing:
+            print(f"{s['robot']:<7} {str(s['fell']):>5} {s['base_height_drift_mm']:6.2f} "
+                  f"{s['base_drift_mm']:8.2f} {s['tracking_rms_rad']:10.5f} "
+                  f"{s['real_time_factor']:5.2f} {s['controller_us_per_step']:8.0f} "
+                  f"{s['physics_us_per_step']:8.0f}")
+    if not rows:
+        return
+    print("\nRetargeted clips: DESIGN.md metrics (mkRMS marker_rms_mm vs adapted markers, close "
+          "close_pair_error, selfC self_collision_frames, pen ground_penetration_mm, skid "
+          "foot_skid_mm_per_frame, lim limit_violation_frames, zmpIn/zmpErr ZMP inside "
+          "fraction / error mm, fell/surv/track/tau DART check, s/fr pipeline seconds per "
+          "frame)")
+    head = f"{'robot':<6} {'clip':<28} {'bal':<4} {'frames':>6} " + " ".join(
+        f"{c[0]:>6}" for c in COLUMNS) + f" {'RTF':>5}"
+    print(head)
+    for r in rows:
+        lead = f"{r['robot']:<6} {Path(r['clip']).stem[:28]:<28} {r['balance']:<4}"
+        if "error" in r:
+            print(f"{lead} pipeline failed: {r['error'][:110]}")
+            continue
+        cells = " ".join(f"{_cell(r, m, f):>6}" for _, m, f in COLUMNS)
+        rtf = r["report"]["physics_fell"].get("real_time_factor")
+        print(f"{lead} {r['frames']:>6} {cells} {rtf if rtf is None else f'{rtf:5.2f}':>5}")
+    falls = [r for r in rows if "report" in r and r["report"]["physics_fell"]["value"]]
+    for r in falls:
+        print(f"  fell: {r['robot']} {r['clip']} (balance {r['balance']}): "
+              f"{r['report']['physics_fell'].get('fall_reason')}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", nargs="+", default=list(ROBOTS), choices=ROBOTS)
+    parser.add_argument("--clips", nargs="+", default=list(CLIPS))
+    parser.add_argument("--no-physics", action="store_true", help="skip the DART check")
+    parser.add_argument("--no-standing", action="store_true", help="skip the standing rows")
+    parser.add_argument("--controller", choices=("spd", "pid"), default="spd")
+    parser.add_argument("--json", help="write every report here")
+    parser.add_argument("--plots", help="folder for one DART figure per run")
+    parser.add_argument("-v", "--verbose", action="store_true")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        format="%(levelname)s %(name)s: %(message)s")
+    from imesh.physics import PhysicsConfig
+
+    physics = not args.no_physics
+    physics_config = PhysicsConfig(controller=args.controller)
+    plots = Path(args.plots) if args.plots else None
+    rows, standing = [], []
+    t0 = time.perf_counter()
+    for name in args.robots:
+        robot = load(name)
+        if physics and not args.no_standing:
+            standing.append(standing_row(robot, physics_config))
+        rows.append(feasible_row(robot, physics, physics_config, plots))
+        for clip in args.clips:
+            for label, config in balance_variants():
+                row = clip_row(robot, clip, label, config, physics, physics_config, plots)
+                rows.append(row)
+                status = row.get("error") or ("fell" if row["report"]["physics_fell"]["value"]
+                                              else "done")
+                print(f"{name} {clip} balance={label}: {status}", file=sys.stderr)
+    print_tables(rows, standing)
+    print(f"\ntotal {time.perf_counter() - t0:.0f} s")
+    if args.json:
+        from imesh.export import write_json
+
+        write_json(args.json, {"standing": standing, "rows": rows})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,236 @@
+"""The DART dynamics check: model consistency with pinocchio, standing for 5 s on every robot,
+falls, controllers, fixed base, results and errors.
+
+Every simulation but the required 5 s standing runs is kept under 2 s of simulated time.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from imesh.errors import ImeshError
+from imesh.robot import ROBOTS_DIR, load_robot, load_robot_config
+from imesh.robot.registry import package_available
+from imesh.robot_motion import RobotMotion
+
+pytest.importorskip("dartpy")
+
+from imesh.physics import (  # noqa: E402
+    PHYSICS_METRICS,
+    DartRobot,
+    PhysicsConfig,
+    PhysicsError,
+    PhysicsResult,
+    simulate_motion,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+HRP4C_URDF = (Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data")).parent
+              / "robots" / "hrp4c" / "HRP4Cmain_reduced.urdf")
+ROBOTS = ["jvrc1", "g1", "hrp4c"]
+
+
+def _load(name: str):
+    if name == "g1" and not package_available(load_robot_config(ROBOTS_DIR / "g1" /
+                                                                "robot.toml")):
+        pytest.skip("example-robot-data not installed (pip install imesh[g1])")
+    if name == "hrp4c" and not HRP4C_URDF.is_file():
+        pytest.fail(f"{HRP4C_URDF} not found: set IMESH_DATA to the shared data folder")
+    return load_robot(name, HRP4C_URDF if name == "hrp4c" else None)
+
+
+@pytest.fixture(scope="module", params=ROBOTS)
+def robot(request):
+    return _load(request.param)
+
+
+@pytest.fixture(scope="module")
+def jvrc1():
+    return _load("jvrc1")
+
+
+def standing(robot, seconds: float, fps: float = 30.0) -> RobotMotion:
+    n = int(round(seconds * fps)) + 1
+    return RobotMotion(q=np.repeat(robot.q_nominal[None], n, axis=0), fps=fps, robot=robot.name,
+                       joint_names=robot.joint_names)
+
+
+# ----------------------------------------------------------------------------------------------
+# the DART model is the pinocchio model
+
+
+def test_dart_model_matches_pinocchio(robot):
+    """Same mass (massless links stay massless), same centre of mass and CoM velocity at random
+    states (conversions of the base position/velocity conventions), same sole frame poses."""
+    sim = DartRobot(robot, PhysicsConfig())
+    assert sim.skeleton.getMass() == pytest.approx(robot.mass, rel=1e-6)
+    assert sim.n_dofs == robot.nv
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        q = robot.random_configuration(rng)
+        v = rng.normal(size=robot.nv)
+        sim.set_state(q, v)
+        np.testing.assert_allclose(sim.skeleton.getCOM(), robot.com(q), atol=1e-9)
+        np.testing.assert_allclose(sim.skeleton.getCOMLinearVelocity(),
+                                   robot.com_jacobian(q) @ v, atol=1e-8)
+        back = sim.q_from_positions(sim.skeleton.getPositions())
+        np.testing.assert_allclose(back[7:], q[7:], atol=1e-12)
+        np.testing.assert_allclose(np.abs(back[3:7] @ q[3:7]), 1.0, atol=1e-12)
+        for side, sole in robot.soles.items():
+            T = sim.body(sole.frame).getWorldTransform().matrix()
+            np.testing.assert_allclose(T, robot.frame_placements(q, [sole.frame])[0],
+                                       atol=1e-9, err_msg=side)
+        np.testing.assert_allclose(sim.v_from_velocities(q, sim.skeleton.getVelocities()), v,
+                                   atol=1e-12)
+
+
+def test_fixed_joints_are_welded_at_pinocchio_angles(jvrc1):
+    """JVRC-1's finger joints are fixed by robot.toml: DART has no DOF for them and the finger
+    links sit where pinocchio puts them."""
+    sim = DartRobot(jvrc1, PhysicsConfig())
+    names = {sim.skeleton.getDof(i).getName() for i in range(sim.n_dofs)}
+    assert not names & set(jvrc1.config.fixed_joints)
+    q = jvrc1.q_nominal
+    sim.set_state(q)
+    for link in ("L_UTHUMB_S", "R_LLITTLE_S"):
+        np.testing.assert_allclose(sim.body(link).getWorldTransform().matrix(),
+                                   jvrc1.frame_placements(q, [link])[0], atol=1e-9)
+
+
+# ----------------------------------------------------------------------------------------------
+# acceptance 1: standing 5 s
+
+
+def test_nominal_pose_stands_for_5_s(robot):
+    """Every robot standing in its nominal pose for 5 s: no fall, base height drift <= 1 cm,
+    the contact forces carry the weight with their centre of pressure at the planned ZMP."""
+    result = simulate_motion(robot, standing(robot, 5.0))
+    assert not result.fell, result.fall_reason
+    assert result.survived_s == pytest.approx(5.0)
+    assert result.base_height_drift_m <= 0.01
+    assert result.base_drift_m <= 0.01
+    assert result.tracking_rms_rad < 0.005
+    assert result.torque_ratio_max < 1.0
+    weight = robot.mass * 9.81
+    assert np.nanmean(result.contact_force_n) == pytest.approx(weight, rel=0.02)
+    assert result.zmp_contact_error_mm < 10.0
+    assert result.real_time_factor > 0.5  # >= 1 on an idle machine; loose under parallel load
+
+
+# ----------------------------------------------------------------------------------------------
+# falls, controllers, fixed base
+
+
+def test_weak_motors_fall_and_the_result_says_when(jvrc1):
+    """With 2 % of the torque the robot collapses: fell, survived < duration, NaN after."""
+    config = PhysicsConfig(torque_limit_scale=0.02, settle_s=0.05)
+    result = simulate_motion(jvrc1, standing(jvrc1, 1.5), config=config)
+    assert result.fell
+    assert "below the reference" in result.fall_reason or "tilted" in result.fall_reason
+    assert 0.0 <= result.survived_s < 1.5
+    assert result.torque_ratio_max > 1.0 and result.saturation_fraction > 0.5
+    assert np.isnan(result.q[-1]).all()
+    m = result.metrics()
+    assert m["physics_fell"] is True and m["physics_survived_s"] == result.survived_s
+
+
+def test_pid_controller_stands(jvrc1):
+    result = simulate_motion(jvrc1, standing(jvrc1, 1.0),
+                             config=PhysicsConfig(controller="pid", settle_s=0.2))
+    assert not result.fell
+    assert result.tracking_rms_rad < 0.01
+
+
+def test_fixed_base_tracks_an_arm_motion(jvrc1):
+    """Base welded at the first pose, no ground: a 1 s shoulder/elbow swing is tracked closely
+    with torques within the limits."""
+    fps, n = 100.0, 101
+    q = np.repeat(jvrc1.q_nominal[None], n, axis=0)
+    q[:, 2] += 0.3  # in the air: a fixed base needs no ground
+    t = np.arange(n) / fps
+    for name, amp in (("L_SHOULDER_P", -0.8), ("L_ELBOW_P", -0.6), ("R_SHOULDER_R", -0.5)):
+        q[:, 7 + jvrc1.joint_index(name)] += amp * np.sin(np.pi * t) ** 2
+    motion = RobotMotion(q=q, fps=fps, robot=jvrc1.name, joint_names=jvrc1.joint_names)
+    result = simulate_motion(jvrc1, motion, config=PhysicsConfig(fixed_base=True, settle_s=0.1))
+    assert not result.fell
+    assert result.tracking_rms_rad < 0.01
+    assert np.nanmax(np.abs(result.joint_error_rad)) < 0.05
+    assert result.torque_ratio_max < 1.0
+    np.testing.assert_allclose(result.q[:, :7], q[:, :7], atol=1e-9)  # the base did not move
+    assert np.isnan(result.zmp_contact_m).all()
+
+
+# ----------------------------------------------------------------------------------------------
+# result object and errors
+
+
+def test_result_metrics_and_plot(jvrc1, tmp_path):
+    result = simulate_motion(jvrc1, standing(jvrc1, 0.5), config=PhysicsConfig(settle_s=0.1))
+    assert isinstance(result, PhysicsResult)
+    assert tuple(result.metrics()) == PHYSICS_METRICS
+    T = 16
+    assert result.q.shape == (T, jvrc1.nq) and result.joint_error_rad.shape == (T, jvrc1.dof)
+    assert result.zmp_contact_m.shape == result.zmp_planned_m.shape == (T, 2)
+    assert result.torques_nm.shape == (T, jvrc1.dof)
+    summary = result.summary()
+    assert summary["real_time_factor"] > 0 and summary["controller"] == "spd"
+    result.plot(tmp_path / "run.png")
+    assert (tmp_path / "run.png").stat().st_size > 10_000
+
+
+def test_motion_of_another_robot_is_refused(jvrc1):
+    g1_like = RobotMotion(q=np.zeros((2, 7 + 3)) + [0, 0, 0, 0, 0, 0, 1, 0, 0, 0], fps=30,
+                          robot="g1", joint_names=("a", "b", "c"))
+    with pytest.raises(ImeshError, match="'g1'.*'jvrc1'"):
+        simulate_motion(jvrc1, g1_like)
+
+
+def test_bad_config_values():
+    with pytest.raises(ImeshError, match="controller"):
+        PhysicsConfig(controller="lqr")
+    with pytest.raises(ImeshError, match="dt"):
+        PhysicsConfig(dt=0.05)
+    with pytest.raises(ImeshError, match="mass_matrix_every"):
+        PhysicsConfig(mass_matrix_every=0)
+
+
+def test_missing_dartpy_says_how_to_install(jvrc1, monkeypatch):
+    monkeypatch.setitem(sys.modules, "dartpy", None)
+    with pytest.raises(PhysicsError, match="pip install dartpy"):
+        simulate_motion(jvrc1, standing(jvrc1, 0.1))
+
+
+def test_import_does_not_load_dartpy():
+    import subprocess
+
+    code = "import sys, imesh.physics, imesh.evaluate; assert 'dartpy' not in sys.modules"
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_feasible_squat_is_tracked_without_falling(jvrc1):
+    """A slow squat (knees +0.7 rad) with an arm raise, soles flat: tracked to < 0.005 rad,
+    the contact ZMP follows the planned multibody ZMP within 2 cm."""
+    fps, n = 30.0, 46
+    t = np.arange(n) / fps
+    q = np.repeat(jvrc1.q_nominal[None], n, axis=0)
+    squat = 0.35 * (0.5 - 0.5 * np.cos(2 * np.pi * t / 1.5))
+    for hip, knee, ankle in (("L_HIP_P", "L_KNEE", "L_ANKLE_P"),
+                             ("R_HIP_P", "R_KNEE", "R_ANKLE_P")):
+        q[:, 7 + jvrc1.joint_index(hip)] -= squat
+        q[:, 7 + jvrc1.joint_index(knee)] += 2 * squat
+        q[:, 7 + jvrc1.joint_index(ankle)] -= squat
+    q[:, 7 + jvrc1.joint_index("L_SHOULDER_P")] -= np.sin(np.pi * t / 1.5) ** 2
+    for i in range(n):
+        q[i, 2] -= jvrc1.sole_center(q[i], "left")[2]
+    motion = RobotMotion(q=q, fps=fps, robot=jvrc1.name, joint_names=jvrc1.joint_names)
+    result = simulate_motion(jvrc1, motion, config=PhysicsConfig(settle_s=0.2))
+    assert not result.fell, result.fall_reason
+    assert result.tracking_rms_rad < 0.005
+    assert result.base_drift_m < 0.01
+    assert result.zmp_contact_error_mm < 20.0
+    assert result.torque_ratio_max < 1.0
