@@ -88,8 +88,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("robots", help="list the robots imesh knows")
 
     from .evaluate import add_parser as add_evaluate_parser
+    from .reduction.cli import add_parser as add_reduce_parser
 
     add_evaluate_parser(sub)
+    add_reduce_parser(sub)
 
     p = sub.add_parser("demo", help="run the main job on the built-in synthetic clip")
     p.add_argument("-o", "--output", required=True, help="output folder")
@@ -269,8 +271,15 @@ def cmd_evaluate(args) -> int:
     return run(args)
 
 
+def cmd_reduce(args) -> int:
+    from .reduction.cli import run
+
+    return run(args)
+
+
 COMMANDS = {"inspect": cmd_inspect, "adapt": cmd_adapt, "retarget": cmd_retarget,
-            "robots": cmd_robots, "demo": cmd_demo, "evaluate": cmd_evaluate}
+            "robots": cmd_robots, "demo": cmd_demo, "evaluate": cmd_evaluate,
+            "reduce": cmd_reduce}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

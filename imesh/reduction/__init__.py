@@ -1,0 +1,36 @@
+"""Dynamically consistent motion design by PCA motion reduction (Okada & Miyazaki).
+
+A human periodic motion (a walking cycle) becomes a cyclic robot motion that satisfies the
+robot's equations of motion with its contacts, joint-angle and torque limits and positive
+ground forces, optimized in a low-dimensional PCA subspace. Independent of the interaction-mesh
+path; shares the loaders, robots and export.
+
+Pipeline (each step is a public function):
+
+    sagittal_capture(motion)      projection, link scaling, 2D inverse kinematics  (capture)
+    make_cyclic(capture)          period, cycle averaging, FFT low-pass            (cyclic)
+    contact_schedule(...)         base/moving foot, toe line/point contact, feet    (contact)
+    derivative_matrices(n, dt, f) circulant F1, F2 (eqs 14-22)                     (diff)
+    pca_basis(Theta, r)           SVD reduction (eqs 23-27)                        (pca)
+    MotionOptimizer(...).run()    stages (I) and (II) (eqs 4-13, 28-34)            (optimize)
+    simulate_planar(result)       DART check with a planar root joint             (dart_run)
+
+``reduce_motion(motion, robot)`` runs them all. Pinocchio is called only in
+:mod:`imesh.reduction.dynamics`; DART only in :mod:`imesh.reduction.dart_run`; both lazily.
+"""
+
+from .capture import SagittalCapture, sagittal_capture
+from .chain import JOINTS, LINKS, ChainError, PlanarChain
+from .contact import ContactSchedule, contact_schedule
+from .cyclic import CyclicMotion, make_cyclic
+from .diff import derivative_matrices
+from .optimize import MotionOptimizer, OptimizationResult, ReductionConfig
+from .pca import PCABasis, pca_basis
+from .pipeline import CycleConfig, ReductionResult, reduce_motion, save_reduction
+
+__all__ = [
+    "JOINTS", "LINKS", "ChainError", "ContactSchedule", "CycleConfig", "CyclicMotion",
+    "MotionOptimizer", "OptimizationResult", "PCABasis", "PlanarChain", "ReductionConfig",
+    "ReductionResult", "SagittalCapture", "contact_schedule", "derivative_matrices",
+    "make_cyclic", "pca_basis", "reduce_motion", "sagittal_capture", "save_reduction",
+]
