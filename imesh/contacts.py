@@ -97,7 +97,7 @@ def runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
-def _hysteresis(enter: np.ndarray, stay: np.ndarray) -> np.ndarray:
+def hysteresis(enter: np.ndarray, stay: np.ndarray) -> np.ndarray:
     """State that switches on where ``enter`` and stays on while ``stay`` (vectorized).
 
     On at t iff some s <= t has enter[s] and stay holds on all of [s, t].
@@ -108,7 +108,7 @@ def _hysteresis(enter: np.ndarray, stay: np.ndarray) -> np.ndarray:
     return (last_enter >= 0) & (last_enter > last_break)
 
 
-def _drop_short(mask: np.ndarray, min_frames: int) -> np.ndarray:
+def drop_short(mask: np.ndarray, min_frames: int) -> np.ndarray:
     """Merge runs (of either value) shorter than min_frames into their neighbours."""
     out = mask.copy()
     for value in (False, True):  # fill short gaps first, then drop short blips
@@ -145,7 +145,7 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
         v_thr = config.speed_fraction * height
         enter = (lift < h_thr) & (speed < v_thr)
         stay = (lift < h_thr * config.hysteresis) & (speed < v_thr * config.hysteresis)
-        support[:, k] = _drop_short(_hysteresis(enter, stay), min_frames)
+        support[:, k] = drop_short(hysteresis(enter, stay), min_frames)
     contacts = Contacts(support=support, fps=motion.fps)
     log.info("%s: %d footfalls, %d flight phases", motion.source, contacts.footfalls(),
              len(contacts.flight_phases()))

@@ -21,7 +21,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
-from ..contacts import SIDES, Contacts, runs
+from ..contacts import SIDES, Contacts, drop_short, hysteresis
 from ..errors import OptionError
 
 log = logging.getLogger(__name__)
@@ -154,23 +154,6 @@ def sole_tracks(robot, q: np.ndarray, fps: float) -> SoleTracks:
     return SoleTracks(corners=corners, centers=centers, fps=fps)
 
 
-def _hysteresis(enter: np.ndarray, stay: np.ndarray) -> np.ndarray:
-    """On from a frame where ``enter`` holds for as long as ``stay`` holds."""
-    t = np.arange(len(enter))
-    last_enter = np.maximum.accumulate(np.where(enter, t, -1))
-    last_break = np.maximum.accumulate(np.where(~stay, t, -1))
-    return (last_enter >= 0) & (last_enter > last_break)
-
-
-def _drop_short(mask: np.ndarray, min_frames: int) -> np.ndarray:
-    out = mask.copy()
-    for value in (False, True):  # fill short gaps first, then drop short blips
-        for a, b in runs(out == value):
-            if b - a < min_frames and b - a < len(out):
-                out[a:b] = not value
-    return out
-
-
 def detect_support(soles: SoleTracks, config: SupportDetection | None = None) -> Contacts:
     """Support phases of both feet of a robot motion from its soles.
 
@@ -190,7 +173,7 @@ def detect_support(soles: SoleTracks, config: SupportDetection | None = None) ->
         enter = (low < config.height_m) & (speed < config.speed_mps)
         stay = ((low < config.height_m * config.hysteresis)
                 & (speed < config.speed_mps * config.hysteresis))
-        support[:, k] = _drop_short(_hysteresis(enter, stay), min_frames)
+        support[:, k] = drop_short(hysteresis(enter, stay), min_frames)
     return Contacts(support=support, fps=soles.fps)
 
 
