@@ -87,7 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("robots", help="list the robots imesh knows")
 
-    from .evaluate import add_parser as add_evaluate_parser
+    from .cli_evaluate import add_parser as add_evaluate_parser
     from .reduction.cli import add_parser as add_reduce_parser
 
     add_evaluate_parser(sub)
@@ -266,7 +266,7 @@ def cmd_demo(args) -> int:
 
 
 def cmd_evaluate(args) -> int:
-    from .evaluate import run
+    from .cli_evaluate import run
 
     return run(args)
 

@@ -23,7 +23,6 @@ The command line (``imesh evaluate``) is :func:`add_parser` + :func:`run`.
 
 from __future__ import annotations
 
-import argparse
 import logging
 import math
 import os
@@ -463,50 +462,3 @@ def format_table(report: Mapping[str, dict]) -> str:
 
 # ----------------------------------------------------------------------------------------------
 # command line
-
-
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``evaluate`` command to an argparse subparsers object."""
-    p = subparsers.add_parser(
-        "evaluate", help="score a robot motion: every quality metric (and the DART check)",
-        description="Compute the quality metrics of a robot motion (.npz/.csv: joint names, "
-        "base position [m], base quaternion; see docs/checking.md), print a table and "
-        "optionally write them as JSON (keys = the metric names).")
-    p.add_argument("motion", help="robot motion (.npz or .csv)")
-    p.add_argument("--robot", default="jvrc1",
-                   help="robot: a folder of robots/ (jvrc1, g1, hrp4c) or a robot.toml")
-    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
-    p.add_argument("--source", help="the human clip the motion was retargeted from")
-    p.add_argument("--adapted", help="the adapted markers the robot fitted (.npz from "
-                   "'imesh retarget --markers')")
-    p.add_argument("--fps", type=float, help="frame rate of motion files that store none")
-    p.add_argument("--physics", action="store_true", help="run the DART dynamics check")
-    p.add_argument("--controller", choices=("spd", "pid"), default="spd",
-                   help="DART tracking controller (default spd)")
-    p.add_argument("--fixed-base", action="store_true",
-                   help="weld the base at its first pose in DART (arm-only tracking)")
-    p.add_argument("--plot", help="write the DART run's figure here (.png)")
-    p.add_argument("--json", dest="report", help="write the metrics (JSON) here")
-    return p
-
-
-def run(args) -> int:
-    """Run ``imesh evaluate`` with parsed arguments; returns the exit status."""
-    from .export import write_json
-    from .robot import load_robot
-
-    robot = load_robot(args.robot, urdf=args.urdf)
-    motion = load_motion_file(args.motion, robot, fps=args.fps)
-    config = None
-    if args.physics:
-        from .physics import PhysicsConfig
-
-        config = PhysicsConfig(controller=args.controller, fixed_base=args.fixed_base)
-    report = evaluate_motion(robot, motion, source=args.source, physics=args.physics,
-                             adapted=args.adapted, physics_config=config,
-                             plot=args.plot if args.physics else None)
-    print(f"{args.motion}: {motion.n_frames} frames of {robot.name} at {motion.fps:g} fps")
-    print(format_table(report))
-    if args.report:
-        write_json(args.report, report)
-    return 0

@@ -11,15 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from imesh.cli_evaluate import add_parser, run
 from imesh.errors import ImeshError, MotionFileError
 from imesh.evaluate import (
     METRIC_NAMES,
-    add_parser,
     evaluate_motion,
     format_table,
     load_motion_file,
     metric_values,
-    run,
 )
 from imesh.metrics import close_pair_error, keypoint_motion, marker_rms_mm
 from imesh.metrics.collision import SelfCollisionChecker, check_ground, check_self_collisions
