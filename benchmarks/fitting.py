@@ -17,29 +17,15 @@ Two kinds of rows, printed by the same table (:func:`fit_table`):
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from _data import data_root, load
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ("jvrc1", "g1", "hrp4c")
-
-
-def data_root() -> Path:
-    return Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data")).resolve()
-
-
-def load(name: str):
-    """A robot by name (HRP-4C from the shared URDF, as a user-supplied model)."""
-    from imesh.robot import load_robot
-
-    if name == "hrp4c":
-        return load_robot(name, urdf=data_root().parent / "robots" / "hrp4c"
-                          / "HRP4Cmain_reduced.urdf")
-    return load_robot(name)
 
 
 def row_from_fit(result, source: str, robot) -> dict:

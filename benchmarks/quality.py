@@ -19,13 +19,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import logging
-import os
 import sys
 import time
 import traceback
 from pathlib import Path
 
 import numpy as np
+from _data import data_root, load
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ("jvrc1", "g1", "hrp4c")
@@ -41,20 +41,6 @@ COLUMNS = (
     ("track", "tracking_rms_rad", "{:.3f}"), ("tau", "torque_ratio_max", "{:.2f}"),
     ("s/fr", "seconds_per_frame", "{:.4f}"),
 )
-
-
-def data_root() -> Path:
-    return Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data")).resolve()
-
-
-def load(name: str):
-    """A robot by name (HRP-4C from the shared URDF, as a user-supplied model)."""
-    from imesh.robot import load_robot
-
-    if name == "hrp4c":
-        return load_robot(name, urdf=data_root().parent / "robots" / "hrp4c"
-                          / "HRP4Cmain_reduced.urdf")
-    return load_robot(name)
 
 
 #: Leg pitch joints (hip, knee, ankle per side) and two arm joints of each robot, for the

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_test_robot
 
 from imesh.cli_evaluate import add_parser, run
 from imesh.errors import ImeshError, MotionFileError
@@ -37,8 +37,6 @@ from imesh.robot_motion import RobotMotion, save_robot_motion
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = ROOT.parent / "shared" / "DESIGN.md"
-HRP4C_URDF = (Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data")).parent
-              / "robots" / "hrp4c" / "HRP4Cmain_reduced.urdf")
 
 
 @pytest.fixture(scope="module")
@@ -312,7 +310,7 @@ def test_motion_for_another_robot_names_the_mismatch(jvrc1, tmp_path):
     plain_npz(path, jvrc1, q, robot="g1")
     with pytest.raises(MotionFileError, match="robot 'g1', not of 'jvrc1'"):
         load_motion_file(path, jvrc1)
-    hrp = load_robot("hrp4c", HRP4C_URDF)
+    hrp = load_test_robot("hrp4c")
     imesh_file = tmp_path / "jvrc.csv"
     save_robot_motion(imesh_file, motion_of(jvrc1, q))
     with pytest.raises(MotionFileError, match="'jvrc1', not of 'hrp4c'"):

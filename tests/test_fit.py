@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_test_robot
 
 from imesh import ImeshError, MarkerMotion, MissingMarkerError
 from imesh.fit import (
@@ -19,29 +19,11 @@ from imesh.fit import (
     robot_targets,
     solve_box_qp,
 )
-from imesh.robot import load_robot
 from imesh.robot_motion import RobotMotion
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ("jvrc1", "g1", "hrp4c")
-
-
-def hrp4c_urdf() -> Path:
-    data = Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data"))
-    path = data.parent / "robots" / "hrp4c" / "HRP4Cmain_reduced.urdf"
-    if not path.is_file():
-        pytest.fail(f"HRP-4C URDF {path} not found: set IMESH_DATA to the shared data folder")
-    return path
-
-
-_ROBOTS: dict = {}
-
-
-def get_robot(name: str):
-    if name not in _ROBOTS:
-        _ROBOTS[name] = (load_robot(name, urdf=hrp4c_urdf()) if name == "hrp4c"
-                         else load_robot(name))
-    return _ROBOTS[name]
+get_robot = load_test_robot
 
 
 @pytest.fixture(params=ROBOTS)

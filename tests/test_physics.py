@@ -6,15 +6,14 @@ Every simulation but the required 5 s standing runs is kept under 2 s of simulat
 
 from __future__ import annotations
 
-import os
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_test_robot
 
 from imesh.errors import ImeshError
-from imesh.robot import ROBOTS_DIR, load_robot, load_robot_config
+from imesh.robot import ROBOTS_DIR, load_robot_config
 from imesh.robot.registry import package_available
 from imesh.robot_motion import RobotMotion
 
@@ -29,9 +28,6 @@ from imesh.physics import (  # noqa: E402
     simulate_motion,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
-HRP4C_URDF = (Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data")).parent
-              / "robots" / "hrp4c" / "HRP4Cmain_reduced.urdf")
 ROBOTS = ["jvrc1", "g1", "hrp4c"]
 
 
@@ -39,9 +35,7 @@ def _load(name: str):
     if name == "g1" and not package_available(load_robot_config(ROBOTS_DIR / "g1" /
                                                                 "robot.toml")):
         pytest.skip("example-robot-data not installed (pip install imesh[g1])")
-    if name == "hrp4c" and not HRP4C_URDF.is_file():
-        pytest.fail(f"{HRP4C_URDF} not found: set IMESH_DATA to the shared data folder")
-    return load_robot(name, HRP4C_URDF if name == "hrp4c" else None)
+    return load_test_robot(name)
 
 
 @pytest.fixture(scope="module", params=ROBOTS)

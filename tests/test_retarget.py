@@ -2,20 +2,15 @@
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import numpy as np
 import pytest
+from conftest import hrp4c_urdf, load_test_robot
 
 from imesh import load_motion
 from imesh.cli import main
 from imesh.retarget import retarget
-from imesh.robot import load_robot
 
-HRP4C = (Path(os.environ.get("IMESH_DATA", Path(__file__).resolve().parents[2] / "shared/data"))
-         .parent / "robots/hrp4c/HRP4Cmain_reduced.urdf")
-ROBOTS = {"jvrc1": None, "g1": None, "hrp4c": HRP4C}
+ROBOTS = ("jvrc1", "g1", "hrp4c")
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +20,7 @@ def wave(mocap):
 
 @pytest.mark.parametrize("name", sorted(ROBOTS))
 def test_limits_hold_on_a_real_clip(name, wave):
-    robot = load_robot(name, urdf=ROBOTS[name])
+    robot = load_test_robot(name)
     result = retarget(wave, robot)
     motion = result.motion
     dt = 1.0 / motion.fps
@@ -43,7 +38,7 @@ def test_limits_hold_on_a_real_clip(name, wave):
 def test_cli_retarget_writes_the_contract(mocap, tmp_path):
     out = tmp_path / "wave.npz"
     code = main(["-q", "retarget", str(mocap("cmu_141_16_wave_hello.bvh")), "--robot", "hrp4c",
-                 "--urdf", str(HRP4C), "-o", str(out)])
+                 "--urdf", str(hrp4c_urdf()), "-o", str(out)])
     assert code == 0
     with np.load(out) as data:
         assert set(data.files) == {"fps", "robot", "joint_names", "base_position",

@@ -7,7 +7,6 @@ IMESH_DATA).
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import sys
@@ -15,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import hrp4c_urdf
 
 from imesh.errors import ImeshError
 from imesh.markerset import STANDARD_BONE_NAMES, STANDARD_MARKERS
@@ -32,8 +32,6 @@ from imesh.robot.collision import CollisionShape
 from imesh.robot.registry import package_available
 
 ROOT = Path(__file__).resolve().parents[1]
-HRP4C_URDF = (Path(os.environ.get("IMESH_DATA", ROOT.parent / "shared" / "data")).parent
-              / "robots" / "hrp4c" / "HRP4Cmain_reduced.urdf")
 ROBOTS = ["jvrc1", "g1", "hrp4c"]
 EXPECTED_DOF = {"jvrc1": 32, "g1": 29, "hrp4c": 30}
 
@@ -41,10 +39,7 @@ EXPECTED_DOF = {"jvrc1": 32, "g1": 29, "hrp4c": 30}
 def robot_urdf(name: str) -> Path | None:
     if name != "hrp4c":
         return None
-    if not HRP4C_URDF.is_file():
-        pytest.fail(f"{HRP4C_URDF} not found: set IMESH_DATA to the shared data folder (the "
-                    "HRP-4C URDF is read from its sibling robots/hrp4c)")
-    return HRP4C_URDF
+    return hrp4c_urdf()
 
 
 @pytest.fixture(scope="module", params=ROBOTS)
