@@ -595,20 +595,18 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
         adds.append(AddedMarker(name=name, keypoint=kp, human=MappingProxyType(weights),
                                 bones=_pairs(path, tab.get("bones", []), f"{key}.bones")))
     known = list(keypoints)
-    for a in adds:
-        for j, pair in enumerate(a.bones):
+
+    def check_pairs(pairs: tuple[tuple[str, str], ...], key: str) -> None:
+        for j, pair in enumerate(pairs):
             for n in pair:
                 if n not in known:
-                    raise RobotConfigError(f"unknown marker {n!r}", path=path,
-                                           key=f"arrangement.add[{adds.index(a)}].bones[{j}]",
-                                           valid=closest_first(n, known))
+                    raise RobotConfigError(f"unknown or removed marker {n!r}", path=path,
+                                           key=f"{key}[{j}]", valid=closest_first(n, known))
+
+    for i, a in enumerate(adds):
+        check_pairs(a.bones, f"arrangement.add[{i}].bones")
     rigid = _pairs(path, arr.get("rigid", []), "arrangement.rigid")
-    for j, pair in enumerate(rigid):
-        for n in pair:
-            if n not in known:
-                raise RobotConfigError(f"unknown or removed marker {n!r}", path=path,
-                                       key=f"arrangement.rigid[{j}]",
-                                       valid=closest_first(n, known))
+    check_pairs(rigid, "arrangement.rigid")
 
     directions = []
     dir_list = data.get("directions", [])
