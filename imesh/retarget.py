@@ -24,7 +24,7 @@ from .filtering import lowpass
 from .morph.problem import MorphConfig, build_morph_problem
 from .morph.solver import MorphResult, MorphStepReport, solve_morph
 from .motion import MarkerMotion
-from .support import SupportConfig, support_foot_targets
+from .support import SupportConfig, flat_support, support_blend, support_foot_targets
 
 log = logging.getLogger(__name__)
 
@@ -38,6 +38,9 @@ class RetargetConfig:
         contacts: ContactConfig of the support detection.
         support: SupportConfig; None disables the support-foot constraints.
         fit: an :class:`imesh.fit.FitConfig` (None: defaults).
+        pelvis_weight: priority of the pelvis triangle (pelvis, hip_l, hip_r) and the base's
+            lateral direction: the paper fits the waist 6-DOF from these first; a high weight
+            keeps the feet from swinging the base when other targets disagree.
         foot_weight: priority of the toe/ankle key points and the foot-roll directions in the
             fit, relative to the markers.toml weights.
         lowpass_hz: cut-off of the zero-phase low-pass applied to the human markers first
@@ -49,7 +52,8 @@ class RetargetConfig:
     support: SupportConfig | None = field(default_factory=SupportConfig)
     fit: object | None = None
     lowpass_hz: float | None = 8.0
-    foot_weight: float = 1.0
+    foot_weight: float = 10.0
+    pelvis_weight: float = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,7 +64,10 @@ class RetargetResult:
         motion: the robot motion (an :class:`imesh.robot_motion.RobotMotion`).
         arrangement: the arranged, scaled human markers and robot targets.
         adapted: the morphed markers (same names as ``arrangement.motion``).
-        contacts: support phases of the source.
+        contacts: support phases of the source (footfalls, flight phases).
+        support: the robot's planned support: the flat part of each source support phase
+            (:func:`imesh.support.flat_support`), held by the support-foot constraints; equal
+            to ``contacts`` when the constraints are off.
         morph: the spacetime solver's result.
         fit: the fitting result (residuals, limit counts).
         seconds: wall time per stage [s].
@@ -70,6 +77,7 @@ class RetargetResult:
     arrangement: Arrangement
     adapted: MarkerMotion
     contacts: Contacts
+    support: Contacts
     morph: MorphResult
     fit: object
     seconds: dict
@@ -104,16 +112,28 @@ def foot_geometry(arrangement: Arrangement) -> tuple[dict[str, float], dict[str,
 
 
 def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
-                        weight: float = 1.0) -> tuple[MarkerMotion, tuple]:
+                        weight: float = 1.0, flat: np.ndarray | None = None,
+                        pelvis_weight: float | None = None) -> tuple[MarkerMotion, tuple]:
     """Virtual markers and key directions that fix each foot's roll and the base's roll/yaw.
 
     The toe and ankle markers fix a foot's position, yaw and pitch but not its roll about the
     toe-ankle line; left free, the fit rolls soles by tens of degrees. For each foot a virtual
     marker ``foot_up_<side>`` is placed 0.1 m from the ankle along the zero-roll "up" vector of
-    the foot (perpendicular to ankle->toe and to the pelvis's lateral axis), and a key
+    the foot: perpendicular to ankle->toe and to a lateral axis, which is the world-horizontal
+    one (``f x z``: the sole flat on the ground) where the foot is in support (``flat`` = 1),
+    the pelvis's lateral axis in swing (``f x z`` flips when the foot points down at toe-off),
+    and a blend of the two on the support ramps. A key
     direction asks the robot's matching sole axis (the sole normal made perpendicular to the
     robot's own ankle->toe vector) to point there. With the toe and ankle at their support
     heights this makes the sole flat on the ground.
+
+    Args:
+        adapted: the morphed markers.
+        robot, arrangement: the robot and the arrangement the markers come from.
+        weight: weight of the foot-roll directions.
+        flat: (T, 2) [left, right] support blend in [0, 1] (:func:`imesh.support.support_blend`);
+            None: pelvis-based everywhere.
+        pelvis_weight: weight of the base's lateral direction (None: ``weight``).
 
     Returns:
         (markers with the virtual markers appended, the extra Direction targets).
@@ -134,6 +154,15 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
         f /= np.linalg.norm(f, axis=1, keepdims=True)
         lateral = pelvis_right - np.sum(pelvis_right * f, axis=1, keepdims=True) * f
         lateral /= np.maximum(np.linalg.norm(lateral, axis=1, keepdims=True), 1e-9)
+        if flat is not None:
+            k = SIDES.index(side)
+            # right-pointing for a forward foot; left unnormalized (its length is the foot's
+            # horizontal extent), so a foot pointing down on the ramps (toe-off) gets the
+            # pelvis axis rather than an ill-defined f x z
+            level = np.cross(f, [0.0, 0.0, 1.0])
+            level *= np.where(np.sum(level * lateral, axis=1, keepdims=True) < 0, -1.0, 1.0)
+            lateral = flat[:, k, None] * level + (1.0 - flat[:, k, None]) * lateral
+            lateral /= np.maximum(np.linalg.norm(lateral, axis=1, keepdims=True), 1e-9)
         up = np.cross(lateral, f)
         extra_pos.append(pos[:, ankle] + 0.1 * up)
         extra_names.append(f"foot_up_{side[0]}")
@@ -152,7 +181,8 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
         rot = robot.frame_rotations(robot.q_nominal, [waist])[0]
         lat = rot.T @ (pts[names.index("hip_l")] - pts[names.index("hip_r")])
         directions.append(Direction(frame=robot.waist_frame, axis=lat / np.linalg.norm(lat),
-                                    from_marker="hip_r", to_marker="hip_l", weight=weight))
+                                    from_marker="hip_r", to_marker="hip_l",
+                                    weight=weight if pelvis_weight is None else pelvis_weight))
     markers = MarkerMotion(positions_m=np.concatenate([pos, np.stack(extra_pos, axis=1)], axis=1),
                            fps=adapted.fps, names=tuple(names + extra_names),
                            valid=np.ones((adapted.n_frames, len(names) + 2), dtype=bool),
@@ -185,9 +215,11 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     source = arrangement.motion
     contacts = detect_contacts(source, config.contacts)
     hard = soft = soft_w = None
+    flat = contacts
     if config.support is not None:
+        flat = flat_support(source, contacts, config.support)
         heights, lengths = foot_geometry(arrangement)
-        hard, soft, soft_w = support_foot_targets(source, contacts, heights, lengths,
+        hard, soft, soft_w = support_foot_targets(source, flat, heights, lengths,
                                                   config.support)
     seconds["prepare"] = time.perf_counter() - t0
 
@@ -201,13 +233,18 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     seconds["morph"] = time.perf_counter() - t1
 
     t2 = time.perf_counter()
+    blend = (support_blend(flat, config.support.ramp_s) if config.support is not None
+             else None)
     fit_markers, extra_dirs = orientation_targets(adapted, robot, arrangement,
-                                                  weight=config.foot_weight)
-    # The feet carry the robot: their key points get a higher priority (W_e of eq. 7) so the
-    # whole-body fit does not trade sole placement against the upper body.
-    feet = {m for side in SIDES for m in FOOT_MARKERS[side]}
-    keypoints = {n: (dataclasses.replace(k, weight=k.weight * config.foot_weight)
-                     if n in feet else k) for n, k in arrangement.keypoints.items()}
+                                                  weight=config.foot_weight, flat=blend,
+                                                  pelvis_weight=config.pelvis_weight)
+    # Priorities (W_e of eq. 7) as in the paper's order of fitting: the waist from the pelvis
+    # triangle, the feet (they carry the robot), then the rest; so the whole-body fit does not
+    # swing the base or slide a sole to meet an upper-body marker it cannot reach.
+    gain = {m: config.foot_weight for side in SIDES for m in FOOT_MARKERS[side]}
+    gain.update({m: config.pelvis_weight for m in ("pelvis", "hip_l", "hip_r")})
+    keypoints = {n: (dataclasses.replace(k, weight=k.weight * gain[n]) if n in gain else k)
+                 for n, k in arrangement.keypoints.items()}
     fit = fit_motion(robot, fit_markers, keypoints=keypoints,
                      directions=arrangement.directions + extra_dirs,
                      config=config.fit if config.fit is not None else FitConfig())
@@ -216,4 +253,5 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     log.info("retargeted %s to %s: %d frames in %.2f s", motion.source, robot.name,
              adapted.n_frames, seconds["total"])
     return RetargetResult(motion=fit.motion, arrangement=arrangement, adapted=adapted,
-                          contacts=contacts, morph=morph, fit=fit, seconds=seconds)
+                          contacts=contacts, support=flat,
+                          morph=morph, fit=fit, seconds=seconds)

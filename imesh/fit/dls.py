@@ -53,6 +53,7 @@ from ..motion import MarkerMotion
 from ..robot_motion import RobotMotion
 from .boxqp import solve_box_qp
 from .errors import FitError
+from .feasible import project_joint_trajectory
 from .targets import CompiledTargets, DirectionTarget, KeypointTarget, compile_targets
 
 log = logging.getLogger(__name__)
@@ -117,6 +118,12 @@ class FitConfig:
         base_speed_m_s, base_rate_rad_s: velocity box of the free-flyer (linear, angular), like
             Kim eq. 13 for the joints: without it, when rate-limited leg joints lag, the fit
             swings the unbounded base instead (seen: +-30 degrees of base yaw on a walk).
+        lookahead: when velocity or acceleration limits apply, fit the frames with the position
+            box only, then project the joint trajectory onto all the limits over the whole
+            clip (:mod:`imesh.fit.feasible`): the result satisfies Kim's eqs 9, 13 and 14 in
+            every frame and brakes ahead of fast motion. False: Kim's per-frame boxes inside
+            the DLS (greedy: a joint that cannot follow its target saturates, overshoots and
+            chases it; docs/fitting.md has the comparison).
         extrapolate: warm start frame i from the constant-velocity prediction of frames i-2 and
             i-1 (clipped into the box) instead of frame i-1; saves ~1 solve per frame.
     """
@@ -135,6 +142,7 @@ class FitConfig:
     acceleration_limit: float | Sequence[float] | None = None
     brake_before_limits: bool = True
     extrapolate: bool = True
+    lookahead: bool = True
     base_step_m: float = 0.05
     base_step_rad: float = 0.1
     base_speed_m_s: float = 3.0
@@ -619,6 +627,192 @@ def _solve_frame(robot, kin: _Kinematics, q: np.ndarray, lo: np.ndarray, hi: np.
 
 
 # ------------------------------------------------------------------------------ the frame loop
+
+@dataclass(frozen=True, eq=False)
+class _FrameTargets:
+    """Per-frame target arrays of a fit (built once, shared by both passes)."""
+
+    kp_pos: np.ndarray  # (T, K, 3) [m]
+    kp_ok: np.ndarray  # (T, K)
+    kp_w_rows: np.ndarray  # (3K,)
+    dir_target: np.ndarray  # (T, D, 3) unit
+    dir_ok: np.ndarray  # (T, D)
+    dir_w_rows: np.ndarray  # (3D,)
+
+    @classmethod
+    def build(cls, markers: MarkerMotion, targets: CompiledTargets,
+              config: FitConfig) -> _FrameTargets:
+        n_frames = markers.n_frames
+        kp_pos = markers.positions_m[:, targets.kp_markers]
+        kp_ok = markers.valid[:, targets.kp_markers]
+        if len(targets.dir_frame_ids):
+            tail = markers.positions_m[:, targets.dir_from]
+            head = markers.positions_m[:, targets.dir_to]
+            vec = head - tail
+            norm = np.linalg.norm(vec, axis=2)
+            dir_ok = (markers.valid[:, targets.dir_from] & markers.valid[:, targets.dir_to]
+                      & (norm > 1e-9))
+            dir_target = np.where(dir_ok[..., None],
+                                  vec / np.where(dir_ok, norm, 1.0)[..., None], 0.0)
+        else:
+            dir_ok = np.zeros((n_frames, 0), dtype=bool)
+            dir_target = np.zeros((n_frames, 0, 3))
+        return cls(kp_pos=kp_pos, kp_ok=kp_ok,
+                   kp_w_rows=np.repeat(config.position_weight * targets.kp_weights, 3),
+                   dir_target=dir_target, dir_ok=dir_ok,
+                   dir_w_rows=np.repeat(config.direction_weight * targets.dir_weights, 3))
+
+
+@dataclass(eq=False)
+class _Track:
+    """Output arrays of one pass of the frame loop."""
+
+    q: np.ndarray
+    kp_err: np.ndarray
+    dir_err: np.ndarray
+    iterations: np.ndarray
+    at_bound: np.ndarray
+    conflict: np.ndarray
+    joint_bound_frames: np.ndarray
+    empty: int
+
+
+def _track(robot, kin: _Kinematics, frames: _FrameTargets, config: FitConfig, q0: np.ndarray,
+           init: np.ndarray | None, lower: np.ndarray, upper: np.ndarray, vmax: np.ndarray,
+           amax: np.ndarray, fps: float) -> _Track:
+    """The frame loop: the box of every frame, the warm start, the DLS solve."""
+    n_frames = len(frames.kp_pos)
+    nq = robot.nq
+    dt = 1.0 / fps
+    step_v = dt * vmax
+    step_a = dt * dt * amax
+    n_kp, n_dir = frames.kp_pos.shape[1], frames.dir_target.shape[1]
+    # Trust region of the free-flyer per LM step: joints are boxed by their limits, the base is
+    # not, and one poorly damped step could turn it by 90 degrees into another basin (seen on
+    # the CMU walk: the base yaw jumped 40 degrees in one frame and never came back).
+    unbounded = np.array([config.base_step_m] * 3 + [config.base_step_rad] * 3)
+    base_reach = np.array([config.base_speed_m_s] * 3 + [config.base_rate_rad_s] * 3) / fps
+    q_posture = np.clip(np.asarray(robot.q_nominal, dtype=np.float64)[7:], lower, upper)
+    has_acc = bool(np.any(np.isfinite(step_a)))
+    has_vel = bool(np.any(np.isfinite(step_v)))
+
+    q_out = np.empty((n_frames, nq))
+    kp_err = np.full((n_frames, n_kp), np.nan)
+    dir_err = np.full((n_frames, n_dir), np.nan)
+    iters = np.zeros(n_frames, dtype=np.int64)
+    at_bound = np.zeros((n_frames, 3), dtype=bool)
+    conflict = np.zeros(n_frames, dtype=bool)
+    joint_bound_frames = np.zeros(len(lower), dtype=np.int64)
+    zero_code = np.zeros(len(lower), dtype=np.int64)
+    empty = 0
+    prev_rms = float("nan")
+    for t in range(n_frames):
+        # ---- the box for q_t[7:] (absolute joint values), in priority order
+        lo, hi = lower, upper
+        src_lo, src_hi = zero_code, zero_code
+        clash = False
+        if t >= 1:
+            qp = q_out[t - 1, 7:]
+            if has_vel:
+                lo, hi, src_lo, src_hi, c = _intersect(lo, hi, src_lo, src_hi, qp - step_v,
+                                                       qp + step_v, VELOCITY)
+                clash = bool(c.any())
+            if t >= 2 and has_acc:
+                centre = 2.0 * qp - q_out[t - 2, 7:]
+                lo, hi, src_lo, src_hi, c = _intersect(lo, hi, src_lo, src_hi, centre - step_a,
+                                                       centre + step_a, ACCELERATION)
+                clash = clash or bool(c.any())
+            if config.brake_before_limits and has_acc:
+                # stay slow enough to stop before the position limits at a_max (lowest
+                # priority: where the joint is already too fast, the acceleration box wins)
+                lo, hi, src_lo, src_hi, _ = _intersect(
+                    lo, hi, src_lo, src_hi, qp - _braking_reach(qp - lower, step_a),
+                    qp + _braking_reach(upper - qp, step_a), POSITION)
+        conflict[t] = clash
+        # ---- warm start
+        if t == 0:
+            q = q0.copy()
+        elif init is not None and init.ndim == 2:
+            q = init[t].copy()
+        elif t >= 2 and config.extrapolate:
+            q = robot.integrate(q_out[t - 1], robot.difference(q_out[t - 2], q_out[t - 1]))
+        else:
+            q = q_out[t - 1].copy()
+        q = np.array(q, dtype=np.float64)
+        q[7:] = np.clip(q[7:], lo, hi)
+        # ---- targets of this frame
+        ok_p = frames.kp_ok[t]
+        ok_d = frames.dir_ok[t]
+        if not (ok_p.any() or ok_d.any()):
+            empty += 1
+        target_p = frames.kp_pos[t]
+        w_p = np.where(np.repeat(ok_p, 3), frames.kp_w_rows, 0.0)
+        w_d = np.where(np.repeat(ok_d, 3), frames.dir_w_rows, 0.0)
+        target_d = frames.dir_target[t]
+        max_it = config.first_frame_iterations if t == 0 else config.iterations
+        mu = config.smoothing
+        if t >= 1 and np.isfinite(prev_rms):
+            mu += config.adaptive_smoothing * prev_rms
+        if t == 0:
+            q_ref = q[7:]
+        else:  # mu^2 |q - q_prev|^2 + eta^2 |q - q_nominal|^2 = (mu^2 + eta^2) |q - q_ref|^2 + c
+            mu2, eta2 = mu * mu, config.posture ** 2
+            q_ref = (mu2 * q_out[t - 1, 7:] + eta2 * q_posture) / max(mu2 + eta2, 1e-300)
+            mu = float(np.sqrt(mu2 + eta2))
+        base_box = t >= 1 and has_vel and np.isfinite(base_reach).any()
+        q, points, axes, it = _solve_frame(robot, kin, q, lo, hi, q_ref, target_p, w_p, ok_p,
+                                           target_d, w_d, unbounded, config, max_it,
+                                           first=t == 0, mu=mu,
+                                           q_prev=q_out[t - 1] if base_box else None,
+                                           base_reach=base_reach)
+        q_out[t] = q
+        iters[t] = it
+        dist = np.linalg.norm(target_p - points, axis=1)
+        kp_err[t] = np.where(ok_p, dist, np.nan)
+        prev_rms = float(np.sqrt(np.mean(dist[ok_p] ** 2))) if ok_p.any() else prev_rms
+        if n_dir:
+            cosang = np.clip(np.einsum("di,di->d", axes, target_d), -1.0, 1.0)
+            dir_err[t] = np.where(ok_d, np.degrees(np.arccos(cosang)), np.nan)
+        # ---- which limits are active
+        joints = q[7:]
+        on_lo = joints <= lo + _BOUND_TOL
+        on_hi = joints >= hi - _BOUND_TOL
+        for code in (POSITION, VELOCITY, ACCELERATION):
+            at_bound[t, code] = bool(np.any((on_lo & (src_lo == code))
+                                            | (on_hi & (src_hi == code))))
+        joint_bound_frames += on_lo | on_hi
+    return _Track(q=q_out, kp_err=kp_err, dir_err=dir_err, iterations=iters, at_bound=at_bound,
+                  conflict=conflict, joint_bound_frames=joint_bound_frames, empty=empty)
+
+def _limited(robot, kin: _Kinematics, frames: _FrameTargets, free: _Track, joints: np.ndarray,
+             lower: np.ndarray, upper: np.ndarray, vmax: np.ndarray, amax: np.ndarray,
+             fps: float) -> _Track:
+    """The free pass with its joints replaced by the projection: errors and active limits."""
+    q = free.q.copy()
+    q[:, 7:] = joints
+    n_frames = len(q)
+    kp_err = np.full_like(free.kp_err, np.nan)
+    dir_err = np.full_like(free.dir_err, np.nan)
+    for t in range(n_frames):
+        points, axes = kin.points_and_axes(q[t])
+        kp_err[t] = np.where(frames.kp_ok[t], np.linalg.norm(frames.kp_pos[t] - points, axis=1),
+                             np.nan)
+        if axes.shape[0]:
+            cosang = np.clip(np.einsum("di,di->d", axes, frames.dir_target[t]), -1.0, 1.0)
+            dir_err[t] = np.where(frames.dir_ok[t], np.degrees(np.arccos(cosang)), np.nan)
+    # a limit is active where the trajectory uses more than 99.9 % of it
+    on_pos = (joints <= lower + 1e-3 * (upper - lower)) | (joints >= upper - 1e-3 * (upper - lower))
+    dt = 1.0 / fps
+    on_vel = np.zeros_like(on_pos)
+    on_acc = np.zeros_like(on_pos)
+    on_vel[1:] = np.abs(np.diff(joints, axis=0)) >= 0.999 * dt * vmax
+    on_acc[2:] = np.abs(joints[2:] - 2.0 * joints[1:-1] + joints[:-2]) >= 0.999 * dt * dt * amax
+    at_bound = np.stack([on_pos.any(axis=1), on_vel.any(axis=1), on_acc.any(axis=1)], axis=1)
+    return _Track(q=q, kp_err=kp_err, dir_err=dir_err, iterations=free.iterations,
+                  at_bound=at_bound, conflict=np.zeros(n_frames, dtype=bool),
+                  joint_bound_frames=(on_pos | on_vel | on_acc).sum(axis=0), empty=free.empty)
+
+
 def _as_q_init(q_init, n_frames: int, nq: int) -> np.ndarray | None:
     if q_init is None:
         return None
@@ -681,123 +875,27 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
         _check_within(robot, q_nominal, lower, upper, "the nominal pose q_nominal")
         q0 = initial_guess(robot, kin, targets, markers, q_nominal)
 
-    dt = 1.0 / markers.fps
-    step_v = dt * vmax
-    step_a = dt * dt * amax
-    n_kp, n_dir = len(targets.kp_frame_ids), len(targets.dir_frame_ids)
-    kp_pos = markers.positions_m[:, targets.kp_markers]
-    kp_ok = markers.valid[:, targets.kp_markers]
-    if n_dir:
-        tail = markers.positions_m[:, targets.dir_from]
-        head = markers.positions_m[:, targets.dir_to]
-        vec = head - tail
-        norm = np.linalg.norm(vec, axis=2)
-        dir_ok = (markers.valid[:, targets.dir_from] & markers.valid[:, targets.dir_to]
-                  & (norm > 1e-9))
-        dir_target = np.where(dir_ok[..., None], vec / np.where(dir_ok, norm, 1.0)[..., None],
-                              0.0)
-    else:
-        dir_ok = np.zeros((n_frames, 0), dtype=bool)
-        dir_target = np.zeros((n_frames, 0, 3))
-    kp_w = config.position_weight * targets.kp_weights
-    dir_w = config.direction_weight * targets.dir_weights
-    kp_w_rows = np.repeat(kp_w, 3)
-    dir_w_rows = np.repeat(dir_w, 3)
-    # Trust region of the free-flyer per LM step: joints are boxed by their limits, the base is
-    # not, and one poorly damped step could turn it by 90 degrees into another basin (seen on
-    # the CMU walk: the base yaw jumped 40 degrees in one frame and never came back).
-    unbounded = np.array([config.base_step_m] * 3 + [config.base_step_rad] * 3)
-    base_reach = np.array([config.base_speed_m_s] * 3 + [config.base_rate_rad_s] * 3) / markers.fps
-    q_posture = np.clip(np.asarray(robot.q_nominal, dtype=np.float64)[7:], lower, upper)
-    has_acc = bool(np.any(np.isfinite(step_a)))
-
-    q_out = np.empty((n_frames, nq))
-    kp_err = np.full((n_frames, n_kp), np.nan)
-    dir_err = np.full((n_frames, n_dir), np.nan)
-    iters = np.zeros(n_frames, dtype=np.int64)
-    at_bound = np.zeros((n_frames, 3), dtype=bool)
-    conflict = np.zeros(n_frames, dtype=bool)
-    joint_bound_frames = np.zeros(len(lower), dtype=np.int64)
-    zero_code = np.zeros(len(lower), dtype=np.int64)
-    empty = 0
-    prev_rms = float("nan")
-
+    frames = _FrameTargets.build(markers, targets, config)
+    limited = bool(np.any(np.isfinite(vmax)) or np.any(np.isfinite(amax)))
     t_start = time.perf_counter()
-    for t in range(n_frames):
-        # ---- the box for q_t[7:] (absolute joint values), in priority order
-        lo, hi = lower, upper
-        src_lo, src_hi = zero_code, zero_code
-        clash = False
-        if t >= 1:
-            qp = q_out[t - 1, 7:]
-            lo, hi, src_lo, src_hi, c = _intersect(lo, hi, src_lo, src_hi, qp - step_v,
-                                                   qp + step_v, VELOCITY)
-            clash = bool(c.any())
-            if t >= 2 and has_acc:
-                centre = 2.0 * qp - q_out[t - 2, 7:]
-                lo, hi, src_lo, src_hi, c = _intersect(lo, hi, src_lo, src_hi, centre - step_a,
-                                                       centre + step_a, ACCELERATION)
-                clash = clash or bool(c.any())
-            if config.brake_before_limits and has_acc:
-                # stay slow enough to stop before the position limits at a_max (lowest
-                # priority: where the joint is already too fast, the acceleration box wins)
-                lo, hi, src_lo, src_hi, _ = _intersect(
-                    lo, hi, src_lo, src_hi, qp - _braking_reach(qp - lower, step_a),
-                    qp + _braking_reach(upper - qp, step_a), POSITION)
-        conflict[t] = clash
-        # ---- warm start
-        if t == 0:
-            q = q0.copy()
-        elif init is not None and init.ndim == 2:
-            q = init[t].copy()
-        elif t >= 2 and config.extrapolate:
-            q = robot.integrate(q_out[t - 1], robot.difference(q_out[t - 2], q_out[t - 1]))
-        else:
-            q = q_out[t - 1].copy()
-        q = np.array(q, dtype=np.float64)
-        q[7:] = np.clip(q[7:], lo, hi)
-        # ---- targets of this frame
-        ok_p = kp_ok[t]
-        ok_d = dir_ok[t]
-        if not (ok_p.any() or ok_d.any()):
-            empty += 1
-        target_p = kp_pos[t]
-        w_p = np.where(np.repeat(ok_p, 3), kp_w_rows, 0.0)
-        w_d = np.where(np.repeat(ok_d, 3), dir_w_rows, 0.0)
-        target_d = dir_target[t]
-        max_it = config.first_frame_iterations if t == 0 else config.iterations
-        mu = config.smoothing
-        if t >= 1 and np.isfinite(prev_rms):
-            mu += config.adaptive_smoothing * prev_rms
-        if t == 0:
-            q_ref = q[7:]
-        else:  # mu^2 |q - q_prev|^2 + eta^2 |q - q_nominal|^2 = (mu^2 + eta^2) |q - q_ref|^2 + c
-            mu2, eta2 = mu * mu, config.posture ** 2
-            q_ref = (mu2 * q_out[t - 1, 7:] + eta2 * q_posture) / max(mu2 + eta2, 1e-300)
-            mu = float(np.sqrt(mu2 + eta2))
-        base_box = t >= 1 and config.enforce_velocity and np.isfinite(base_reach).any()
-        q, points, axes, it = _solve_frame(robot, kin, q, lo, hi, q_ref, target_p, w_p, ok_p,
-                                           target_d, w_d, unbounded, config, max_it,
-                                           first=t == 0, mu=mu,
-                                           q_prev=q_out[t - 1] if base_box else None,
-                                           base_reach=base_reach)
-        q_out[t] = q
-        iters[t] = it
-        dist = np.linalg.norm(target_p - points, axis=1)
-        kp_err[t] = np.where(ok_p, dist, np.nan)
-        prev_rms = float(np.sqrt(np.mean(dist[ok_p] ** 2))) if ok_p.any() else prev_rms
-        if n_dir:
-            cosang = np.clip(np.einsum("di,di->d", axes, target_d), -1.0, 1.0)
-            dir_err[t] = np.where(ok_d, np.degrees(np.arccos(cosang)), np.nan)
-        # ---- which limits are active
-        joints = q[7:]
-        on_lo = joints <= lo + _BOUND_TOL
-        on_hi = joints >= hi - _BOUND_TOL
-        for code in (POSITION, VELOCITY, ACCELERATION):
-            at_bound[t, code] = bool(np.any((on_lo & (src_lo == code))
-                                            | (on_hi & (src_hi == code))))
-        joint_bound_frames += on_lo | on_hi
+    projection = None
+    if config.lookahead and limited and n_frames >= 3:
+        # the markers with the position limits only (per-frame box), then the joint trajectory
+        # projected onto all the limits over the whole clip (feasible.py): it satisfies Kim's
+        # eqs 9, 13 and 14 in every frame and brakes ahead of fast target motion
+        free = _track(robot, kin, frames, config, q0, init, lower, upper,
+                      np.full_like(vmax, np.inf), np.full_like(amax, np.inf), markers.fps)
+        projection = project_joint_trajectory(free.q[:, 7:], markers.fps, lower, upper,
+                                              vmax, amax)
+        out = _limited(robot, kin, frames, free, projection.q, lower, upper, vmax, amax,
+                       markers.fps)
+    else:
+        out = _track(robot, kin, frames, config, q0, init, lower, upper, vmax, amax,
+                     markers.fps)
     seconds = time.perf_counter() - t_start
+    q_out, kp_err, dir_err, iters = out.q, out.kp_err, out.dir_err, out.iterations
+    at_bound, conflict, joint_bound_frames, empty = (out.at_bound, out.conflict,
+                                                     out.joint_bound_frames, out.empty)
 
     with np.errstate(invalid="ignore"):
         counts = np.isfinite(kp_err).sum(axis=1)
