@@ -91,8 +91,30 @@ def clip_rows(clips, robots=ROBOTS, fit_config=None) -> list[dict]:
                 continue
             row = row_from_fit(result.fit, clip, robot)
             row["pipeline_s"] = time.perf_counter() - t0
+            row.update(support_feet(robot, result))
             rows.append(row)
     return rows
+
+
+def support_feet(robot, result) -> dict:
+    """Sole height in the planned support frames: |lowest sole corner z| [mm] (median, p95,
+    max over both feet) and the horizontal sole-centre slip [mm per frame at 30 fps]."""
+    from imesh.contacts import SIDES
+    from imesh.metrics.kinematics import sole_tracks
+
+    soles = sole_tracks(robot, result.motion.q, result.motion.fps)
+    sup = result.support.support
+    heights, slips = [], []
+    for k, side in enumerate(SIDES):
+        heights.append(np.abs(soles.lowest(side)[sup[:, k]]))
+        step = np.linalg.norm(np.diff(soles.centers[side][:, :2], axis=0), axis=1)
+        slips.append(step[sup[1:, k] & sup[:-1, k]] * result.motion.fps / 30.0)
+    h = 1e3 * np.concatenate(heights)
+    sl = 1e3 * np.concatenate(slips)
+    if not h.size:
+        return {"foot_mm": (np.nan,) * 3, "slip_mm": (np.nan,) * 2}
+    return {"foot_mm": (float(np.median(h)), float(np.percentile(h, 95)), float(h.max())),
+            "slip_mm": (float(np.median(sl)), float(np.percentile(sl, 95)))}
 
 
 def fit_table(rows: list[dict]) -> None:
@@ -100,7 +122,8 @@ def fit_table(rows: list[dict]) -> None:
     direction RMS [deg], frames at position/velocity/acceleration bounds, box conflicts."""
     head = (f"{'robot':7s} {'source':32s} {'frames':>6s} {'fps':>5s} {'ms/frame':>8s} "
             f"{'solves':>6s} {'RMS mm':>7s} {'max mm':>7s} {'dir deg':>7s} "
-            f"{'at pos/vel/acc':>15s} {'confl':>5s} {'max v/vmax':>10s}")
+            f"{'at pos/vel/acc':>15s} {'confl':>5s} {'max v/vmax':>10s} "
+            f"{'foot z mm med/p95/max':>21s} {'slip med/p95':>12s}")
     print(head)
     print("-" * len(head))
     for r in rows:
@@ -110,7 +133,9 @@ def fit_table(rows: list[dict]) -> None:
               f"{1e3 * r['s_per_frame']:8.3f} {r['solves_per_frame']:6.2f} "
               f"{r['marker_rms_mm']:7.3f} {r['keypoint_max_mm']:7.3f} "
               f"{r['direction_rms_deg']:7.3f} {limits:>15s} {r['conflicts']:5d} "
-              f"{r['max_v_ratio']:10.2f}")
+              f"{r['max_v_ratio']:10.2f} "
+              + (" {:5.1f} /{:5.1f} /{:5.1f}    {:5.2f}/{:5.2f}".format(
+                  *r["foot_mm"], *r["slip_mm"]) if "foot_mm" in r else ""))
 
 
 def main() -> None:

@@ -7,7 +7,13 @@ markers are arranged per the robot's ``markers.toml``:
    children are re-attached to their parent so the skeleton stays a tree;
 2. bones are added that make segments rigid (pelvis triangle, shoulders to waist);
 3. markers and bones are added that restrict a joint's DOF or carry a joint offset (a collar
-   marker); each added marker starts on the human as an affine combination of human markers.
+   marker); each added marker starts on the human as an affine combination of human markers;
+4. the pelvis marker is turned about the hip axis to sit where the robot's does: mocap
+   skeletons put their root 15-25 degrees behind the vertical through the hip joints (CMU: 19),
+   robots put their waist key point above or in front of it (G1: 15 degrees in front); left as
+   is, the rigid pelvis triangle would pitch the robot's base by the difference and its waist
+   joint would have to bend the torso back by as much (the offset problem of sec. IV-A, which
+   the paper solves for the collar with an added marker).
 
 Target lengths of every length-constrained pair come from the robot's nominal pose: the distance
 between the two markers' robot key points. The human is first scaled (about the floor point under
@@ -80,6 +86,41 @@ def _reattach(names: tuple[str, ...], bones: np.ndarray, remove: set[str]
         if p is not None:
             out.append((p, child))
     return out
+
+
+def _pelvis_angle(points: np.ndarray, pelvis: int, hip_l: int, hip_r: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Signed angle [rad] of (pelvis - hip midpoint) from the vertical about the hip axis.
+
+    Args:
+        points: (..., M, 3) positions.
+
+    Returns:
+        (angle (...,), unit hip axis (..., 3), pelvis - hip midpoint (..., 3)).
+    """
+    axis = points[..., hip_l, :] - points[..., hip_r, :]
+    axis = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
+    v = points[..., pelvis, :] - 0.5 * (points[..., hip_l, :] + points[..., hip_r, :])
+    up = np.array([0.0, 0.0, 1.0]) - axis[..., 2:3] * axis
+    vp = v - np.sum(v * axis, axis=-1, keepdims=True) * axis
+    angle = np.arctan2(np.sum(np.cross(up, vp) * axis, axis=-1), np.sum(up * vp, axis=-1))
+    return angle, axis, v
+
+
+def _align_pelvis(pos: np.ndarray, robot_pts: np.ndarray, pelvis: int, hip_l: int, hip_r: int
+                  ) -> tuple[np.ndarray, float]:
+    """Turn the pelvis marker about the hip axis (every frame by the same angle) so its median
+    angle from the vertical matches the robot's in the nominal pose (step 4 of the module)."""
+    human, axis, v = _pelvis_angle(pos, pelvis, hip_l, hip_r)
+    robot_angle = float(_pelvis_angle(robot_pts, pelvis, hip_l, hip_r)[0])
+    turn = robot_angle - float(np.median(human))
+    c, s = np.cos(turn), np.sin(turn)
+    # Rodrigues: v' = v cos + (a x v) sin + a (a . v)(1 - cos)
+    v_new = (v * c + np.cross(axis, v) * s
+             + axis * np.sum(axis * v, axis=-1, keepdims=True) * (1.0 - c))
+    out = pos.copy()
+    out[:, pelvis] = 0.5 * (pos[:, hip_l] + pos[:, hip_r]) + v_new
+    return out, turn
 
 
 def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
@@ -156,6 +197,11 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
         raise OptionError("human-to-robot scale", scale, "a positive number")
     centre = pos[0].mean(axis=0) * [1.0, 1.0, 0.0]
     pos = centre + (pos - centre) * scale
+    if all(m in index for m in ("pelvis", "hip_l", "hip_r")):
+        pos, turn = _align_pelvis(pos, robot_pts, index["pelvis"], index["hip_l"],
+                                  index["hip_r"])
+        log.info("pelvis marker turned by %.1f deg about the hip axis to the robot's waist "
+                 "point", np.degrees(turn))
     arranged = MarkerMotion(positions_m=pos, fps=motion.fps, names=tuple(all_names),
                             valid=np.ones(pos.shape[:2], dtype=bool), bones=tree_idx,
                             source=motion.source, meta={**motion.meta, "robot": robot.name,

@@ -53,7 +53,7 @@ class RetargetConfig:
     fit: object | None = None
     lowpass_hz: float | None = 8.0
     foot_weight: float = 10.0
-    pelvis_weight: float = 10.0
+    pelvis_weight: float = 3.0
 
 
 @dataclass(frozen=True, eq=False)
