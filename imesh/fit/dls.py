@@ -759,7 +759,7 @@ def _track(robot, kin: _Kinematics, frames: _FrameTargets, config: FitConfig, q0
             mu2, eta2 = mu * mu, config.posture ** 2
             q_ref = (mu2 * q_out[t - 1, 7:] + eta2 * q_posture) / max(mu2 + eta2, 1e-300)
             mu = float(np.sqrt(mu2 + eta2))
-        base_box = t >= 1 and has_vel and np.isfinite(base_reach).any()
+        base_box = t >= 1 and config.enforce_velocity and np.isfinite(base_reach).any()
         q, points, axes, it = _solve_frame(robot, kin, q, lo, hi, q_ref, target_p, w_p, ok_p,
                                            target_d, w_d, unbounded, config, max_it,
                                            first=t == 0, mu=mu,

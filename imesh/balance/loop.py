@@ -1,0 +1,308 @@
+"""The balance loop (Nakaoka & Komura 2012, sec. V-C, V-D): desired ZMP -> Nishiwaki waist
+correction -> the corrected waist trajectory as a hard constraint of the morph -> morph again ->
+fit again; until the ZMP error is below tolerance or an iteration limit.
+
+This module owns the loop and its report; the re-morph and re-fit are a callable supplied by the
+pipeline (:func:`imesh.retarget.retarget`), so the loop never sees the morph or fit settings.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contacts import runs
+from ..errors import ImeshError, OptionError
+from ..metrics.kinematics import (
+    desired_zmp,
+    motion_derivatives,
+    sole_tracks,
+    zmp_report,
+    zmp_trajectory,
+)
+from .nishiwaki import nishiwaki_correction
+
+log = logging.getLogger(__name__)
+
+
+class FlightPhaseError(ImeshError):
+    """The motion has flight phases (both feet off the ground): the ZMP is undefined there.
+
+    Attributes:
+        phases: [(start, stop), ...] frame ranges (stop exclusive) of the flight phases.
+    """
+
+    def __init__(self, source: str, phases: list[tuple[int, int]], fps: float):
+        self.phases = phases
+        spans = ", ".join(f"frames {a}-{b - 1} ({a / fps:.2f}-{(b - 1) / fps:.2f} s)"
+                          for a, b in phases)
+        super().__init__(f"{source}: {len(phases)} flight phase(s) (both feet off the ground): "
+                         f"{spans}. The ZMP balance needs ground contact; pass "
+                         "--balance-flight (BalanceConfig(allow_flight=True)) to balance only "
+                         "the supported segments, or --no-balance")
+
+
+@dataclass(frozen=True)
+class BalanceConfig:
+    """Settings of the balance loop.
+
+    Attributes:
+        iterations: largest number of waist corrections (each one morph and one fit).
+        tolerance_mm: stop when the RMS distance between the multibody ZMP and the desired ZMP
+            over the support frames is below this [mm] ...
+        inside_target: ... and at least this fraction of the support frames has its ZMP inside
+            the support polygon.
+        gain: fraction of the Nishiwaki correction applied per iteration (the CoM moves less
+            than the waist; the iteration makes up the rest).
+        transition_s: blending time of the desired ZMP between support phases [s].
+        allow_flight: balance only the supported segments of a motion with flight phases
+            instead of refusing it.
+        error_lowpass_hz: the ZMP error is low-passed (zero phase) at this frequency before the
+            Nishiwaki solve [Hz]: the cart-table model turns a ZMP error of frequency f into
+            a CoM correction amplified by ``1 + (2 pi f)^2 z / g`` (x 60 at 5 Hz for z = 0.8
+            m), so frame-to-frame ZMP jitter of the fitted motion would otherwise swing the
+            waist by decimetres. None: no filter.
+        waist_weight: weight of the corrected waist position in the morph (a soft target as
+            strong as the support-foot footprints; the Laplacian rows weigh ~1).
+    """
+
+    iterations: int = 6
+    tolerance_mm: float = 10.0
+    inside_target: float = 0.99
+    gain: float = 1.0
+    transition_s: float = 0.1
+    allow_flight: bool = False
+    error_lowpass_hz: float | None = 1.5
+    waist_weight: float = 1e3
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.iterations, int) and self.iterations >= 0):
+            raise OptionError("iterations", self.iterations, "an integer >= 0")
+        for name in ("tolerance_mm", "gain", "transition_s"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise OptionError(name, value, "a positive number")
+        if not 0.0 <= self.inside_target <= 1.0:
+            raise OptionError("inside_target", self.inside_target, "a fraction in [0, 1]")
+
+
+@dataclass(frozen=True)
+class BalanceIteration:
+    """ZMP state of one iterate (0 = before any correction).
+
+    Attributes:
+        iteration: 0 for the unbalanced motion, k after k corrections.
+        zmp_error_mm: RMS |ZMP - desired ZMP| over the support frames [mm].
+        zmp_inside_fraction: support frames with the ZMP inside the support polygon.
+        max_outside_mm: largest distance of an outside ZMP from its polygon [mm].
+        waist_shift_mm: largest horizontal waist shift from the unbalanced motion [mm].
+        seconds: wall time of the morph and fit that produced this iterate [s].
+    """
+
+    iteration: int
+    zmp_error_mm: float
+    zmp_inside_fraction: float
+    max_outside_mm: float
+    waist_shift_mm: float
+    seconds: float
+
+
+@dataclass(frozen=True, eq=False)
+class BalanceResult:
+    """Outcome of the loop (the motion it returns is the best iterate).
+
+    Attributes:
+        iterations: per-iterate reports, the first is the unbalanced motion.
+        best: index into ``iterations`` of the returned motion.
+        converged: the tolerance was met.
+        q: (T, nq) configurations of the best iterate.
+        zmp_m, desired_m: (T, 2) [m] multibody and desired ZMP of the best iterate.
+        zmp_before_m: (T, 2) [m] multibody ZMP of the unbalanced motion.
+        com_m, com_before_m: (T, 3) [m] CoM of the best iterate and of the unbalanced motion.
+        waist_shift_m: (T, 2) [m] horizontal waist correction of the best iterate.
+        support: (T, 2) bool planned support.
+        polygon_xy: per frame the (K, 2) support polygon (None without support).
+        fps: frame rate [1/s].
+    """
+
+    iterations: tuple[BalanceIteration, ...]
+    best: int
+    converged: bool
+    q: np.ndarray
+    zmp_m: np.ndarray
+    desired_m: np.ndarray
+    zmp_before_m: np.ndarray
+    com_m: np.ndarray
+    com_before_m: np.ndarray
+    waist_shift_m: np.ndarray
+    support: np.ndarray
+    polygon_xy: list
+    fps: float
+
+    @property
+    def before(self) -> BalanceIteration:
+        return self.iterations[0]
+
+    @property
+    def after(self) -> BalanceIteration:
+        return self.iterations[self.best]
+
+    def report(self) -> dict:
+        """JSON-able summary with the per-iteration table."""
+        return {
+            "converged": self.converged,
+            "iterations_run": len(self.iterations) - 1,
+            "best_iteration": self.iterations[self.best].iteration,
+            "zmp_error_mm_before": self.before.zmp_error_mm,
+            "zmp_error_mm_after": self.after.zmp_error_mm,
+            "zmp_inside_fraction_before": self.before.zmp_inside_fraction,
+            "zmp_inside_fraction_after": self.after.zmp_inside_fraction,
+            "per_iteration": [vars(it) for it in self.iterations],
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class ZmpState:
+    """Multibody ZMP, desired ZMP and CoM of a motion against a planned support."""
+
+    zmp_m: np.ndarray
+    desired_m: np.ndarray
+    com_m: np.ndarray
+    error_mm: float
+    inside_fraction: float
+    max_outside_mm: float
+    polygons: list
+
+
+def zmp_state(robot, q: np.ndarray, fps: float, support: np.ndarray,
+              transition_s: float = 0.1) -> ZmpState:
+    """ZMP of a configuration trajectory (pinocchio centroidal dynamics) against a support.
+
+    Args:
+        robot: an :class:`imesh.robot.Robot`.
+        q: (T, nq) configurations.
+        fps: frame rate [1/s].
+        support: (T, 2) bool planned support [left, right].
+        transition_s: desired-ZMP blending time [s].
+    """
+    from ..metrics.kinematics import support_polygons
+
+    v, a = motion_derivatives(q, fps)
+    zmp = zmp_trajectory(robot, q, v, a)
+    soles = sole_tracks(robot, q, fps)
+    rep = zmp_report(zmp, soles, support, transition_s)
+    com = np.array([robot.com(qt) for qt in q])
+    return ZmpState(zmp_m=zmp, desired_m=desired_zmp(soles, support, transition_s), com_m=com,
+                    error_mm=rep.error_mm, inside_fraction=rep.inside_fraction,
+                    max_outside_mm=rep.max_outside_mm,
+                    polygons=support_polygons(soles, support))
+
+
+def _lowpass(x: np.ndarray, fps: float, hz: float) -> np.ndarray:
+    """Zero-phase 2nd-order Butterworth low-pass along axis 0 (unchanged if too short)."""
+    from scipy.signal import butter, sosfiltfilt
+
+    if hz >= 0.5 * fps:
+        return x
+    sos = butter(2, hz / (0.5 * fps), output="sos")
+    if len(x) <= 3 * (2 * len(sos) + 1):
+        return x
+    return sosfiltfilt(sos, x, axis=0)
+
+
+def check_flight(source: str, support: np.ndarray, fps: float, config: BalanceConfig) -> None:
+    """Raise FlightPhaseError when no foot supports in some frames (unless allowed)."""
+    flight = ~np.asarray(support, dtype=bool).any(axis=1)
+    phases = runs(flight)
+    if phases and not config.allow_flight:
+        raise FlightPhaseError(source, phases, fps)
+
+
+def balance_loop(robot, q: np.ndarray, fps: float, support: np.ndarray, waist_xy: np.ndarray,
+                 step: Callable[[np.ndarray], np.ndarray],
+                 config: BalanceConfig | None = None) -> BalanceResult:
+    """Iterate Nishiwaki waist corrections until the ZMP follows the desired ZMP.
+
+    Args:
+        robot: the robot.
+        q: (T, nq) the unbalanced motion.
+        fps: frame rate [1/s].
+        support: (T, 2) bool planned support (the hard support-foot constraints' phases).
+        waist_xy: (T, 2) [m] horizontal waist (pelvis marker) trajectory of the unbalanced
+            adapted markers.
+        step: ``step(waist_target_xy) -> q``: morph with the waist marker's horizontal position
+            as a hard constraint, fit again, return the new (T, nq) motion.
+        config: BalanceConfig.
+
+    Returns:
+        BalanceResult (its ``q`` is the best iterate: the lowest ZMP error).
+    """
+    config = config or BalanceConfig()
+    support = np.asarray(support, dtype=bool)
+    free = ~support.any(axis=1)
+    state0 = zmp_state(robot, q, fps, support, config.transition_s)
+    states = [state0]
+    qs = [q]
+    shifts = [np.zeros_like(waist_xy)]
+    reports = [BalanceIteration(0, state0.error_mm, state0.inside_fraction,
+                                state0.max_outside_mm, 0.0, 0.0)]
+    target = np.asarray(waist_xy, dtype=np.float64).copy()
+
+    def good(s: ZmpState) -> bool:
+        return s.error_mm <= config.tolerance_mm and s.inside_fraction >= config.inside_target
+
+    state = state0
+    worse = 0
+    log.info("balance: before: ZMP error %.1f mm, inside %.1f %%", state0.error_mm,
+             100 * state0.inside_fraction)
+    for k in range(1, config.iterations + 1):
+        if good(state):
+            break
+        t0 = time.perf_counter()
+        com = state.com_m
+        zdd = np.gradient(np.gradient(com[:, 2], 1.0 / fps), 1.0 / fps)
+        change = np.where(free[:, None], 0.0, state.desired_m - state.zmp_m)
+        if config.error_lowpass_hz is not None:
+            change = _lowpass(change, fps, config.error_lowpass_hz)
+        dx = nishiwaki_correction(config.gain * change, com[:, 2], zdd, fps, free=free)
+        target = target + dx
+        try:
+            q_new = step(target)
+        except ImeshError as exc:  # the morph or fit could not meet this correction
+            log.warning("balance: iteration %d failed (%s); keeping the best iterate", k, exc)
+            break
+        state = zmp_state(robot, q_new, fps, support, config.transition_s)
+        shift = target - waist_xy
+        reports.append(BalanceIteration(k, state.error_mm, state.inside_fraction,
+                                        state.max_outside_mm,
+                                        float(1e3 * np.abs(shift).max()),
+                                        time.perf_counter() - t0))
+        states.append(state)
+        qs.append(q_new)
+        shifts.append(shift)
+        # diverging (the ZMP of the fitted motion does not follow the cart-table model): stop
+        worse = worse + 1 if not state.error_mm < states[-2].error_mm else 0
+        log.info("balance: iteration %d: ZMP error %.1f mm, inside %.1f %%, waist shift up to "
+                 "%.0f mm (%.2f s)", k, state.error_mm, 100 * state.inside_fraction,
+                 reports[-1].waist_shift_mm, reports[-1].seconds)
+        if worse >= 2:
+            log.warning("balance: the ZMP error grew in two iterations in a row; stopping")
+            break
+    # the best iterate: the lowest ZMP error among those that keep at least the unbalanced
+    # motion's inside fraction (the loop must not trade one for the other)
+    def key(i: int) -> float:
+        ok = not (states[i].inside_fraction < state0.inside_fraction)
+        return states[i].error_mm if ok and np.isfinite(states[i].error_mm) else np.inf
+
+    best = min(range(len(states)), key=key)
+    if not np.isfinite(key(best)):
+        best = 0
+    s = states[best]
+    return BalanceResult(iterations=tuple(reports), best=best, converged=good(s), q=qs[best],
+                         zmp_m=s.zmp_m, desired_m=s.desired_m, zmp_before_m=state0.zmp_m,
+                         com_m=s.com_m, com_before_m=state0.com_m, waist_shift_m=shifts[best],
+                         support=support, polygon_xy=s.polygons, fps=fps)
