@@ -84,6 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
     p.add_argument("--window-frames", type=int, default=2000,
                    help="solve longer clips in windows of this many frames (default 2000)")
+    from .arms.cli import add_options as add_arms_options
+
+    add_arms_options(p)  # --mode {full,arms}, --fit {dls,sqp}, --solver, --plots
 
     sub.add_parser("robots", help="list the robots imesh knows")
 
@@ -202,10 +205,19 @@ def cmd_retarget(args) -> int:
 
     robot = load_robot(args.robot, urdf=args.urdf)
     motion = _load(args)
+    if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
+        from .arms.cli import run_arms
+
+        return run_arms(args, robot, motion)
     result = _retarget(args, motion, robot, args.steps, args.window_frames,
                        support=not args.no_support)
     report = result.report()
-    save_robot_motion(args.output, result.motion)
+    robot_motion = result.motion
+    if args.fit == "sqp":  # the arm joints re-solved by Kim's SQP (imesh/arms)
+        from .arms.cli import refine
+
+        robot_motion, report["fit_sqp"] = refine(args, robot, result)
+    save_robot_motion(args.output, robot_motion)
     if args.markers:
         save_marker_motion(args.markers, result.adapted)
     if args.report:

@@ -478,6 +478,26 @@ class AddedMarker:
     bones: tuple[tuple[str, str], ...]
 
 
+@dataclass(frozen=True, eq=False)
+class ArmHand:
+    """The hand points of one arm for the arm imitation of Kim, Kim & Oh 2005 (``[arms.<side>]``
+    of markers.toml; see docs/arms.md).
+
+    Attributes:
+        frame: the hand link all three points are fixed on.
+        wrist: (3,) float [m] the wrist point in ``frame``.
+        hand: (3,) float [m] the knuckles point in ``frame``.
+        thumb: (3,) float [m] the derived third ("thumb") point in ``frame``.
+        joints: the arm joints from shoulder to hand; empty = derived from the model.
+    """
+
+    frame: str
+    wrist: np.ndarray
+    hand: np.ndarray
+    thumb: np.ndarray
+    joints: tuple[str, ...] = ()
+
+
 @dataclass(frozen=True)
 class MarkerConfig:
     """The validated content of one ``markers.toml``.
@@ -490,6 +510,7 @@ class MarkerConfig:
         remove: standard markers dropped for this robot.
         rigid: extra bones (pairs of surviving markers) that make segments rigid.
         add: added markers.
+        arms: ``"left"``/``"right"`` -> hand points of the arm imitation (may be empty).
     """
 
     path: Path
@@ -498,6 +519,7 @@ class MarkerConfig:
     remove: tuple[str, ...]
     rigid: tuple[tuple[str, str], ...]
     add: tuple[AddedMarker, ...]
+    arms: Mapping[str, ArmHand] = field(default_factory=dict)
 
     @property
     def markers(self) -> tuple[str, ...]:
@@ -508,6 +530,7 @@ class MarkerConfig:
         """(key, frame name) for every frame this file names (checked against the model)."""
         refs = [(f"keypoints.{n}.frame", k.frame) for n, k in self.keypoints.items()]
         refs += [(f"directions[{i}].frame", d.frame) for i, d in enumerate(self.directions)]
+        refs += [(f"arms.{side}.frame", a.frame) for side, a in self.arms.items()]
         return refs
 
 
@@ -515,6 +538,25 @@ _KEYPOINT_KEYS = ("frame", "offset", "weight")
 _DIRECTION_KEYS = ("frame", "axis", "from", "to", "weight")
 _ARRANGEMENT_KEYS = ("remove", "rigid", "add")
 _ADD_KEYS = ("name", "frame", "offset", "weight", "human", "bones")
+_ARM_KEYS = ("frame", "wrist", "hand", "thumb", "joints")
+
+
+def _arms(path: Path, data: Mapping[str, Any]) -> dict[str, ArmHand]:
+    """The optional ``[arms.left]`` / ``[arms.right]`` tables (hand points of imesh.arms)."""
+    arms = _table(path, data, "arms")
+    _check_keys(path, arms, "arms", SIDES)
+    out = {}
+    for side, tab in arms.items():
+        key = f"arms.{side}"
+        if not isinstance(tab, dict):
+            raise RobotConfigError("must be a table {frame, wrist, hand, thumb, joints}",
+                                   path=path, key=key)
+        _check_keys(path, tab, key, _ARM_KEYS)
+        points = {k: _vector(path, tab.get(k), f"{key}.{k}", 3)
+                  for k in ("wrist", "hand", "thumb")}
+        out[side] = ArmHand(frame=_string(path, tab, "frame", key), **points,
+                            joints=_names(path, tab.get("joints", []), f"{key}.joints"))
+    return out
 
 
 def _keypoint(path: Path, tab: Any, key: str) -> Keypoint:
@@ -539,7 +581,7 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
     """
     path = Path(path)
     data = _read_toml(path)
-    _check_keys(path, data, "", ("keypoints", "directions", "arrangement"))
+    _check_keys(path, data, "", ("keypoints", "directions", "arrangement", "arms"))
     arr = _table(path, data, "arrangement")
     _check_keys(path, arr, "arrangement", _ARRANGEMENT_KEYS)
     remove = _names(path, arr.get("remove", []), "arrangement.remove")
@@ -633,4 +675,5 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
                                     to_marker=ends[1],
                                     weight=_number(path, tab.get("weight", 1.0), f"{key}.weight")))
     return MarkerConfig(path=path, keypoints=MappingProxyType(keypoints),
-                        directions=tuple(directions), remove=remove, rigid=rigid, add=tuple(adds))
+                        directions=tuple(directions), remove=remove, rigid=rigid, add=tuple(adds),
+                        arms=MappingProxyType(_arms(path, data)))

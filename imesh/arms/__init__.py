@@ -1,0 +1,39 @@
+"""Arm imitation by optimization IK with motor limits (Kim, Kim & Oh 2005). See docs/arms.md.
+
+Per arm and frame, the increments of the arm joints (eq. 1) minimize the weighted errors of three
+hand points and the upper-arm orientation error (eqs 2-6), inside the bounds that joint position,
+velocity and acceleration limits put on the increment (eqs 9-15); the robot arm is scaled by
+``rho = L_human / L_robot`` (sec. 2); gradients are analytic (eqs 16-18).
+
+Example:
+    >>> import imesh
+    >>> from imesh.robot import load_robot
+    >>> from imesh.arms import ArmsConfig, imitate_arms
+    >>> robot = load_robot("jvrc1")
+    >>> result = imitate_arms(robot, imesh.load_motion("cmu_141_16_wave_hello.bvh"))
+    >>> result.motion             # RobotMotion: base and legs at the nominal pose, arms solved
+    >>> result.report()           # hand-point RMS, upper-arm error, frames outside the limits
+"""
+
+from .bounds import JointLimits, Violations, check_limits, frame_box
+from .config import SOLVERS, ArmsConfig
+from .errors import ArmsError
+from .geometry import ArmModel, arm_model, derived_arm_joints, suggest_hand_points
+from .problem import FrameObjective
+from .solve import (
+    REFINE_CONFIG,
+    ArmResult,
+    ArmsResult,
+    human_arm_markers,
+    imitate_arms,
+    refine_arms,
+    solve_arms,
+)
+from .targets import ArmScaling, ArmTargets, arm_targets
+
+__all__ = [
+    "REFINE_CONFIG", "SOLVERS", "ArmModel", "ArmResult", "ArmScaling", "ArmTargets",
+    "ArmsConfig", "ArmsError", "ArmsResult", "FrameObjective", "JointLimits", "Violations",
+    "arm_model", "arm_targets", "check_limits", "derived_arm_joints", "frame_box",
+    "human_arm_markers", "imitate_arms", "refine_arms", "solve_arms", "suggest_hand_points",
+]
