@@ -19,7 +19,7 @@ Tables:
    bounds' own cost shows), then all bounds (per frame, and with the look-ahead projection), on
    the wave and on the wave played 2.5x faster
    ("x2.5": the same frames at 2.5 times the frame rate), where the human is faster than the
-   motors (the "free v/vmax" column);
+   motors ("max v/vmax" of the row without velocity bounds);
 5. the human low-pass: 8 Hz (the main pipeline's) vs 3 Hz (the arm mode's default), each with
    Kim's per-frame bounds and with the look-ahead projection (``ArmsConfig(lookahead=True)``).
 """
@@ -160,8 +160,8 @@ def velocity_table(robots, clip) -> None:
     from imesh.arms import ArmsConfig, imitate_arms
 
     fast = clip.replace(fps=clip.fps * SPEEDUP, source=f"{clip.source} x{SPEEDUP}")
-    print("\n## 4. ablation: velocity bounds (eq. 13) off / on; right (waving) arm; 'free v/vmax'"
-          " = the fastest joint of the unbounded run relative to its limit")
+    print("\n## 4. ablation: velocity bounds (eq. 13) off / on; right (waving) arm; 'max v/vmax'"
+          " of the 'pos' row = how much faster than its motors the unbounded arm moves")
     _rule(f"{'robot':6s} {'clip':5s} {'bounds':12s} {'hand RMS mm':>11s} {'upper deg':>9s} "
           f"{'max v/vmax':>10s} {'outside p/v/a':>13s} {'cost mm':>7s}")
     settings = (("pos", dict(enforce_velocity=False, enforce_acceleration=False)),
