@@ -80,6 +80,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-support", action="store_true",
                    help="no support-foot constraints in the morph")
     p.add_argument("--markers", help="also write the adapted markers (.npz or .csv)")
+    p.add_argument("--no-balance", action="store_true",
+                   help="skip the ZMP balance loop (Nishiwaki waist correction)")
+    p.add_argument("--balance-flight", action="store_true",
+                   help="balance only the supported segments of a clip with flight phases")
+    p.add_argument("--balance-iterations", type=int, default=6,
+                   help="largest number of waist corrections (default 6)")
     _add_load_options(p)
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
     p.add_argument("--window-frames", type=int, default=2000,
@@ -183,13 +189,22 @@ def cmd_adapt(args) -> int:
     return 0
 
 
-def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, support: bool = True):
-    from .morph.problem import MorphConfig
+def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, support: bool = True,
+              balance: bool = True):
+    import dataclasses
+
+    from .balance import BalanceConfig
     from .retarget import RetargetConfig, retarget
     from .support import SupportConfig
 
-    config = RetargetConfig(morph=MorphConfig(steps=steps, window_frames=window_frames),
-                            support=SupportConfig() if support else None)
+    base = RetargetConfig()
+    bal = None
+    if balance and support:
+        bal = BalanceConfig(iterations=getattr(args, "balance_iterations", 6),
+                            allow_flight=getattr(args, "balance_flight", False))
+    config = RetargetConfig(morph=dataclasses.replace(base.morph, steps=steps,
+                                                      window_frames=window_frames),
+                            support=SupportConfig() if support else None, balance=bal)
     bar, update = _progress(args, steps, f"morph for {robot.name}")
     try:
         return retarget(motion, robot, config=config, progress=update)
@@ -210,8 +225,12 @@ def cmd_retarget(args) -> int:
 
         return run_arms(args, robot, motion)
     result = _retarget(args, motion, robot, args.steps, args.window_frames,
-                       support=not args.no_support)
+                       support=not args.no_support, balance=not args.no_balance)
     report = result.report()
+    if args.plots and result.balance is not None:
+        from .balance.plots import plot_balance
+
+        report["balance_plots"] = plot_balance(result.balance, args.plots, robot.name)
     robot_motion = result.motion
     if args.fit == "sqp":  # the arm joints re-solved by Kim's SQP (imesh/arms)
         from .arms.cli import refine
@@ -223,9 +242,13 @@ def cmd_retarget(args) -> int:
     if args.report:
         write_json(args.report, report)
     fit = report["fit"]
+    bal = report.get("balance")
+    zmp = (f", ZMP error {bal['zmp_error_mm_before']:.0f} -> {bal['zmp_error_mm_after']:.0f} mm "
+           f"(inside {100 * bal['zmp_inside_fraction_before']:.0f} -> "
+           f"{100 * bal['zmp_inside_fraction_after']:.0f} %)" if bal else "")
     print(f"retargeted {report['frames']} frames to {robot.name} in "
           f"{report['seconds']['total']:.2f} s: bone residual {report['bone_residual_m']:.1e} m, "
-          f"key-point RMS {1e3 * fit.get('keypoint_rms_m', float('nan')):.1f} mm -> "
+          f"key-point RMS {1e3 * fit.get('keypoint_rms_m', float('nan')):.1f} mm{zmp} -> "
           f"{args.output}")
     return 0
 

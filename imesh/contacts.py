@@ -109,11 +109,18 @@ def hysteresis(enter: np.ndarray, stay: np.ndarray) -> np.ndarray:
 
 
 def drop_short(mask: np.ndarray, min_frames: int) -> np.ndarray:
-    """Merge runs (of either value) shorter than min_frames into their neighbours."""
+    """Merge runs (of either value) shorter than min_frames into their neighbours.
+
+    A True run (support) that touches the first or last frame is kept whatever its length: the
+    recording cut it, its real duration is unknown (a heel strike in the clip's last frames is
+    a footfall).
+    """
     out = mask.copy()
+    n = len(out)
     for value in (False, True):  # fill short gaps first, then drop short blips
         for a, b in runs(out == value):
-            if b - a < min_frames and b - a < len(out):
+            cut = value and (a == 0 or b == n)
+            if b - a < min_frames and b - a < n and not cut:
                 out[a:b] = not value
     return out
 
@@ -138,9 +145,11 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
         idx = motion.indices(FOOT_MARKERS[side])
         p = motion.positions_m[:, idx]  # (T, 2, 3)
         rest = np.percentile(p[..., 2], 5, axis=0)  # resting height of toe and ankle
-        lift = (p[..., 2] - rest).min(axis=1)  # the lower of the two, above its rest
-        vel = np.gradient(p[:, 0], dt, axis=0)
-        speed = np.linalg.norm(vel, axis=1)
+        lifts = p[..., 2] - rest  # (T, 2) toe and ankle above their rest
+        lower = np.argmin(lifts, axis=1)  # the marker nearer the ground carries the foot:
+        lift = lifts[np.arange(len(p)), lower]  # the heel at heel strike, the toe at toe-off
+        speeds = np.linalg.norm(np.gradient(p, dt, axis=0), axis=2)
+        speed = speeds[np.arange(len(p)), lower]
         h_thr = config.height_fraction * height
         v_thr = config.speed_fraction * height
         enter = (lift < h_thr) & (speed < v_thr)

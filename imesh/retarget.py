@@ -231,6 +231,10 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     arrangement = arrange_for_robot(human, robot)
     source = arrangement.motion
     contacts = detect_contacts(source, config.contacts)
+    if config.balance is not None:  # fail before the morph, not after it
+        from .balance import check_flight
+
+        check_flight(motion.source or "motion", contacts.support, source.fps, config.balance)
     hard = soft = soft_w = None
     flat = contacts
     if config.support is not None:
@@ -275,9 +279,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     fit = morph_and_fit(hard)
     balance = None
     if config.balance is not None:
-        from .balance import balance_loop, check_flight
-
-        check_flight(motion.source or "motion", contacts.support, source.fps, config.balance)
+        from .balance import balance_loop
         pelvis = source.index("pelvis")
         shape = source.positions_m.shape
         base_soft = soft if soft is not None else np.full(shape, np.nan)

@@ -143,7 +143,7 @@ def _max_step(q, dq, bounds) -> np.ndarray:
     """(n,) largest alpha in (0, 1] keeping every slack positive, times 0.99."""
     alpha = np.ones(q.shape[1])
     for row, drow, (lo, hi) in zip(_rows(q), _rows(dq), bounds, strict=True):
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             a_lo = np.where(drow < 0, (lo - row) / drow, np.inf)
             a_hi = np.where(drow > 0, (hi - row) / drow, np.inf)
         alpha = np.minimum(alpha, 0.99 * np.nanmin(np.minimum(a_lo, a_hi), axis=0))

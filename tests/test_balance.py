@@ -1,0 +1,123 @@
+"""Balance: analytic ZMP cases, the Nishiwaki solve, contact states on real clips, and the
+waist feedback loop on a real clip."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import load_test_robot, mocap_path
+
+import imesh
+from imesh.adapt import prepare_markers
+from imesh.balance import BalanceConfig, FlightPhaseError, nishiwaki_correction
+from imesh.contacts import detect_contacts, runs
+from imesh.metrics.kinematics import motion_derivatives, zmp_trajectory
+from imesh.retarget import RetargetConfig, retarget
+from imesh.robot.model import GRAVITY
+
+ROBOTS = ("jvrc1", "g1", "hrp4c")
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_static_pose_zmp_is_com_projection(name):
+    robot = load_test_robot(name)
+    q = robot.q_nominal.copy()
+    zero = np.zeros(robot.nv)
+    np.testing.assert_allclose(robot.zmp(q, zero, zero), robot.com(q)[:2], atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_constant_acceleration_zmp(name):
+    """The whole robot translating with constant horizontal acceleration at constant height
+    (no rotation, so no angular momentum): ZMP = x - (z / g) xddot, from finite differences of
+    the sampled trajectory (exact for a parabola)."""
+    robot = load_test_robot(name)
+    fps, n = 100.0, 21
+    t = np.arange(n) / fps
+    acc = np.array([1.3, -0.7])
+    q = np.repeat(robot.q_nominal[None], n, axis=0)
+    q[:, :2] += 0.5 * t[:, None] ** 2 * acc
+    v, a = motion_derivatives(q, fps)
+    zmp = zmp_trajectory(robot, q, v, a)
+    com = np.array([robot.com(x) for x in q])
+    inner = slice(2, -2)  # one-sided differences at the ends
+    expected = com[inner, :2] - com[inner, 2:3] / GRAVITY * acc
+    np.testing.assert_allclose(zmp[inner], expected, atol=1e-9)
+
+
+def _forward_eq10(dx, z, zdd, fps):
+    """ZMP change of a CoM correction by eq. 10 with zero-slope ends (the model's forward map)."""
+    dt = 1.0 / fps
+    prev = np.concatenate([dx[:1], dx[:-1]])
+    nxt = np.concatenate([dx[1:], dx[-1:]])
+    k = (z / ((GRAVITY + zdd) * dt * dt))[:, None]
+    return dx - k * (prev - 2.0 * dx + nxt)
+
+
+def test_nishiwaki_reproduces_a_known_correction():
+    fps, n = 120.0, 400
+    t = np.arange(n) / fps
+    dx = np.stack([0.04 * np.sin(2 * np.pi * 0.8 * t), 0.02 * np.cos(2 * np.pi * 1.1 * t)], 1)
+    z = 0.8 + 0.03 * np.sin(2 * np.pi * 1.7 * t)  # variable CoM height (eq. 10)
+    zdd = -0.03 * (2 * np.pi * 1.7) ** 2 * np.sin(2 * np.pi * 1.7 * t)
+    dp = _forward_eq10(dx, z, zdd, fps)
+    np.testing.assert_allclose(nishiwaki_correction(dp, z, zdd, fps), dx, atol=1e-10)
+    # a constant ZMP error asks for the same constant CoM shift (static equilibrium)
+    const = nishiwaki_correction(np.full((n, 2), 0.05), z, zdd, fps)
+    np.testing.assert_allclose(const, 0.05, atol=1e-9)
+
+
+def _ankle_footfalls(motion):
+    """Independent count: ankle swings (ankle more than 5 % of the body height above its rest)
+    longer than 0.15 s that end before the clip does; each ends in a footfall."""
+    count = 0
+    for side in "lr":
+        z = motion.positions_m[:, motion.index(f"ankle_{side}"), 2]
+        swing = runs(z > np.percentile(z, 5) + 0.05 * motion.height_m)
+        count += sum(1 for a, b in swing if b - a > 0.15 * motion.fps and b < len(z))
+    return count
+
+
+@pytest.mark.parametrize("clip, expected", [("cmu_02_01_walk.bvh", 5),
+                                            ("cmu_16_11_walk_veer_left.bvh", 8)])
+def test_contact_detection_counts_footfalls(clip, expected):
+    motion = prepare_markers(imesh.load_motion(mocap_path(clip)))
+    contacts = detect_contacts(motion)
+    assert _ankle_footfalls(motion) == expected
+    assert contacts.footfalls() == expected
+    assert not contacts.flight_phases()
+
+
+def test_leaps_are_flight_phases():
+    """The dance's leaps: every interval with both ankles in the air for > 0.1 s lies in a
+    reported flight phase; retarget with balancing refuses the clip naming the frames."""
+    motion = imesh.load_motion(mocap_path("cmu_05_06_dance_pirouettes_jete.bvh"))
+    std = prepare_markers(motion)
+    flights = detect_contacts(std).flight_phases()
+    air = np.ones(std.n_frames, dtype=bool)
+    for side in "lr":
+        z = std.positions_m[:, std.index(f"ankle_{side}"), 2]
+        air &= z > np.percentile(z, 5) + 0.05 * std.height_m
+    leaps = [(a, b) for a, b in runs(air) if b - a > 0.1 * std.fps]
+    assert len(leaps) >= 4
+    for a, b in leaps:
+        mid = (a + b) // 2
+        assert any(s <= mid < e for s, e in flights), (a, b, flights)
+    with pytest.raises(FlightPhaseError, match=r"flight phase\(s\).*frames 24\d-31\d"):
+        retarget(motion, load_test_robot("jvrc1"))
+
+
+def test_balance_loop_lowers_the_zmp_error_on_a_real_clip():
+    motion = imesh.load_motion(mocap_path("cmu_02_10_wash_self_cc3rig.bvh")).frames(0, 480)
+    robot = load_test_robot("jvrc1")
+    result = retarget(motion, robot, config=RetargetConfig(balance=BalanceConfig(iterations=3)))
+    bal = result.balance
+    assert bal.after.zmp_error_mm < 0.9 * bal.before.zmp_error_mm
+    assert bal.after.zmp_inside_fraction >= bal.before.zmp_inside_fraction
+    q = result.motion.joint_positions
+    dt = 1.0 / result.motion.fps
+    assert not ((q < robot.q_lower - 1e-9) | (q > robot.q_upper + 1e-9)).any()
+    assert (np.abs(np.diff(q, axis=0)) / dt <= robot.v_max + 1e-6).all()
+    assert (np.abs(np.diff(q, 2, axis=0)) / dt**2 <= robot.a_max + 1e-6).all()
+    report = result.report()["balance"]
+    assert report["iterations_run"] >= 1 and len(report["per_iteration"]) >= 2
