@@ -276,6 +276,22 @@ def test_cli_arms_mode_writes_motion_report_and_plots(mocap, tmp_path, capsys):
     assert "frames outside position/velocity/acceleration bounds 0/0/0" in capsys.readouterr().out
 
 
+def test_cli_fit_sqp_re_solves_the_pipeline_arms(mocap, tmp_path, capsys):
+    """The main pipeline with its arm joints re-solved (``--fit sqp``): same output keys, the
+    arms within every limit and closer to their targets than the DLS fit."""
+    out, rep = tmp_path / "f.npz", tmp_path / "f.json"
+    code = main(["-q", "retarget", str(mocap(WAVE)), "--robot", "jvrc1", "--fit", "sqp",
+                 "-o", str(out), "--json", str(rep)])
+    assert code == 0
+    with np.load(out) as data:
+        assert sorted(data.files) == sorted(NPZ_KEYS)
+    sqp = json.loads(rep.read_text())["fit_sqp"]
+    assert sqp["mode"] == "refine"
+    assert sqp["frames_outside"] == {"position": 0, "velocity": 0, "acceleration": 0}
+    for side, arm in sqp["arms"].items():
+        assert arm["hand_rms_mm"] < sqp["before"][side]["hand_rms_mm"]
+
+
 def test_missing_marker_and_bad_config_fail_cleanly(wave):
     robot = load_test_robot("jvrc1")
     from imesh.arms import human_arm_markers, solve_arms
