@@ -47,6 +47,9 @@ class SupportConfig:
             the middle of the support phase: a human heel that rises (toe-off) or a toe still
             coming down (heel strike) hand the robot foot to the ramps, which pivot it about the
             toe, instead of pinning a flat foot against a vertical human foot.
+        ramp_max_pitch_deg: largest foot pitch the ramps ask for [deg] (a foot near vertical
+            makes the hard heights and the foot bone nearly dependent: the morph's constraint
+            solve stalls; seen on HRP-4C with the CMU veer).
     """
 
     horizontal: bool = True
@@ -54,6 +57,7 @@ class SupportConfig:
     horizontal_weight: float = 1e3
     ramp_s: float = 0.12
     flat_pitch_deg: float = 20.0
+    ramp_max_pitch_deg: float = 50.0
 
     def __post_init__(self) -> None:
         for name in ("slide_threshold_m", "horizontal_weight"):
@@ -202,6 +206,14 @@ def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
         toe_t = (1.0 - sb) * src_toe + sb * pin_toe
         u = (1.0 - sb) * src_u + sb * pin_u
         u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-9)
+        # a foot near vertical (the human's at toe-off) makes the toe-ankle bone and the two
+        # hard heights nearly dependent: cap the ramp's foot pitch
+        zmax = np.sin(np.radians(config.ramp_max_pitch_deg))
+        uz = np.clip(u[:, 2], -zmax, zmax)
+        horiz = u[:, :2]
+        hn = np.linalg.norm(horiz, axis=1, keepdims=True)
+        horiz = np.where(hn > 1e-9, horiz / np.maximum(hn, 1e-12), pin_back)
+        u = np.concatenate([horiz * np.sqrt(1.0 - uz * uz)[:, None], uz[:, None]], axis=1)
         ankle_t = toe_t + length * u
         targets[on, toe, 2] = toe_t[:, 2]
         targets[on, ankle, 2] = ankle_t[:, 2]
