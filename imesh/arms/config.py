@@ -61,7 +61,10 @@ class ArmsConfig:
             neck up, shoulder line across) and put on the robot's torso, so body sway does not
             move the robot arms; ``"world"``: taken as they are (markers already in the
             robot's world, e.g. adapted by the main pipeline).
-        lowpass_hz: cut-off of the zero-phase low-pass of the human markers (None: off).
+        lowpass_hz: cut-off of the zero-phase low-pass of the human markers (None: off). 3 Hz,
+            below the main pipeline's 8 Hz: the per-frame bounds cannot follow (and lose the
+            arm on) motions far beyond the acceleration limits, such as the wave's 4.7 Hz hand
+            flap (docs/arms.md, "The human's low-pass").
     """
 
     sides: tuple[str, ...] = SIDES
