@@ -24,8 +24,8 @@ def add_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--solver", choices=SOLVERS, default="gn",
                    help="per-frame solver of the arm problem: gn (box-constrained "
                    "Gauss-Newton, default) or slsqp (scipy)")
-    p.add_argument("--plots", help="arms mode: write the paper's Fig. 3 and Fig. 4 (PNG) for "
-                   "every arm into this folder")
+    p.add_argument("--plots", help="write figures (PNG) into this folder: arms mode Kim's "
+                   "Fig. 3 and Fig. 4 for every arm, full mode the balance plots")
 
 
 def run_arms(args, robot, motion) -> int:
