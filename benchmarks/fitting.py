@@ -76,7 +76,7 @@ def clip_rows(clips, robots=ROBOTS, fit_config=None) -> list[dict]:
     import imesh
     from imesh.retarget import RetargetConfig, retarget
 
-    config = RetargetConfig(fit=fit_config)
+    config = RetargetConfig(fit=fit_config, balance=None)  # the fitting stage alone
 
     rows = []
     for clip in clips:
