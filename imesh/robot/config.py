@@ -226,6 +226,20 @@ def _read_toml(path: Path) -> dict[str, Any]:
         raise RobotConfigError(f"not UTF-8 text: {exc}", path=path) from None
 
 
+def _table_array(path, value, key: str, allowed) -> list[tuple[str, dict]]:
+    """Validated ``[[key]]`` array of tables: [(``key[i]``, table), ...]."""
+    if not isinstance(value, list):
+        raise RobotConfigError(f"must be an array of tables [[{key}]]", path=path, key=key)
+    out = []
+    for i, tab in enumerate(value):
+        where = f"{key}[{i}]"
+        if not isinstance(tab, dict):
+            raise RobotConfigError("must be a table", path=path, key=where)
+        _check_keys(path, tab, where, allowed)
+        out.append((where, tab))
+    return out
+
+
 def _check_keys(path: Path, table: Mapping[str, Any], where: str, valid: Iterable[str]) -> None:
     valid = list(valid)
     for key in table:
@@ -606,15 +620,7 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
     keypoints = {m: _keypoint(path, raw[m], f"keypoints.{m}") for m in surviving}
 
     adds: list[AddedMarker] = []
-    add_list = arr.get("add", [])
-    if not isinstance(add_list, list):
-        raise RobotConfigError("must be an array of tables [[arrangement.add]]", path=path,
-                               key="arrangement.add")
-    for i, tab in enumerate(add_list):
-        key = f"arrangement.add[{i}]"
-        if not isinstance(tab, dict):
-            raise RobotConfigError("must be a table", path=path, key=key)
-        _check_keys(path, tab, key, _ADD_KEYS)
+    for key, tab in _table_array(path, arr.get("add", []), "arrangement.add", _ADD_KEYS):
         name = _string(path, tab, "name", key)
         if name in STANDARD_MARKERS or name in keypoints:
             raise RobotConfigError(f"added marker name {name!r} is already a marker", path=path,
@@ -651,15 +657,8 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
     check_pairs(rigid, "arrangement.rigid")
 
     directions = []
-    dir_list = data.get("directions", [])
-    if not isinstance(dir_list, list):
-        raise RobotConfigError("must be an array of tables [[directions]]", path=path,
-                               key="directions")
-    for i, tab in enumerate(dir_list):
-        key = f"directions[{i}]"
-        if not isinstance(tab, dict):
-            raise RobotConfigError("must be a table", path=path, key=key)
-        _check_keys(path, tab, key, _DIRECTION_KEYS)
+    for key, tab in _table_array(path, data.get("directions", []), "directions",
+                                 _DIRECTION_KEYS):
         axis = _vector(path, tab.get("axis"), f"{key}.axis", 3)
         if np.linalg.norm(axis) < 1e-9:
             raise RobotConfigError("axis must be non-zero", path=path, key=f"{key}.axis")
