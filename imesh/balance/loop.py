@@ -17,8 +17,8 @@ import numpy as np
 
 from ..contacts import runs
 from ..errors import ImeshError, OptionError
+from ..filtering import lowpass_array
 from ..metrics.kinematics import (
-    desired_zmp,
     motion_derivatives,
     sole_tracks,
     zmp_report,
@@ -189,29 +189,14 @@ def zmp_state(robot, q: np.ndarray, fps: float, support: np.ndarray,
         support: (T, 2) bool planned support [left, right].
         transition_s: desired-ZMP blending time [s].
     """
-    from ..metrics.kinematics import support_polygons
-
     v, a = motion_derivatives(q, fps)
     zmp = zmp_trajectory(robot, q, v, a)
     soles = sole_tracks(robot, q, fps)
     rep = zmp_report(zmp, soles, support, transition_s)
     com = np.array([robot.com(qt) for qt in q])
-    return ZmpState(zmp_m=zmp, desired_m=desired_zmp(soles, support, transition_s), com_m=com,
-                    error_mm=rep.error_mm, inside_fraction=rep.inside_fraction,
-                    max_outside_mm=rep.max_outside_mm,
-                    polygons=support_polygons(soles, support))
-
-
-def _lowpass(x: np.ndarray, fps: float, hz: float) -> np.ndarray:
-    """Zero-phase 2nd-order Butterworth low-pass along axis 0 (unchanged if too short)."""
-    from scipy.signal import butter, sosfiltfilt
-
-    if hz >= 0.5 * fps:
-        return x
-    sos = butter(2, hz / (0.5 * fps), output="sos")
-    if len(x) <= 3 * (2 * len(sos) + 1):
-        return x
-    return sosfiltfilt(sos, x, axis=0)
+    return ZmpState(zmp_m=zmp, desired_m=rep.desired_m, com_m=com, error_mm=rep.error_mm,
+                    inside_fraction=rep.inside_fraction, max_outside_mm=rep.max_outside_mm,
+                    polygons=rep.polygons)
 
 
 def check_flight(source: str, support: np.ndarray, fps: float, config: BalanceConfig) -> None:
@@ -266,8 +251,9 @@ def balance_loop(robot, q: np.ndarray, fps: float, support: np.ndarray, waist_xy
         com = state.com_m
         zdd = np.gradient(np.gradient(com[:, 2], 1.0 / fps), 1.0 / fps)
         change = np.where(free[:, None], 0.0, state.desired_m - state.zmp_m)
-        if config.error_lowpass_hz is not None:
-            change = _lowpass(change, fps, config.error_lowpass_hz)
+        if config.error_lowpass_hz is not None and config.error_lowpass_hz < 0.5 * fps:
+            smooth = lowpass_array(change, fps, config.error_lowpass_hz, order=2)
+            change = change if smooth is None else smooth
         dx = nishiwaki_correction(config.gain * change, com[:, 2], zdd, fps, free=free)
         target = target + dx
         try:

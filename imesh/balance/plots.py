@@ -12,24 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ImeshError
-
-
-def _pyplot():
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError as exc:  # pragma: no cover - matplotlib is a dependency
-        raise ImeshError("plots need matplotlib: pip install matplotlib") from exc
-    return plt
+from ..export import atomic_path
+from ..plots import _pyplot
 
 
 def _save(fig, path: Path) -> None:
-    tmp = path.with_name(path.name + ".tmp.png")
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110)
 
 
 def plot_balance(result, folder: str | os.PathLike, name: str = "robot") -> list[str]:

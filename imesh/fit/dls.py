@@ -663,6 +663,15 @@ class _FrameTargets:
                    dir_w_rows=np.repeat(config.direction_weight * targets.dir_weights, 3))
 
 
+def _frame_errors(frames: _FrameTargets, t: int, points: np.ndarray, axes: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Key-point distances (K,) [m] and direction angles (D,) [deg] of frame t; NaN where the
+    marker is missing."""
+    kp = np.where(frames.kp_ok[t], np.linalg.norm(frames.kp_pos[t] - points, axis=1), np.nan)
+    cosang = np.clip(np.einsum("di,di->d", axes, frames.dir_target[t]), -1.0, 1.0)
+    return kp, np.where(frames.dir_ok[t], np.degrees(np.arccos(cosang)), np.nan)
+
+
 @dataclass(eq=False)
 class _Track:
     """Output arrays of one pass of the frame loop."""
@@ -767,12 +776,9 @@ def _track(robot, kin: _Kinematics, frames: _FrameTargets, config: FitConfig, q0
                                            base_reach=base_reach)
         q_out[t] = q
         iters[t] = it
-        dist = np.linalg.norm(target_p - points, axis=1)
-        kp_err[t] = np.where(ok_p, dist, np.nan)
-        prev_rms = float(np.sqrt(np.mean(dist[ok_p] ** 2))) if ok_p.any() else prev_rms
-        if n_dir:
-            cosang = np.clip(np.einsum("di,di->d", axes, target_d), -1.0, 1.0)
-            dir_err[t] = np.where(ok_d, np.degrees(np.arccos(cosang)), np.nan)
+        kp_err[t], dir_err[t] = _frame_errors(frames, t, points, axes)
+        if ok_p.any():
+            prev_rms = float(np.sqrt(np.nanmean(kp_err[t] ** 2)))
         # ---- which limits are active
         joints = q[7:]
         on_lo = joints <= lo + _BOUND_TOL
@@ -794,12 +800,7 @@ def _limited(robot, kin: _Kinematics, frames: _FrameTargets, free: _Track, joint
     kp_err = np.full_like(free.kp_err, np.nan)
     dir_err = np.full_like(free.dir_err, np.nan)
     for t in range(n_frames):
-        points, axes = kin.points_and_axes(q[t])
-        kp_err[t] = np.where(frames.kp_ok[t], np.linalg.norm(frames.kp_pos[t] - points, axis=1),
-                             np.nan)
-        if axes.shape[0]:
-            cosang = np.clip(np.einsum("di,di->d", axes, frames.dir_target[t]), -1.0, 1.0)
-            dir_err[t] = np.where(frames.dir_ok[t], np.degrees(np.arccos(cosang)), np.nan)
+        kp_err[t], dir_err[t] = _frame_errors(frames, t, *kin.points_and_axes(q[t]))
     # a limit is active where the trajectory uses more than 99.9 % of it
     on_pos = (joints <= lower + 1e-3 * (upper - lower)) | (joints >= upper - 1e-3 * (upper - lower))
     dt = 1.0 / fps

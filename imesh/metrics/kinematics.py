@@ -15,7 +15,7 @@ by central differences at the motion's frame rate (numpy and scipy only).
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
@@ -289,6 +289,7 @@ class ZmpReport:
         inside_fraction: fraction of support frames whose ZMP is inside (NaN if none).
         error_mm: RMS distance [mm] between ZMP and desired ZMP over support frames.
         max_outside_mm: largest distance [mm] of an outside ZMP from its support polygon.
+        polygons: per frame the (K, 2) support polygon (None in flight).
     """
 
     zmp_m: np.ndarray
@@ -298,6 +299,7 @@ class ZmpReport:
     inside_fraction: float
     error_mm: float
     max_outside_mm: float
+    polygons: list = field(default_factory=list)
 
 
 def _distance_to_polygon(p: np.ndarray, poly: np.ndarray) -> float:
@@ -339,7 +341,8 @@ def zmp_report(zmp: np.ndarray, soles: SoleTracks, support: np.ndarray,
     else:
         error_mm = fraction = float("nan")
     return ZmpReport(zmp_m=zmp, desired_m=desired, inside=inside, support_frames=sup,
-                     inside_fraction=fraction, error_mm=error_mm, max_outside_mm=1e3 * worst)
+                     inside_fraction=fraction, error_mm=error_mm, max_outside_mm=1e3 * worst,
+                     polygons=polys)
 
 
 # ----------------------------------------------------------------------------------------------
