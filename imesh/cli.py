@@ -84,8 +84,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip the ZMP balance loop (Nishiwaki waist correction)")
     p.add_argument("--balance-flight", action="store_true",
                    help="balance only the supported segments of a clip with flight phases")
-    p.add_argument("--balance-iterations", type=int, default=6,
-                   help="largest number of waist corrections (default 6)")
+    p.add_argument("--balance-iterations", type=int, default=10,
+                   help="largest number of waist corrections (default 10)")
+    p.add_argument("--balance-feedback", choices=("joints", "mesh"), default="joints",
+                   help="where the waist correction goes: the planted motion's base and legs "
+                        "(default) or back into the morph (the paper's loop)")
+    p.add_argument("--no-plant", action="store_true",
+                   help="keep the fitted legs and base (no planted support soles)")
     _add_load_options(p)
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
     p.add_argument("--window-frames", type=int, default=2000,
@@ -200,11 +205,16 @@ def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, suppor
     base = RetargetConfig()
     bal = None
     if balance and support:
-        bal = BalanceConfig(iterations=getattr(args, "balance_iterations", 6),
-                            allow_flight=getattr(args, "balance_flight", False))
+        mesh = getattr(args, "balance_feedback", "joints") == "mesh"
+        bal = BalanceConfig(iterations=getattr(args, "balance_iterations", 10),
+                            allow_flight=getattr(args, "balance_flight", False),
+                            feedback="mesh" if mesh else "joints",
+                            error_lowpass_hz=1.5 if mesh else None)
+    plant = None if getattr(args, "no_plant", False) else base.plant
     config = RetargetConfig(morph=dataclasses.replace(base.morph, steps=steps,
                                                       window_frames=window_frames),
-                            support=SupportConfig() if support else None, balance=bal)
+                            support=SupportConfig() if support else None, balance=bal,
+                            plant=plant)
     bar, update = _progress(args, steps, f"morph for {robot.name}")
     try:
         return retarget(motion, robot, config=config, progress=update)

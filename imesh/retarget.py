@@ -35,6 +35,12 @@ def _default_balance():
     return BalanceConfig()
 
 
+def _default_plant():
+    from .fit.legs import PlantConfig
+
+    return PlantConfig()
+
+
 @dataclass(frozen=True)
 class RetargetConfig:
     """Settings of every stage.
@@ -49,8 +55,14 @@ class RetargetConfig:
         contacts: ContactConfig of the support detection.
         support: SupportConfig; None disables the support-foot constraints.
         fit: an :class:`imesh.fit.FitConfig` (None: defaults).
+        plant: an :class:`imesh.fit.legs.PlantConfig`: after the fit, the base is smoothed,
+            each support sole is planted flat on its footprint and the legs are solved for it
+            (:func:`imesh.fit.legs.plant_feet`); None keeps the fitted motion. It needs the
+            support-foot constraints.
         balance: an :class:`imesh.balance.BalanceConfig`; None skips the balance loop
-            (sec. V-C/D). It needs the support-foot constraints.
+            (sec. V-C/D). It needs the support-foot constraints. With ``plant`` (and
+            ``balance.feedback == "joints"``) the waist correction moves the planted motion's
+            base and the legs are solved again; otherwise it goes back into the morph.
         pelvis_weight: priority of the pelvis triangle (pelvis, hip_l, hip_r) and the base's
             lateral direction: the paper fits the waist 6-DOF from these first; a high weight
             keeps the feet from swinging the base when other targets disagree.
@@ -64,6 +76,7 @@ class RetargetConfig:
     contacts: ContactConfig = field(default_factory=ContactConfig)
     support: SupportConfig | None = field(default_factory=SupportConfig)
     fit: object | None = None
+    plant: object | None = field(default_factory=lambda: _default_plant())
     balance: object | None = field(default_factory=lambda: _default_balance())
     lowpass_hz: float | None = 8.0
     foot_weight: float = 10.0
@@ -83,7 +96,10 @@ class RetargetResult:
             (:func:`imesh.support.flat_support`), held by the support-foot constraints; equal
             to ``contacts`` when the constraints are off.
         morph: the spacetime solver's result.
-        fit: the fitting result (residuals, limit counts).
+        fit: the fitting result (residuals, limit counts) of the markers; ``motion`` differs
+            from ``fit.motion`` when the feet were planted or the motion balanced.
+        planted: the planted-feet stage's result (:class:`imesh.fit.legs.Planted`; None when
+            off).
         balance: the balance loop's result (:class:`imesh.balance.BalanceResult`; None when
             the balance stage is off). ``adapted``, ``morph`` and ``fit`` are its best iterate.
         seconds: wall time per stage [s].
@@ -98,6 +114,7 @@ class RetargetResult:
     fit: object
     balance: object | None
     seconds: dict
+    planted: object | None = None
 
     def report(self) -> dict:
         fit_report = self.fit.report() if hasattr(self.fit, "report") else {}
@@ -278,32 +295,65 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         return fit
 
     fit = morph_and_fit(hard)
-    balance = None
-    if config.balance is not None:
-        from .balance import balance_loop
-        pelvis = source.index("pelvis")
-        shape = source.positions_m.shape
-        base_soft = soft if soft is not None else np.full(shape, np.nan)
-        base_w = soft_w if soft_w is not None else np.zeros(shape[:2])
-
-        def step(waist_xy: np.ndarray) -> np.ndarray:
-            # The corrected waist is a soft target of large weight rather than the paper's hard
-            # constraint: with both feet pinned, a correction the legs cannot reach would make
-            # the hard constraints inconsistent and the morph fail.
-            s_m, w_m = base_soft.copy(), base_w.copy()
-            s_m[:, pelvis, :2] = waist_xy
-            w_m[:, pelvis] = config.balance.waist_weight
-            return morph_and_fit(hard, q_init=stages[-1][2].motion, soft_m=s_m,
-                                 soft_wm=w_m).motion.q
+    q_out = fit.motion.q
+    planted = balance = None
+    limits = None
+    if config.plant is not None and config.support is not None:
+        from .fit.dls import joint_limits
+        from .fit.legs import plant_feet
 
         t3 = time.perf_counter()
-        balance = balance_loop(robot, fit.motion.q, source.fps, flat.support,
-                               stages[0][1].positions_m[:, pelvis, :2], step, config.balance)
+        limits = joint_limits(robot, fit_config)
+        planted = plant_feet(robot, q_out, source.fps, flat.support, limits, config.plant)
+        q_out = planted.q
+        seconds["plant"] = time.perf_counter() - t3
+    if config.balance is not None:
+        from .balance import balance_loop
+
+        t3 = time.perf_counter()
+        if planted is not None and config.balance.feedback == "joints":
+            from .fit.legs import resolve_legs
+
+            base = planted.q
+
+            def step(waist_xy: np.ndarray) -> np.ndarray:
+                # the corrected waist moves the base; the planted soles stay, the legs follow
+                q = base.copy()
+                q[:, :2] = waist_xy
+                return resolve_legs(robot, q, planted.targets, source.fps, limits,
+                                    config.plant).q
+
+            balance = balance_loop(robot, q_out, source.fps, flat.support, base[:, :2], step,
+                                   config.balance)
+        else:
+            pelvis = source.index("pelvis")
+            shape = source.positions_m.shape
+            base_soft = soft if soft is not None else np.full(shape, np.nan)
+            base_w = soft_w if soft_w is not None else np.zeros(shape[:2])
+
+            def step(waist_xy: np.ndarray) -> np.ndarray:
+                # The corrected waist is a soft target of large weight rather than the
+                # paper's hard constraint: with both feet pinned, a correction the legs cannot
+                # reach would make the hard constraints inconsistent and the morph fail.
+                s_m, w_m = base_soft.copy(), base_w.copy()
+                s_m[:, pelvis, :2] = waist_xy
+                w_m[:, pelvis] = config.balance.waist_weight
+                return morph_and_fit(hard, q_init=stages[-1][2].motion, soft_m=s_m,
+                                     soft_wm=w_m).motion.q
+
+            balance = balance_loop(robot, q_out, source.fps, flat.support,
+                                   stages[0][1].positions_m[:, pelvis, :2], step,
+                                   config.balance)
+            stage = stages[balance.best]
+            stages[0] = stage
+        q_out = balance.q
         seconds["balance"] = time.perf_counter() - t3
-    morph, adapted, fit = stages[balance.best if balance is not None else 0]
+    morph, adapted, fit = stages[0]
+    motion_out = fit.motion if q_out is fit.motion.q else dataclasses.replace(fit.motion,
+                                                                               q=q_out)
     seconds["total"] = time.perf_counter() - t0
     log.info("retargeted %s to %s: %d frames in %.2f s", motion.source, robot.name,
              adapted.n_frames, seconds["total"])
-    return RetargetResult(motion=fit.motion, arrangement=arrangement, adapted=adapted,
+    return RetargetResult(motion=motion_out, arrangement=arrangement, adapted=adapted,
                           contacts=contacts, support=flat, morph=morph, fit=fit,
-                          balance=balance, seconds=seconds)
+                          balance=balance, seconds=seconds, planted=planted)

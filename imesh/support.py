@@ -76,7 +76,7 @@ def _middle(start: int, stop: int) -> tuple[int, int]:
     return start + (stop - start) // 4, start + (3 * (stop - start)) // 4 + 1
 
 
-def _blend(n_frames: int, phases: list[tuple[int, int]], ramp: int
+def phase_blend(n_frames: int, phases: list[tuple[int, int]], ramp: int
            ) -> tuple[np.ndarray, np.ndarray]:
     """(T,) blend factor s in [0, 1] and (T,) index of the phase it belongs to (-1: none).
 
@@ -140,7 +140,7 @@ def support_blend(contacts: Contacts, ramp_s: float) -> np.ndarray:
     :class:`SupportConfig` around it, 0 in swing (how strongly each foot is held flat)."""
     ramp = int(round(ramp_s * contacts.fps))
     n = len(contacts.support)
-    return np.stack([_blend(n, contacts.phases(side), ramp)[0] for side in SIDES], axis=1)
+    return np.stack([phase_blend(n, contacts.phases(side), ramp)[0] for side in SIDES], axis=1)
 
 
 def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
@@ -176,7 +176,7 @@ def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
         phases = contacts.phases(side)
         if not phases:
             continue
-        s, owner = _blend(motion.n_frames, phases, ramp)
+        s, owner = phase_blend(motion.n_frames, phases, ramp)
         on = np.flatnonzero(owner >= 0)
         # the pinned foot of every phase: toe position and the unit toe -> ankle vector of a
         # flat robot foot; horizontally the phase's footprint, or the source where it slides

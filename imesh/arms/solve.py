@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..fit import FitConfig
-from ..fit.dls import ACCELERATION, POSITION, VELOCITY, _joint_limits
+from ..fit.dls import ACCELERATION, POSITION, VELOCITY, joint_limits
 from ..fit.feasible import project_joint_trajectory
 from ..motion import MarkerMotion
 from ..robot_motion import RobotMotion
@@ -201,12 +201,12 @@ def arm_errors(arm: ArmModel, targets: ArmTargets, q: np.ndarray, limits: JointL
 
 
 def arm_limits(robot, arm: ArmModel, config: ArmsConfig) -> JointLimits:
-    """The arm joints' limits (robot limits through :func:`imesh.fit.dls._joint_limits`, with the
+    """The arm joints' limits (robot limits through :func:`imesh.fit.dls.joint_limits`, with the
     velocity / acceleration switches and override of ``config``)."""
     fit = FitConfig(enforce_velocity=config.enforce_velocity,
                     enforce_acceleration=config.enforce_acceleration,
                     acceleration_limit=config.acceleration_limit)
-    lower, upper, vmax, amax = _joint_limits(robot, fit)
+    lower, upper, vmax, amax = joint_limits(robot, fit)
     j = arm.joint_index
     return JointLimits(lower=lower[j], upper=upper[j], v_max=vmax[j], a_max=amax[j])
 

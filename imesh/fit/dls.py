@@ -258,7 +258,7 @@ class FitResult:
 
 
 # ------------------------------------------------------------------------------ limits
-def _joint_limits(robot, config: FitConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+def joint_limits(robot, config: FitConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                                       np.ndarray]:
     """Validated (q_lower, q_upper, v_max, a_max), each (n,); inf where unbounded."""
     names = list(robot.joint_names)
@@ -863,7 +863,7 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
     config = config or FitConfig()
     targets = compile_targets(robot, markers.names, keypoints, directions,
                               source=markers.source or "motion")
-    lower, upper, vmax, amax = _joint_limits(robot, config)
+    lower, upper, vmax, amax = joint_limits(robot, config)
     n_frames = markers.n_frames
     nq = robot.nq
     init = _as_q_init(q_init, n_frames, nq)

@@ -111,9 +111,11 @@ def _barrier_terms(q, bounds):
     return value, grad, weights
 
 
-def _newton_band(t: float, weights: list[np.ndarray], n_frames: int, n: int) -> np.ndarray:
-    """Upper band form (3, n T) of t I + sum_k D_k^T diag(w_k) D_k, joints stacked joint-major."""
-    diag = np.full((n_frames, n), t) + weights[0]
+def _newton_band(t: float, weights: list[np.ndarray], n_frames: int, n: int,
+                 tracking: np.ndarray | float = 1.0) -> np.ndarray:
+    """Upper band form (3, n T) of t W + sum_k D_k^T diag(w_k) D_k, joints stacked joint-major
+    (W = diag(tracking))."""
+    diag = t * np.broadcast_to(tracking, (n_frames, n)) + weights[0]
     off1 = np.zeros((n_frames - 1, n))
     off2 = np.zeros((n_frames - 2, n))
     w1 = weights[1]
@@ -152,7 +154,8 @@ def _max_step(q, dq, bounds) -> np.ndarray:
 
 def project_joint_trajectory(reference: np.ndarray, fps: float, lower: np.ndarray,
                              upper: np.ndarray, v_max: np.ndarray, a_max: np.ndarray, *,
-                             start: np.ndarray | None = None) -> Projection:
+                             start: np.ndarray | None = None,
+                             weights: np.ndarray | None = None) -> Projection:
     """Project a joint trajectory onto position, velocity and acceleration limits.
 
     Args:
@@ -162,6 +165,9 @@ def project_joint_trajectory(reference: np.ndarray, fps: float, lower: np.ndarra
         v_max, a_max: (n,) velocity [rad/s] and acceleration [rad/s^2] limits (> 0, inf: none).
         start: (n,) strictly feasible constant start (default: the reference's median clipped
             into the limits' middle 98 %).
+        weights: (T, n) float > 0 per-sample weights of the distance to the reference (the
+            objective is ``1/2 sum w (q - r)^2``); None: all 1. A planted leg's joints get a
+            large weight so the limits are met by the other samples where possible.
 
     Returns:
         Projection, strictly within the limits.
@@ -180,6 +186,7 @@ def project_joint_trajectory(reference: np.ndarray, fps: float, lower: np.ndarra
                           change_rad=np.sqrt(np.mean((q - r) ** 2, axis=0)),
                           seconds=time.perf_counter() - t0)
     bounds = [(lo_q, hi_q), (-vb, vb), (-ab, ab)]
+    w = 1.0 if weights is None else np.asarray(weights, dtype=np.float64)
     if start is None:
         width = np.where(np.isfinite(hi_q - lo_q), hi_q - lo_q, 0.0)
         start = np.clip(np.median(r, axis=0), lo_q + 0.01 * width, hi_q - 0.01 * width)
@@ -192,8 +199,8 @@ def project_joint_trajectory(reference: np.ndarray, fps: float, lower: np.ndarra
     while steps < _MAX_NEWTON:
         for _ in range(50):  # centering: Newton on t/2 |q - r|^2 + barrier
             bar, bgrad, weights = _barrier_terms(q, bounds)
-            grad = t * (q - r) + bgrad
-            band = _newton_band(t, weights, n_frames, n)
+            grad = t * w * (q - r) + bgrad
+            band = _newton_band(t, weights, n_frames, n, w)
             factor = cholesky_banded(band, lower=False, check_finite=False)
             dq = -cho_solve_banded((factor, False), grad.T.reshape(-1),
                                    check_finite=False).reshape(n, n_frames).T
@@ -202,11 +209,12 @@ def project_joint_trajectory(reference: np.ndarray, fps: float, lower: np.ndarra
             if decrement.max() < _NEWTON_TOL:
                 break
             alpha = _max_step(q, dq, bounds)
-            f0 = 0.5 * t * np.sum((q - r) ** 2, axis=0) + bar
+            f0 = 0.5 * t * np.sum(w * (q - r) ** 2, axis=0) + bar
             slope = np.sum(grad * dq, axis=0)
             for _ in range(30):  # backtracking per joint (Armijo; rounding-tolerant)
                 trial = q + alpha * dq
-                f1 = 0.5 * t * np.sum((trial - r) ** 2, axis=0) + _barrier_value(trial, bounds)
+                f1 = (0.5 * t * np.sum(w * (trial - r) ** 2, axis=0)
+                      + _barrier_value(trial, bounds))
                 bad = ~(f1 <= f0 + 0.25 * alpha * slope + 1e-12 * np.abs(f0))
                 if not bad.any():
                     break

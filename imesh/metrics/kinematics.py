@@ -18,10 +18,9 @@ import logging
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
-from ..contacts import SIDES, Contacts, drop_short, hysteresis
+from ..contacts import SIDES, Contacts, drop_short, hysteresis, runs
 from ..errors import OptionError
 
 log = logging.getLogger(__name__)
@@ -249,26 +248,43 @@ def support_polygons(soles: SoleTracks, support: np.ndarray) -> list[np.ndarray 
 def desired_zmp(soles: SoleTracks, support: np.ndarray, transition_s: float = 0.1
                 ) -> np.ndarray:
     """(T, 2) float [m] desired ZMP: the sole centre in single support, the centre of the convex
-    hull of both soles in double support, blended smoothly between phases (moving average over
-    ``transition_s``); flight frames are interpolated from their neighbours. All NaN when no
-    frame has support."""
+    hull of both soles in double support, smooth between phases; flight frames are
+    interpolated from their neighbours. All NaN when no frame has support.
+
+    The transitions happen inside the double-support phases, so the desired ZMP never leaves
+    the support polygon: over the first ``transition_s`` of a double-support phase it moves
+    (smoothstep) from the previous single-support sole centre to the hull centre, over the
+    last ``transition_s`` to the next single-support sole centre (for a phase shorter than
+    ``2 transition_s``: half of it each). Every value is a convex combination of points of the
+    polygon.
+    """
     T = soles.n_frames
     raw = np.full((T, 2), np.nan)
     polys = support_polygons(soles, support)
-    for t in range(T):
-        n = int(support[t].sum())
-        if n == 1:
-            side = SIDES[int(np.argmax(support[t]))]
-            raw[t] = soles.centers[side][t, :2]
-        elif n == 2:
-            raw[t] = polygon_centroid(polys[t])
+    n_support = support.sum(axis=1)
+    single = n_support == 1
+    side = np.argmax(support, axis=1)
+    for k, s in enumerate(SIDES):
+        sel = single & (side == k)
+        raw[sel] = soles.centers[s][sel, :2]
+    width = max(1, int(round(transition_s * soles.fps)))
+    for a, b in runs(n_support == 2):
+        centre = np.array([polygon_centroid(polys[t]) for t in range(a, b)])
+        t = np.arange(a, b)
+        w = max(1.0, min(width, (b - a) / 2.0))
+        d = centre
+        if a > 0 and single[a - 1]:
+            u = np.clip((t - a + 0.5) / w, 0.0, 1.0)[:, None]
+            d = raw[a - 1] + u * u * (3 - 2 * u) * (d - raw[a - 1])
+        if b < T and single[b]:
+            u = np.clip((b - t - 0.5) / w, 0.0, 1.0)[:, None]
+            d = raw[b] + u * u * (3 - 2 * u) * (d - raw[b])
+        raw[a:b] = d
     ok = ~np.isnan(raw[:, 0])
     if not ok.any():
         return raw
     idx = np.arange(T)
-    filled = np.stack([np.interp(idx, idx[ok], raw[ok, k]) for k in range(2)], axis=1)
-    width = max(1, int(round(transition_s * soles.fps)))
-    return uniform_filter1d(filled, size=width, axis=0, mode="nearest")
+    return np.stack([np.interp(idx, idx[ok], raw[ok, k]) for k in range(2)], axis=1)
 
 
 def zmp_trajectory(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,

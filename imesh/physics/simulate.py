@@ -14,10 +14,11 @@ The loop, per control step (all vectors in DART's DOF order, the base rows of th
 - PID: ``tau = tau_ff + Kp e + Kd de + Ki int(e)``.
 - ``tau`` clamped to ``effort_max * torque_limit_scale``.
 
-The feed-forward is precomputed once per motion frame with DART's inverse dynamics of the
-reference (the same model, so no mismatch): the base wrench it needs is distributed over the
-support feet (wrenches at the sole centres, weighted least norm), the joint torques follow, and
-both are interpolated linearly between frames. Joint targets are a cubic spline of the frames.
+The feed-forward is precomputed once per motion frame with pinocchio's inverse dynamics of the
+reference (recursive Newton-Euler on the model the motion was fitted with; the DART model is
+built from the same reduced URDF and checked against it): the base wrench it needs is
+distributed over the support feet (wrenches at the sole centres, weighted least norm), the joint
+torques follow, and they are interpolated linearly between frames. Joint targets are a cubic spline of the frames.
 """
 
 from __future__ import annotations
@@ -70,50 +71,50 @@ def _explicit_gains(sim: DartRobot, kp: np.ndarray, kd: np.ndarray, dt: float
 
 
 def feedforward(sim: DartRobot, ref: Reference) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse-dynamics feed-forward of every reference frame.
+    """Inverse-dynamics feed-forward of every reference frame (pinocchio, the model the motion
+    was made with).
+
+    Per frame, the generalized forces ``h = M a + C v + g`` (:meth:`imesh.robot.Robot.
+    inverse_dynamics`); the base wrench ``h[:6]`` is produced by wrenches ``f`` at the centres
+    of the support soles: ``J_base^T f = h[:6]``, weighted least norm (forces count
+    ``WRENCH_ARM_M`` times more than moments), and the joint torques are
+    ``(h - J^T f)[6:]``. A fixed base takes the base wrench itself.
 
     Args:
         sim: the robot in DART.
         ref: the reference.
 
     Returns:
-        (tau_ff, contact): (T, n_dofs) float joint torques in DART DOF order (base rows 0) and
-        (T, n_dofs) float generalized forces of the planned contact wrenches [N, Nm].
+        (tau_ff, wrenches): (T, n_dofs) float joint torques in DART DOF order (base rows 0)
+        [Nm] and (T, 2, 6) float [left, right] planned sole wrenches (force [N], moment [Nm],
+        world axes, at the sole centres; 0 off support).
     """
-    skel = sim.skeleton.clone("imesh_inverse_dynamics")
-    skel.setGravity(np.array([0.0, 0.0, -9.81]))
-    pos = sim.positions_from_q(ref.q)
-    vel = sim.velocities_from_v(ref.q, ref.v)
-    acc = sim.accelerations_from_a(ref.q, ref.v, ref.a)
     robot = sim.robot
-    bodies = {s: skel.getBodyNode(robot.soles[s].frame) for s in SIDES}
-    centres = {s: robot.soles[s].center for s in SIDES}
     nb = sim.base_dofs
+    frames = [robot.soles[s].frame for s in SIDES]
+    centres = np.array([robot.soles[s].center for s in SIDES])
     w2 = np.tile(np.r_[np.full(3, WRENCH_ARM_M ** 2), np.ones(3)], 2)
     T = ref.n_frames
     tau = np.zeros((T, sim.n_dofs))
-    contact = np.zeros((T, sim.n_dofs))
+    wrenches = np.zeros((T, 2, 6))
     for t in range(T):
-        skel.setPositions(pos[t])
-        skel.setVelocities(vel[t])
-        skel.setAccelerations(acc[t])
-        skel.computeInverseDynamics(False, True, False)
-        h = np.asarray(skel.getForces())
-        gen = np.zeros(sim.n_dofs)
-        feet = [s for k, s in enumerate(SIDES) if ref.support[t, k]]
-        if nb and feet:
-            J = np.vstack([skel.getWorldJacobian(bodies[s], centres[s]) for s in feet])
-            A = J[:, :nb].T  # (6, 6k): base rows of J^T
+        h = robot.inverse_dynamics(ref.q[t], ref.v[t], ref.a[t])
+        feet = np.flatnonzero(ref.support[t])
+        if nb and len(feet):
+            robot.forward(ref.q[t])
+            J = np.concatenate([robot.point_jacobians(None, frames, centres),
+                                robot.frame_angular_jacobians(None, frames)], axis=1)[feet]
+            J = J.reshape(6 * len(feet), -1)  # rows: (foot, [force xyz, moment xyz])
+            A = J[:, :6].T  # (6, 6k): base rows of J^T
             W = w2[:6 * len(feet)]
             try:
-                f = W * (A.T @ np.linalg.solve((A * W) @ A.T, h[:nb]))
+                f = W * (A.T @ np.linalg.solve((A * W) @ A.T, h[:6]))
             except np.linalg.LinAlgError:
-                f = np.linalg.lstsq(A, h[:nb], rcond=None)[0]
-            gen = J.T @ f
-        tau[t] = h - gen
-        tau[t, :nb] = 0.0
-        contact[t] = gen
-    return tau, contact
+                f = np.linalg.lstsq(A, h[:6], rcond=None)[0]
+            h = h - J.T @ f
+            wrenches[t, feet] = f.reshape(len(feet), 6)
+        tau[t, sim.joint_dofs] = h[6:]
+    return tau, wrenches
 
 
 def _tilt(rotvec_sim: np.ndarray, quat_ref: np.ndarray) -> float:

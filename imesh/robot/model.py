@@ -526,6 +526,14 @@ class Robot:
                                    key="joint",
                                    valid=closest_first(name, self.joint_names)) from None
 
+    def supporting_joints(self, frame: int | str) -> np.ndarray:
+        """(k,) int indices into ``q[7:]`` of the actuated joints between the base and a frame,
+        from the base outwards (a leg's chain for a sole frame)."""
+        model = self.model
+        j = model.frames[self._ids([frame])[0]].parentJoint
+        return np.array([model.joints[k].idx_q - 7 for k in model.supports[j] if k > 1],
+                        dtype=np.int64)
+
     def keypoint_arrays(self) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray]:
         """The markers.toml keypoints as arrays, ready for frame_positions/point_jacobians.
 
@@ -721,6 +729,16 @@ class Robot:
         self._resync(q)
         return np.array([c[0] - (h * cdd[0] + ldot[1] / m) / denom,
                          c[1] - (h * cdd[1] - ldot[0] / m) / denom])
+
+    def inverse_dynamics(self, q, v, a) -> np.ndarray:
+        """(nv,) float generalized forces ``M(q) a + C(q, v) v + g(q)`` (recursive Newton-Euler;
+        pinocchio convention: the first 6 rows are the wrench the free-flyer needs, in the base
+        frame, the rest joint torques [Nm])."""
+        q = self._check_q(q)
+        tau = np.array(self._pin.rnea(self.model, self.data, q, np.asarray(v, float),
+                                      np.asarray(a, float)))
+        self._resync(q)
+        return tau
 
     # --- poses ---------------------------------------------------------------------------------
 
