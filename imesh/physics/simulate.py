@@ -18,7 +18,8 @@ The feed-forward is precomputed once per motion frame with pinocchio's inverse d
 reference (recursive Newton-Euler on the model the motion was fitted with; the DART model is
 built from the same reduced URDF and checked against it): the base wrench it needs is
 distributed over the support feet (wrenches at the sole centres, weighted least norm), the joint
-torques follow, and they are interpolated linearly between frames. Joint targets are a cubic spline of the frames.
+torques follow, and they are interpolated linearly between frames. Joint targets are a cubic
+spline of the frames.
 """
 
 from __future__ import annotations
