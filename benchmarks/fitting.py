@@ -5,8 +5,11 @@ Two kinds of rows, printed by the same table (:func:`fit_table`):
 - FK round trip: a smooth random within-limit joint trajectory with a walking, turning base;
   key points and direction markers by forward kinematics; fitted back with the default
   FitConfig (the exact answer is known, so RMS measures the solver).
-- real clips: the full pipeline (``imesh.retarget.retarget``: arrangement, contacts, morph)
-  on clips of ``IMESH_DATA/mocap``; the fitting stage's numbers are reported.
+- real clips: the full pipeline (``imesh.retarget.retarget``: arrangement, contacts, morph,
+  fit, planted feet; no balance loop) on clips of ``IMESH_DATA/mocap``; the fitting stage's
+  numbers are reported, then for the output motion (after the planted-feet stage): key-point
+  RMS against the adapted markers, the largest |v|/v_max and |a|/a_max, the sole height in
+  the planned support frames and the slip.
 
     python benchmarks/fitting.py                           # FK rows, 600 frames, 3 robots
     python benchmarks/fitting.py --frames 2000 --robots jvrc1
@@ -97,10 +100,23 @@ def clip_rows(clips, robots=ROBOTS, fit_config=None) -> list[dict]:
 
 
 def support_feet(robot, result) -> dict:
-    """Sole height in the planned support frames: |lowest sole corner z| [mm] (median, p95,
-    max over both feet) and the horizontal sole-centre slip [mm per frame at 30 fps]."""
+    """The output motion: key-point RMS [mm] against the adapted markers, largest |v|/v_max and
+    |a|/a_max of the joints, sole height in the planned support frames (|lowest sole corner
+    z| [mm]: median, p95, max over both feet) and the horizontal sole-centre slip [mm per frame
+    at 30 fps]."""
     from imesh.contacts import SIDES
+    from imesh.fit import FitConfig
+    from imesh.fit.dls import joint_limits
     from imesh.metrics.kinematics import sole_tracks
+    from imesh.metrics.markers import keypoint_motion, marker_rms_mm
+
+    motion = result.motion
+    kp = keypoint_motion(robot, motion.q, motion.fps)
+    out_rms = marker_rms_mm(kp, result.adapted)
+    _, _, vmax, amax = joint_limits(robot, result.fit.config or FitConfig())
+    joints = motion.q[:, 7:]
+    v_ratio = float((np.abs(np.diff(joints, axis=0)) * motion.fps / vmax).max())
+    a_ratio = float((np.abs(np.diff(joints, n=2, axis=0)) * motion.fps**2 / amax).max())
 
     soles = sole_tracks(robot, result.motion.q, result.motion.fps)
     sup = result.support.support
@@ -111,10 +127,11 @@ def support_feet(robot, result) -> dict:
         slips.append(step[sup[1:, k] & sup[:-1, k]] * result.motion.fps / 30.0)
     h = 1e3 * np.concatenate(heights)
     sl = 1e3 * np.concatenate(slips)
+    extra = {"out_rms_mm": out_rms, "out_v_ratio": v_ratio, "out_a_ratio": a_ratio}
     if not h.size:
-        return {"foot_mm": (np.nan,) * 3, "slip_mm": (np.nan,) * 2}
+        return {"foot_mm": (np.nan,) * 3, "slip_mm": (np.nan,) * 2, **extra}
     return {"foot_mm": (float(np.median(h)), float(np.percentile(h, 95)), float(h.max())),
-            "slip_mm": (float(np.median(sl)), float(np.percentile(sl, 95)))}
+            "slip_mm": (float(np.median(sl)), float(np.percentile(sl, 95))), **extra}
 
 
 def fit_table(rows: list[dict]) -> None:
@@ -123,6 +140,7 @@ def fit_table(rows: list[dict]) -> None:
     head = (f"{'robot':7s} {'source':32s} {'frames':>6s} {'fps':>5s} {'ms/frame':>8s} "
             f"{'solves':>6s} {'RMS mm':>7s} {'max mm':>7s} {'dir deg':>7s} "
             f"{'at pos/vel/acc':>15s} {'confl':>5s} {'max v/vmax':>10s} "
+            f"| {'out RMS':>7s} {'v/vmax':>6s} {'a/amax':>6s} "
             f"{'foot z mm med/p95/max':>21s} {'slip med/p95':>12s}")
     print(head)
     print("-" * len(head))
@@ -134,8 +152,9 @@ def fit_table(rows: list[dict]) -> None:
               f"{r['marker_rms_mm']:7.3f} {r['keypoint_max_mm']:7.3f} "
               f"{r['direction_rms_deg']:7.3f} {limits:>15s} {r['conflicts']:5d} "
               f"{r['max_v_ratio']:10.2f} "
-              + (" {:5.1f} /{:5.1f} /{:5.1f}    {:5.2f}/{:5.2f}".format(
-                  *r["foot_mm"], *r["slip_mm"]) if "foot_mm" in r else ""))
+              + (" | {:7.1f} {:6.3f} {:6.3f} {:5.1f} /{:5.1f} /{:5.1f}    {:5.2f}/{:5.2f}".format(
+                  r["out_rms_mm"], r["out_v_ratio"], r["out_a_ratio"], *r["foot_mm"],
+                  *r["slip_mm"]) if "foot_mm" in r else ""))
 
 
 def main() -> None:

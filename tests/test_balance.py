@@ -121,3 +121,29 @@ def test_balance_loop_lowers_the_zmp_error_on_a_real_clip():
     assert (np.abs(np.diff(q, 2, axis=0)) / dt**2 <= robot.a_max + 1e-6).all()
     report = result.report()["balance"]
     assert report["iterations_run"] >= 1 and len(report["per_iteration"]) >= 2
+
+
+def test_balanced_walk_follows_the_desired_zmp():
+    """The CMU walk on JVRC-1 (default pipeline: planted feet, waist correction on the base):
+    the ZMP error falls from > 200 mm to <= 35 mm, >= 93 % of the support frames have the ZMP
+    inside the support polygon, the planted soles are on the ground (median |z| < 0.5 mm) and
+    every joint stays within its position, velocity and acceleration limits."""
+    from imesh.metrics.kinematics import sole_tracks
+
+    motion = imesh.load_motion(mocap_path("cmu_02_01_walk.bvh"))
+    robot = load_test_robot("jvrc1")
+    result = retarget(motion, robot)
+    bal = result.balance
+    assert bal.before.zmp_error_mm > 200.0
+    assert bal.after.zmp_error_mm <= 35.0
+    assert bal.after.zmp_inside_fraction >= 0.93
+    q = result.motion.joint_positions
+    dt = 1.0 / result.motion.fps
+    assert not ((q < robot.q_lower - 1e-9) | (q > robot.q_upper + 1e-9)).any()
+    assert (np.abs(np.diff(q, axis=0)) / dt <= robot.v_max + 1e-6).all()
+    assert (np.abs(np.diff(q, 2, axis=0)) / dt**2 <= robot.a_max + 1e-6).all()
+    soles = sole_tracks(robot, result.motion.q, result.motion.fps)
+    sup = result.support.support
+    heights = np.concatenate([np.abs(soles.lowest(s)[sup[:, k]])
+                              for k, s in enumerate(("left", "right"))])
+    assert np.median(heights) < 5e-4

@@ -70,7 +70,7 @@ class PlantConfig:
 
     base_lowpass_hz: float | None = 6.0
     base_yaw_lowpass_hz: float | None = 0.5
-    min_knee_rad: float = 0.4
+    min_knee_rad: float = 0.8
     ramp_s: float = 0.12
     planted_weight: float = 1e3
     reach_tolerance_m: float = 2e-3
