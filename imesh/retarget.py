@@ -225,6 +225,15 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
     return markers, tuple(directions)
 
 
+def _support_height_p95(robot, q: np.ndarray, fps: float, support: np.ndarray) -> float:
+    """[m] 95th percentile of |lowest sole corner z| over the support frames (0 if none)."""
+    from .metrics.kinematics import sole_tracks
+
+    soles = sole_tracks(robot, q, fps)
+    h = np.concatenate([np.abs(soles.lowest(s)[support[:, k]]) for k, s in enumerate(SIDES)])
+    return float(np.percentile(h, 95)) if h.size else 0.0
+
+
 def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = None,
              progress: Callable[[MorphStepReport], None] | None = None) -> RetargetResult:
     """Adapt a human motion to ``robot`` (an :class:`imesh.robot.Robot`).
@@ -305,7 +314,17 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         t3 = time.perf_counter()
         limits = joint_limits(robot, fit_config)
         planted = plant_feet(robot, q_out, source.fps, flat.support, limits, config.plant)
-        q_out = planted.q
+        # a quality gate: planting must not put the support soles further off the ground than
+        # the fit had them (where the legs cannot reach the footprints even after letting go)
+        before, after = (_support_height_p95(robot, q, source.fps, flat.support)
+                         for q in (q_out, planted.q))
+        if after <= before + 1e-3:
+            q_out = planted.q
+        else:
+            log.warning("planted feet: support soles %.1f mm off the ground (95th percentile) "
+                        "vs %.1f mm in the fit; keeping the fitted motion", 1e3 * after,
+                        1e3 * before)
+            planted = None
         seconds["plant"] = time.perf_counter() - t3
     if config.balance is not None:
         from .balance import balance_loop

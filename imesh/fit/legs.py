@@ -53,8 +53,9 @@ class PlantConfig:
             while the chest stays within 7 deg); a robot's hip yaw range (JVRC-1: 0.52 rad)
             cannot turn planted feet that far, so the base keeps the slow heading and the
             torso joints keep the chest's fitted rotation.
-        min_knee_rad: the base is lowered (one constant drop over the clip) so that no support
-            leg needs its knee straighter than this [rad]: near the stretched knee a millimetre
+        min_knee_rad: the base is lowered (one constant drop over the clip; halved or none
+            where the ankles cannot follow) so that no support leg needs its knee straighter
+            than this [rad]: near the stretched knee a millimetre
             of base height is degrees of knee angle, and the human walk's straight stance leg
             would shake the robot's knees at their acceleration limits.
         ramp_s: support ramp length [s] (the blend from the fitted sole to the footprint).
@@ -475,9 +476,22 @@ def plant_feet(robot, q: np.ndarray, fps: float, support: np.ndarray, limits: tu
         targets = FootTargets(poses=targets.poses, blend=targets.blend, torso=torso.poses)
     smooth = smooth_base(np.asarray(q, dtype=np.float64), fps, config.base_lowpass_hz,
                          config.base_yaw_lowpass_hz)
-    drop = base_drop(robot, smooth, targets, config.min_knee_rad)
-    smooth[:, 2] -= drop
-    out = resolve_legs(robot, smooth, targets, fps, limits, config)
+    # The drop bends the knees, and the ankles must follow: where an ankle runs out of range
+    # (HRP-4C's dorsiflexion on the CMU wave) a smaller drop is taken: the largest of
+    # drop, drop/2, 0 with at most 1 % unreachable sole samples, else the one with the fewest.
+    full = base_drop(robot, smooth, targets, config.min_knee_rad)
+    best = None
+    for drop in (full, 0.5 * full, 0.0) if full > 0 else (0.0,):
+        trial = smooth.copy()
+        trial[:, 2] -= drop
+        out = resolve_legs(robot, trial, targets, fps, limits, config)
+        n_bad = int(np.sum((out.position_error_m > config.reach_tolerance_m)
+                           | (out.rotation_error_rad > np.radians(config.reach_tolerance_deg))))
+        if best is None or n_bad < best[0]:
+            best = (n_bad, drop, trial, out)
+        if n_bad <= 0.01 * out.position_error_m.size:  # the release below handles a few
+            break
+    _, drop, smooth, out = best
     # Where the leg cannot reach the footprint (the fit slid or twisted the foot because a
     # joint was on its limit: the CMU wash's squats twist the hips past JVRC-1's hip yaw range)
     # the sole is let go towards its fitted pose, over the support ramp around those frames.
