@@ -32,8 +32,7 @@ def row(robot, result, seconds: float, balanced: bool) -> dict:
     state = zmp_state(robot, motion.q, motion.fps, support)
     soles = sole_tracks(robot, motion.q, motion.fps)
     skid = foot_skid(soles, support)
-    heights = np.concatenate([np.abs(soles.lowest(s)[support[:, k]])
-                              for k, s in enumerate(("left", "right"))])
+    heights = soles.support_heights(support)
     limits = limit_violations(robot, motion.q, motion.fps)
     bal = result.balance
     return {

@@ -120,12 +120,11 @@ def support_feet(robot, result) -> dict:
 
     soles = sole_tracks(robot, result.motion.q, result.motion.fps)
     sup = result.support.support
-    heights, slips = [], []
+    slips = []
     for k, side in enumerate(SIDES):
-        heights.append(np.abs(soles.lowest(side)[sup[:, k]]))
         step = np.linalg.norm(np.diff(soles.centers[side][:, :2], axis=0), axis=1)
         slips.append(step[sup[1:, k] & sup[:-1, k]] * result.motion.fps / 30.0)
-    h = 1e3 * np.concatenate(heights)
+    h = 1e3 * soles.support_heights(sup)
     sl = 1e3 * np.concatenate(slips)
     extra = {"out_rms_mm": out_rms, "out_v_ratio": v_ratio, "out_a_ratio": a_ratio}
     if not h.size:

@@ -229,8 +229,7 @@ def _support_height_p95(robot, q: np.ndarray, fps: float, support: np.ndarray) -
     """[m] 95th percentile of |lowest sole corner z| over the support frames (0 if none)."""
     from .metrics.kinematics import sole_tracks
 
-    soles = sole_tracks(robot, q, fps)
-    h = np.concatenate([np.abs(soles.lowest(s)[support[:, k]]) for k, s in enumerate(SIDES)])
+    h = sole_tracks(robot, q, fps).support_heights(support)
     return float(np.percentile(h, 95)) if h.size else 0.0
 
 
@@ -307,6 +306,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     q_out = fit.motion.q
     planted = balance = None
     limits = None
+    chosen = 0  # the stage (morph, adapted, fit) the output comes from
     if config.plant is not None and config.support is not None:
         from .fit.dls import joint_limits
         from .fit.legs import plant_feet
@@ -363,11 +363,10 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
             balance = balance_loop(robot, q_out, source.fps, flat.support,
                                    stages[0][1].positions_m[:, pelvis, :2], step,
                                    config.balance)
-            stage = stages[balance.best]
-            stages[0] = stage
+            chosen = balance.best
         q_out = balance.q
         seconds["balance"] = time.perf_counter() - t3
-    morph, adapted, fit = stages[0]
+    morph, adapted, fit = stages[chosen]
     motion_out = fit.motion if q_out is fit.motion.q else dataclasses.replace(fit.motion,
                                                                                q=q_out)
     seconds["total"] = time.perf_counter() - t0

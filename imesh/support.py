@@ -71,7 +71,7 @@ class SupportConfig:
             raise OptionError("ramp_s", self.ramp_s, "a number >= 0 [s]")
 
 
-def _middle(start: int, stop: int) -> tuple[int, int]:
+def middle_half(start: int, stop: int) -> tuple[int, int]:
     """[q1, q3) the middle half of a phase [start, stop) (at least one frame)."""
     return start + (stop - start) // 4, start + (3 * (stop - start)) // 4 + 1
 
@@ -126,7 +126,7 @@ def flat_support(motion: MarkerMotion, contacts: Contacts,
         d = pos[:, ankle] - pos[:, toe]
         pitch = np.degrees(np.arctan2(d[:, 2], np.linalg.norm(d[:, :2], axis=1)))
         for start, stop in contacts.phases(side):
-            q1, q3 = _middle(start, stop)
+            q1, q3 = middle_half(start, stop)
             ref = np.median(pitch[q1:q3])
             ok = np.abs(pitch[start:stop] - ref) <= config.flat_pitch_deg
             best = max(((a + start, b + start) for a, b in runs(ok)),
@@ -189,7 +189,7 @@ def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
         pinned = np.zeros(len(on), dtype=bool)
         if config.horizontal:
             for k, (start, stop) in enumerate(phases):
-                q1, q3 = _middle(start, stop)
+                q1, q3 = middle_half(start, stop)
                 middle = pos[q1:q3, toe, :2]
                 if np.linalg.norm(middle - middle[0], axis=1).max() > config.slide_threshold_m:
                     continue  # the source foot really slides

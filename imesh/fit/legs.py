@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt
@@ -35,7 +35,7 @@ from scipy.spatial.transform import Rotation
 from ..contacts import SIDES, runs
 from ..errors import OptionError
 from ..filtering import lowpass_array
-from ..support import phase_blend
+from ..support import middle_half, phase_blend
 from .feasible import project_joint_trajectory
 
 log = logging.getLogger(__name__)
@@ -136,7 +136,8 @@ class Planted:
 
 
 def _log3(r: np.ndarray) -> np.ndarray:
-    """(3,) rotation vector of a rotation matrix (angles below pi)."""
+    """(3,) rotation vector of a rotation matrix (angles below pi); one 3 x 3 matrix per call
+    in the per-frame Newton loop, where scipy's Rotation costs ~10x more per call."""
     c = np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0)
     angle = np.arccos(c)
     w = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
@@ -216,7 +217,7 @@ def foot_targets(robot, q: np.ndarray, support: np.ndarray, fps: float,
         centers = np.einsum("tij,j->ti", rot, sole.center) + fitted[:, k, :3, 3]
         planted = np.empty((len(phases), 4, 4))
         for i, (start, stop) in enumerate(phases):
-            a, b = start + (stop - start) // 4, start + (3 * (stop - start)) // 4 + 1
+            a, b = middle_half(start, stop)
             psi = np.arctan2(np.sin(yaw[a:b]).mean(), np.cos(yaw[a:b]).mean())
             r = np.array([[np.cos(psi), -np.sin(psi), 0], [np.sin(psi), np.cos(psi), 0],
                           [0, 0, 1.0]]) @ r0
@@ -257,19 +258,24 @@ class _ChainTask:
     rotation_only: bool = False
 
 
-def _torso_task(robot, q: np.ndarray) -> _ChainTask | None:
-    """Keep the torso (the frame of the ``chest`` key point) at its fitted world rotation, so
-    the upper body does not turn with the smoothed base; None if the robot has no torso
-    joints or no chest key point."""
+def _torso_chain(robot) -> tuple[int, np.ndarray] | None:
+    """(frame, joints) of the torso: the ``chest`` key point's frame and the joints moving it;
+    None if the robot has no chest key point or no torso joints."""
     markers = robot.markers
     if markers is None or "chest" not in markers.keypoints:
         return None
     frame = robot.frame_id(markers.keypoints["chest"].frame)
     chain = robot.supporting_joints(frame)
-    if len(chain) == 0:
+    return (frame, chain) if len(chain) else None
+
+
+def torso_poses(robot, q: np.ndarray) -> np.ndarray | None:
+    """(T, 4, 4) world poses of the torso frame over ``q`` (None without torso joints): the
+    rotations the torso joints keep, so the upper body does not turn with a smoothed base."""
+    torso = _torso_chain(robot)
+    if torso is None:
         return None
-    poses = np.array([robot.frame_placements(qt, [frame])[0] for qt in q])
-    return _ChainTask(frame=frame, chain=chain, poses=poses, rotation_only=True)
+    return np.array([robot.frame_placements(qt, [torso[0]])[0] for qt in q])
 
 
 def _solve_chains(robot, q: np.ndarray, tasks: list[_ChainTask], lower: np.ndarray,
@@ -357,7 +363,7 @@ class _Leg:
         names = [robot.joint_names[i] for i in chain]
         hip0, knee0, ankle0 = robot.frame_positions(q0, [names[0], names[3], names[4]])
         sole0 = robot.frame_placements(q0, [sole.frame])[0]
-        base0 = _quat_matrix(q0[None, 3:7])[0]
+        base0 = Rotation.from_quat(q0[3:7]).as_matrix()
         bend = q0[7 + chain[3]]
         return cls(knee=int(chain[3]), knee_sign=-1.0 if bend < 0 else 1.0,
                    thigh=float(np.linalg.norm(knee0 - hip0)),
@@ -367,7 +373,7 @@ class _Leg:
 
     def hip_ankle(self, q: np.ndarray, poses: np.ndarray) -> np.ndarray:
         """(T, 3) [m] ankle target minus hip for base poses q (T, nq) and sole poses."""
-        hip = q[:, :3] + _quat_matrix(q[:, 3:7]) @ self.hip_in_base
+        hip = q[:, :3] + Rotation.from_quat(q[:, 3:7]).as_matrix() @ self.hip_in_base
         return poses[:, :3, :3] @ self.ankle_in_sole + poses[:, :3, 3] - hip
 
     def reach(self, knee_rad) -> np.ndarray:
@@ -403,10 +409,6 @@ def base_drop(robot, q: np.ndarray, targets: FootTargets, min_knee_rad: float) -
     return max(drop, 0.0)
 
 
-def _quat_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
-    return Rotation.from_quat(quat_xyzw).as_matrix()
-
-
 def resolve_legs(robot, q: np.ndarray, targets: FootTargets, fps: float, limits: tuple,
                  config: PlantConfig | None = None) -> Planted:
     """Solve the legs of ``q`` (its base and upper body kept) for sole targets, then project
@@ -434,9 +436,9 @@ def resolve_legs(robot, q: np.ndarray, targets: FootTargets, fps: float, limits:
             distance = np.linalg.norm(leg.hip_ankle(q, targets.poses[:, k]), axis=1)
             q[:, 7 + leg.knee] = np.clip(leg.knee_for(distance), lower[leg.knee],
                                          upper[leg.knee])
-    if targets.torso is not None:
-        task = _torso_task(robot, q[:1])
-        tasks.append(_ChainTask(frame=task.frame, chain=task.chain, poses=targets.torso,
+    torso = _torso_chain(robot)
+    if targets.torso is not None and torso is not None:
+        tasks.append(_ChainTask(frame=torso[0], chain=torso[1], poses=targets.torso,
                                 rotation_only=True))
     solved, pos_err, rot_err, steps = _solve_chains(robot, q, tasks, lower, upper, config)
     pos_err, rot_err = pos_err[:, :2], rot_err[:, :2]
@@ -451,6 +453,12 @@ def resolve_legs(robot, q: np.ndarray, targets: FootTargets, fps: float, limits:
     return Planted(q=solved, targets=targets, position_error_m=pos_err,
                    rotation_error_rad=rot_err, newton_steps=steps,
                    seconds=time.perf_counter() - t0)
+
+
+def _unreachable(out: Planted, config: PlantConfig) -> np.ndarray:
+    """(T, 2) bool sole samples the leg solve missed by more than the reach tolerances."""
+    return ((out.position_error_m > config.reach_tolerance_m)
+            | (out.rotation_error_rad > np.radians(config.reach_tolerance_deg)))
 
 
 def plant_feet(robot, q: np.ndarray, fps: float, support: np.ndarray, limits: tuple,
@@ -470,10 +478,9 @@ def plant_feet(robot, q: np.ndarray, fps: float, support: np.ndarray, limits: tu
     """
     config = config or PlantConfig()
     t0 = time.perf_counter()
-    targets = foot_targets(robot, q, np.asarray(support, dtype=bool), fps, config.ramp_s)
-    torso = _torso_task(robot, q)
-    if torso is not None:
-        targets = FootTargets(poses=targets.poses, blend=targets.blend, torso=torso.poses)
+    support = np.asarray(support, dtype=bool)
+    torso = torso_poses(robot, q)
+    targets = replace(foot_targets(robot, q, support, fps, config.ramp_s), torso=torso)
     smooth = smooth_base(np.asarray(q, dtype=np.float64), fps, config.base_lowpass_hz,
                          config.base_yaw_lowpass_hz)
     # The drop bends the knees, and the ankles must follow: where an ankle runs out of range
@@ -485,8 +492,7 @@ def plant_feet(robot, q: np.ndarray, fps: float, support: np.ndarray, limits: tu
         trial = smooth.copy()
         trial[:, 2] -= drop
         out = resolve_legs(robot, trial, targets, fps, limits, config)
-        n_bad = int(np.sum((out.position_error_m > config.reach_tolerance_m)
-                           | (out.rotation_error_rad > np.radians(config.reach_tolerance_deg))))
+        n_bad = int(_unreachable(out, config).sum())
         if best is None or n_bad < best[0]:
             best = (n_bad, drop, trial, out)
         if n_bad <= 0.01 * out.position_error_m.size:  # the release below handles a few
@@ -497,9 +503,7 @@ def plant_feet(robot, q: np.ndarray, fps: float, support: np.ndarray, limits: tu
     # the sole is let go towards its fitted pose, over the support ramp around those frames.
     unplanted = np.zeros((len(q), 2), dtype=bool)
     for _ in range(config.release_rounds):
-        bad = ((out.position_error_m > config.reach_tolerance_m)
-               | (out.rotation_error_rad > np.radians(config.reach_tolerance_deg)))
-        bad &= targets.blend > 0
+        bad = _unreachable(out, config) & (targets.blend > 0)
         if not bad.any():
             break
         unplanted |= bad
@@ -509,15 +513,13 @@ def plant_feet(robot, q: np.ndarray, fps: float, support: np.ndarray, limits: tu
             if unplanted[:, k].any():
                 u = np.clip(distance_transform_edt(~unplanted[:, k]) / (ramp + 1.0), 0, 1)
                 hold[:, k] = u * u * (3 - 2 * u)
-        targets = foot_targets(robot, q, np.asarray(support, dtype=bool), fps, config.ramp_s,
-                               hold)
-        targets = FootTargets(poses=targets.poses, blend=targets.blend,
-                              torso=None if torso is None else torso.poses)
+        targets = replace(foot_targets(robot, q, support, fps, config.ramp_s, hold),
+                          torso=torso)
         out = resolve_legs(robot, smooth, targets, fps, limits, config)
     if unplanted.any():
         log.warning("planted feet: %d of %d support frames let go towards the fitted soles "
                     "(footprint out of the legs' reach)", int(unplanted.sum()),
-                    int(np.asarray(support, dtype=bool).sum()))
+                    int(support.sum()))
     log.info("planted feet: base lowered %.1f mm, sole error after the leg solve max %.2f mm / "
              "%.3f deg, %d Newton steps, %.2f s", 1e3 * drop, 1e3 * out.position_error_m.max(),
              np.degrees(out.rotation_error_rad.max()), out.newton_steps,

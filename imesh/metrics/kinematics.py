@@ -121,6 +121,12 @@ class SoleTracks:
         """(T,) float [m] height of the lowest corner of a sole."""
         return self.corners[side][..., 2].min(axis=1)
 
+    def support_heights(self, support: np.ndarray) -> np.ndarray:
+        """(N,) float [m] |lowest corner z| of each sole in each of its support frames
+        (left's frames, then right's); ``support`` is (T, 2) bool [left, right]."""
+        return np.concatenate([np.abs(self.lowest(s)[support[:, k]])
+                               for k, s in enumerate(SIDES)])
+
     def speed(self, side: str) -> np.ndarray:
         """(T,) float [m/s] speed of a sole centre (central differences)."""
         if self.n_frames < 2:
