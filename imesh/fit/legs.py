@@ -67,10 +67,6 @@ class PlantConfig:
         iterations: Newton steps per frame and leg at most.
         tolerance_m: stop when the sole error is below this (position [m], rotation [rad]).
         damping: Levenberg damping of the 6 x 6 leg solve (squared, [m^2]).
-        clearance_m: a solved sole whose lowest corner is more than this below the ground
-            [m] ...
-        clearance_rounds: ... has its target raised by that depth and is solved again, at
-            most this many times (:func:`resolve_legs`).
     """
 
     base_lowpass_hz: float | None = 6.0
@@ -84,8 +80,6 @@ class PlantConfig:
     iterations: int = 30
     tolerance_m: float = 1e-6
     damping: float = 1e-6
-    clearance_m: float = 1e-3
-    clearance_rounds: int = 4
 
     def __post_init__(self) -> None:
         if self.base_lowpass_hz is not None and not (np.isfinite(self.base_lowpass_hz)
@@ -93,9 +87,7 @@ class PlantConfig:
             raise OptionError("base_lowpass_hz", self.base_lowpass_hz, "a positive frequency")
         if not (isinstance(self.iterations, int) and self.iterations >= 1):
             raise OptionError("iterations", self.iterations, "an integer >= 1")
-        if not (isinstance(self.clearance_rounds, int) and self.clearance_rounds >= 0):
-            raise OptionError("clearance_rounds", self.clearance_rounds, "an integer >= 0")
-        for name in ("ramp_s", "tolerance_m", "damping", "clearance_m"):
+        for name in ("ramp_s", "tolerance_m", "damping"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise OptionError(name, value, "a number >= 0")
@@ -396,51 +388,6 @@ class _Leg:
         return self.knee_sign * np.arccos(c)
 
 
-def _lowest_corners(robot, q: np.ndarray) -> np.ndarray:
-    """(T, 2) float [m] height of the lowest sole corner [left, right] over ``q``."""
-    poses = sole_poses(robot, q)
-    out = np.empty((len(q), 2))
-    for k, side in enumerate(SIDES):
-        corners = robot.soles[side].corners()
-        out[:, k] = (np.einsum("tj,cj->tc", poses[:, k, 2, :3], corners)
-                     + poses[:, k, None, 2, 3]).min(axis=1)
-    return out
-
-
-def _keep_above_ground(robot, q, tasks, targets, pos_err, rot_err, steps, lower, upper,
-                       config: PlantConfig):
-    """Raise the targets of soles the legs leave below the ground and solve those frames again.
-
-    A target out of the leg's reach (the CMU wave starts in a side step wider than JVRC-1's
-    hips open, after the base was lowered) is met by the closest reachable pose, which can put
-    a swinging sole 5-7 cm into the ground: the physics check then sees a kick. The ground is a
-    hard limit and the target a wish, so the target is raised by the depth (the closest
-    reachable pose moves up by less: a few rounds).
-
-    Returns:
-        (q, targets, position errors, rotation errors, steps) with the raised targets.
-    """
-    if config.clearance_rounds == 0:
-        return q, targets, pos_err, rot_err, steps
-    poses = targets.poses.copy()
-    for _ in range(config.clearance_rounds):
-        depth = np.maximum(-_lowest_corners(robot, q), 0.0)
-        bad = depth > config.clearance_m
-        if not bad.any():
-            break
-        frames = np.flatnonzero(bad.any(axis=1))
-        poses[:, :, 2, 3] += np.where(bad, depth, 0.0)
-        sub = [replace(task, poses=poses[frames, k]) if k < 2 else
-               replace(task, poses=task.poses[frames]) for k, task in enumerate(tasks)]
-        q_sub, p_sub, r_sub, n_sub = _solve_chains(robot, q[frames], sub, lower, upper, config)
-        q = q.copy()
-        q[frames] = q_sub
-        pos_err, rot_err = pos_err.copy(), rot_err.copy()
-        pos_err[frames], rot_err[frames] = p_sub, r_sub
-        steps += n_sub
-    return q, replace(targets, poses=poses), pos_err, rot_err, steps
-
-
 def base_drop(robot, q: np.ndarray, targets: FootTargets, min_knee_rad: float) -> float:
     """[m] >= 0 how far to lower the base so that every planted leg keeps its knee bent by at
     least ``min_knee_rad``.
@@ -494,8 +441,6 @@ def resolve_legs(robot, q: np.ndarray, targets: FootTargets, fps: float, limits:
         tasks.append(_ChainTask(frame=torso[0], chain=torso[1], poses=targets.torso,
                                 rotation_only=True))
     solved, pos_err, rot_err, steps = _solve_chains(robot, q, tasks, lower, upper, config)
-    solved, targets, pos_err, rot_err, steps = _keep_above_ground(
-        robot, solved, tasks, targets, pos_err, rot_err, steps, lower, upper, config)
     pos_err, rot_err = pos_err[:, :2], rot_err[:, :2]
     if len(q) >= 3:
         # the limits are met by the swing legs and the upper body first: a planted leg's
@@ -579,7 +524,7 @@ def plant_feet(robot, q: np.ndarray, fps: float, support: np.ndarray, limits: tu
              "%.3f deg, %d Newton steps, %.2f s", 1e3 * drop, 1e3 * out.position_error_m.max(),
              np.degrees(out.rotation_error_rad.max()), out.newton_steps,
              time.perf_counter() - t0)
-    return Planted(q=out.q, targets=out.targets, position_error_m=out.position_error_m,
+    return Planted(q=out.q, targets=targets, position_error_m=out.position_error_m,
                    rotation_error_rad=out.rotation_error_rad, newton_steps=out.newton_steps,
                    unplanted=unplanted,
                    seconds=time.perf_counter() - t0, base_drop_m=drop)
