@@ -12,6 +12,7 @@ and without it, so the table shows which motions fall only without balancing.
     python benchmarks/quality.py                                # 3 clips x 3 robots + standing
     python benchmarks/quality.py --robots jvrc1 --clips cmu_02_01_walk.bvh
     python benchmarks/quality.py --no-physics --json quality.json --plots plots/
+    python benchmarks/quality.py --torque-limit-scale 10      # falls that are not about torque
 """
 
 from __future__ import annotations
@@ -138,6 +139,7 @@ def clip_row(robot, clip: str, label: str, config, physics: bool, physics_config
     if plots is not None and physics:
         plots.mkdir(parents=True, exist_ok=True)
         plot = plots / f"{robot.name}_{Path(clip).stem}_{label}.png"
+    row["demand"] = reference_demand(robot, result.motion)
     t0 = time.perf_counter()
     report = evaluate_motion(robot, result.motion, source=result.arrangement.motion,
                              adapted=result.adapted, physics=physics,
@@ -145,6 +147,32 @@ def clip_row(robot, clip: str, label: str, config, physics: bool, physics_config
     row.update(frames=result.motion.n_frames, fps=result.motion.fps,
                evaluate_s=time.perf_counter() - t0, report=report)
     return row
+
+
+def reference_demand(robot, motion) -> dict:
+    """What the motion asks of the DART check before it is run: the inverse-dynamics torque of
+    the reference (the feed-forward, contact wrenches distributed over the support soles) over
+    the torque limits, whether the first frame can be held still (the CoM above the support
+    polygon of the soles on the ground), and the lowest sole corner over the motion."""
+    from imesh.metrics.kinematics import inside_polygon, support_polygons
+    from imesh.physics import PhysicsConfig
+    from imesh.physics.reference import build_reference
+    from imesh.physics.simulate import feedforward
+    from imesh.physics.world import DartRobot
+
+    ref = build_reference(robot, motion.q, motion.fps)
+    sim = DartRobot(robot, PhysicsConfig())
+    tau = feedforward(sim, ref)[0][:, sim.joint_dofs]
+    ratio = (np.abs(tau) / robot.effort_max).max(axis=1)
+    poly = support_polygons(ref.soles, ref.support)[0]
+    if poly is None:
+        first = "no support"
+    else:
+        first = "CoM in" if inside_polygon(robot.com(ref.q[0])[:2], poly) else "CoM out"
+    lowest = min(float(ref.soles.lowest(side).min()) for side in ("left", "right"))
+    return {"id_torque_ratio_max": float(ratio.max()),
+            "id_frames_over_limit": float(np.mean(ratio > 1.0)),
+            "first_frame": first, "lowest_sole_mm": 1e3 * lowest}
 
 
 def _cell(row: dict, metric: str, fmt: str) -> str:
@@ -187,6 +215,15 @@ def print_tables(rows: list[dict], standing: list[dict]) -> None:
         cells = " ".join(f"{_cell(r, m, f):>6}" for _, m, f in COLUMNS)
         rtf = r["report"]["physics_fell"].get("real_time_factor")
         print(f"{lead} {r['frames']:>6} {cells} {rtf if rtf is None else f'{rtf:5.2f}':>5}")
+    demands = [r for r in rows if "demand" in r]
+    if demands:
+        print("\nWhat the references ask (before DART): inverse-dynamics torque / limit (max, "
+              "share of frames > 1), first frame held still?, lowest sole corner [mm]")
+        for r in demands:
+            d = r["demand"]
+            print(f"{r['robot']:<6} {Path(r['clip']).stem[:28]:<28} {r['balance']:<4} "
+                  f"{d['id_torque_ratio_max']:6.2f} {100 * d['id_frames_over_limit']:5.0f} % "
+                  f"{d['first_frame']:>10} {d['lowest_sole_mm']:7.0f}")
     falls = [r for r in rows if "report" in r and r["report"]["physics_fell"]["value"]]
     for r in falls:
         print(f"  fell: {r['robot']} {r['clip']} (balance {r['balance']}): "
@@ -200,6 +237,9 @@ def main(argv=None) -> int:
     parser.add_argument("--no-physics", action="store_true", help="skip the DART check")
     parser.add_argument("--no-standing", action="store_true", help="skip the standing rows")
     parser.add_argument("--controller", choices=("spd", "pid"), default="spd")
+    parser.add_argument("--torque-limit-scale", type=float, default=1.0,
+                        help="DART clamps torques at this times the limits (10: to see which "
+                             "falls are not about torque)")
     parser.add_argument("--json", help="write every report here")
     parser.add_argument("--plots", help="folder for one DART figure per run")
     parser.add_argument("-v", "--verbose", action="store_true")
@@ -209,7 +249,8 @@ def main(argv=None) -> int:
     from imesh.physics import PhysicsConfig
 
     physics = not args.no_physics
-    physics_config = PhysicsConfig(controller=args.controller)
+    physics_config = PhysicsConfig(controller=args.controller,
+                                   torque_limit_scale=args.torque_limit_scale)
     plots = Path(args.plots) if args.plots else None
     rows, standing = [], []
     t0 = time.perf_counter()
