@@ -383,6 +383,7 @@ class _Kinematics:
         self.kp_offsets = targets.kp_offsets
         self.dir_axes = targets.dir_axes
         self.has_placements = hasattr(robot, "frame_placements")
+        self.has_frame_jacobians = hasattr(robot, "frame_jacobians")
         self._lever = np.zeros((len(targets.kp_frame_ids), 3))
 
     def points_and_axes(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -406,8 +407,12 @@ class _Kinematics:
         """(K, 3, nv) key-point Jacobians and (D, 3, nv) angular Jacobians (world-aligned) at
         the q of the last :meth:`points_and_axes` call."""
         robot = self.robot
-        j_ang = robot.frame_angular_jacobians(q, self.frames)
-        j_lin = robot.point_jacobians(q, self.kp_frames)[self.kp_in_kp]
+        if self.has_frame_jacobians:
+            jac = robot.frame_jacobians(q, self.frames)
+            j_lin, j_ang = jac[self.kp_in_all, :3], jac[:, 3:]
+        else:
+            j_ang = robot.frame_angular_jacobians(q, self.frames)
+            j_lin = robot.point_jacobians(q, self.kp_frames)[self.kp_in_kp]
         ang_kp = j_ang[self.kp_in_all]
         # v_p = v_o + omega x r  ->  J_p = J_o + J_omega x r (column-wise)
         jp = j_lin + _cross_columns(ang_kp, self._lever)

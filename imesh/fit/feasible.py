@@ -170,7 +170,9 @@ def project_joint_trajectory(reference: np.ndarray, fps: float, lower: np.ndarra
             large weight so the limits are met by the other samples where possible.
 
     Returns:
-        Projection, strictly within the limits.
+        Projection within the limits: strictly inside for the joints the limits move; the
+        joints whose reference already meets every limit are their own projection and are
+        returned unchanged (and left out of the Newton solves).
     """
     t0 = time.perf_counter()
     r = np.asarray(reference, dtype=np.float64)
@@ -186,6 +188,24 @@ def project_joint_trajectory(reference: np.ndarray, fps: float, lower: np.ndarra
                           change_rad=np.sqrt(np.mean((q - r) ** 2, axis=0)),
                           seconds=time.perf_counter() - t0)
     bounds = [(lo_q, hi_q), (-vb, vb), (-ab, ab)]
+    inside = np.ones(n, dtype=bool)  # joints whose reference meets every limit: their own
+    for row, (lo, hi) in zip(_rows(r), bounds, strict=True):  # projection, returned as is
+        inside &= np.all((row >= lo) & (row <= hi), axis=0)
+    if inside.any():
+        q = r.copy()
+        steps, gap = 0, 0.0
+        rest = np.flatnonzero(~inside)
+        if len(rest):
+            part = project_joint_trajectory(
+                r[:, rest], fps, lo_q[rest], hi_q[rest], np.asarray(v_max)[rest],
+                np.asarray(a_max)[rest], start=None if start is None else
+                np.asarray(start)[rest], weights=None if weights is None else
+                np.asarray(weights)[:, rest])
+            q[:, rest] = part.q
+            steps, gap = part.newton_steps, part.gap
+        return Projection(q=q, newton_steps=steps, gap=gap,
+                          change_rad=np.sqrt(np.mean((q - r) ** 2, axis=0)),
+                          seconds=time.perf_counter() - t0)
     w = 1.0 if weights is None else np.asarray(weights, dtype=np.float64)
     if start is None:
         width = np.where(np.isfinite(hi_q - lo_q), hi_q - lo_q, 0.0)

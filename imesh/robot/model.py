@@ -658,6 +658,17 @@ class Robot:
                 out[k] = J[:3] - _skew(r) @ J[3:]
         return out
 
+    def frame_jacobians(self, q, frames: Sequence[int | str]) -> np.ndarray:
+        """(F, 6, nv) float world-aligned Jacobians of frames: rows 0-2 the frame origin's
+        linear velocity, rows 3-5 the angular velocity (one pinocchio call per frame, where
+        :meth:`point_jacobians` and :meth:`frame_angular_jacobians` make one each)."""
+        self._jac(q)
+        pin = self._pin
+        out = np.empty((len(frames), 6, self.nv))
+        for k, i in enumerate(self._ids(frames)):
+            out[k] = pin.getFrameJacobian(self.model, self.data, i, pin.LOCAL_WORLD_ALIGNED)
+        return out
+
     def frame_angular_jacobians(self, q, frames: Sequence[int | str]) -> np.ndarray:
         """(F, 3, nv) float world angular-velocity Jacobians of frames (``omega = J @ v``)."""
         self._jac(q)
