@@ -176,6 +176,11 @@ def test_point_jacobians_match_finite_differences(robot):
                                       dR[:, 1, 0] - dR[:, 0, 1]], axis=1) / (4 * h)
         assert np.abs(J - num).max() < 1e-6
         assert np.abs(Jw - numw).max() < 1e-6
+        # the stacked 6-row Jacobian of the frame origins (one pinocchio call per frame)
+        J6 = robot.frame_jacobians(q, frames)
+        origin = robot.point_jacobians(q, frames)
+        assert np.abs(J6[:, :3] - origin).max() < 1e-12
+        assert np.abs(J6[:, 3:] - Jw).max() < 1e-12
 
 
 def test_getters_reuse_forward_and_tangent_maps(robot):
