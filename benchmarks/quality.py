@@ -154,6 +154,7 @@ def reference_demand(robot, motion) -> dict:
     the reference (the feed-forward, contact wrenches distributed over the support soles) over
     the torque limits, whether the first frame can be held still (the CoM above the support
     polygon of the soles on the ground), and the lowest sole corner over the motion."""
+    from imesh.contacts import SIDES
     from imesh.metrics.kinematics import inside_polygon, support_polygons
     from imesh.physics import PhysicsConfig
     from imesh.physics.reference import build_reference
@@ -169,7 +170,7 @@ def reference_demand(robot, motion) -> dict:
         first = "no support"
     else:
         first = "CoM in" if inside_polygon(robot.com(ref.q[0])[:2], poly) else "CoM out"
-    lowest = min(float(ref.soles.lowest(side).min()) for side in ("left", "right"))
+    lowest = min(float(ref.soles.lowest(side).min()) for side in SIDES)
     return {"id_torque_ratio_max": float(ratio.max()),
             "id_frames_over_limit": float(np.mean(ratio > 1.0)),
             "first_frame": first, "lowest_sole_mm": 1e3 * lowest}

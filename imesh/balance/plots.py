@@ -16,9 +16,13 @@ from ..export import atomic_path
 from ..plots import _pyplot
 
 
-def _save(fig, path: Path) -> None:
+def _save(plt, fig, path: Path) -> str:
+    """Lay out, write atomically, close; the path written."""
+    fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=110)
+    plt.close(fig)
+    return str(path)
 
 
 def plot_balance(result, folder: str | os.PathLike, name: str = "robot") -> list[str]:
@@ -54,11 +58,7 @@ def plot_balance(result, folder: str | os.PathLike, name: str = "robot") -> list
                       "iterations)")
     axes[0].legend(loc="upper left", fontsize=8, ncol=2)
     axes[1].set_xlabel("time [s]")
-    fig.tight_layout()
-    path = out / f"zmp_{name}.png"
-    _save(fig, path)
-    plt.close(fig)
-    paths.append(str(path))
+    paths.append(_save(plt, fig, out / f"zmp_{name}.png"))
 
     fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
     for k, (ax, axis) in enumerate(zip(axes, "xy", strict=True)):
@@ -67,11 +67,7 @@ def plot_balance(result, folder: str | os.PathLike, name: str = "robot") -> list
                 label="CoM change")
         ax.set_ylabel(f"{axis} [mm]")
     axes[0].legend(loc="upper left", fontsize=8)
-    axes[0].set_title(f"{name}: waist correction fed back into the morph, and the CoM change")
+    axes[0].set_title(f"{name}: waist correction and the CoM change")
     axes[1].set_xlabel("time [s]")
-    fig.tight_layout()
-    path = out / f"waist_{name}.png"
-    _save(fig, path)
-    plt.close(fig)
-    paths.append(str(path))
+    paths.append(_save(plt, fig, out / f"waist_{name}.png"))
     return paths
