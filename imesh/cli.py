@@ -80,17 +80,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-support", action="store_true",
                    help="no support-foot constraints in the morph")
     p.add_argument("--markers", help="also write the adapted markers (.npz or .csv)")
-    p.add_argument("--no-balance", action="store_true",
-                   help="skip the ZMP balance loop (Nishiwaki waist correction)")
-    p.add_argument("--balance-flight", action="store_true",
-                   help="balance only the supported segments of a clip with flight phases")
-    p.add_argument("--balance-iterations", type=int, default=10,
-                   help="largest number of waist corrections (default 10)")
-    p.add_argument("--balance-feedback", choices=("joints", "mesh"), default="joints",
-                   help="where the waist correction goes: the planted motion's base and legs "
-                        "(default) or back into the morph (the paper's loop)")
-    p.add_argument("--no-plant", action="store_true",
-                   help="keep the fitted legs and base (no planted support soles)")
+    p.add_argument("--balance", choices=("wholebody", "nishiwaki", "none"), default="wholebody",
+                   help="wholebody: the whole-body spacetime solve (default; docs/wholebody.md); "
+                        "nishiwaki: the paper's waist-correction loop; none: the initial fit")
+    p.add_argument("--allow-flight", action="store_true",
+                   help="accept flight phases (both feet up): those frames are left without "
+                        "support and ZMP constraints and listed in the report")
+    p.add_argument("--no-lead", action="store_true",
+                   help="no standing lead-in/out (1 s of settled double support each)")
     _add_load_options(p)
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
     p.add_argument("--window-frames", type=int, default=2000,
@@ -195,26 +192,19 @@ def cmd_adapt(args) -> int:
 
 
 def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, support: bool = True,
-              balance: bool = True):
+              balance: str = "wholebody"):
     import dataclasses
 
-    from .balance import BalanceConfig
     from .retarget import RetargetConfig, retarget
     from .support import SupportConfig
 
     base = RetargetConfig()
-    bal = None
-    if balance and support:
-        mesh = getattr(args, "balance_feedback", "joints") == "mesh"
-        bal = BalanceConfig(iterations=getattr(args, "balance_iterations", 10),
-                            allow_flight=getattr(args, "balance_flight", False),
-                            feedback="mesh" if mesh else "joints",
-                            error_lowpass_hz=1.5 if mesh else None)
-    plant = None if getattr(args, "no_plant", False) else base.plant
     config = RetargetConfig(morph=dataclasses.replace(base.morph, steps=steps,
                                                       window_frames=window_frames),
-                            support=SupportConfig() if support else None, balance=bal,
-                            plant=plant)
+                            support=SupportConfig() if support else None, balance=balance,
+                            fps=getattr(args, "fps", None) or base.fps,
+                            allow_flight=getattr(args, "allow_flight", False),
+                            lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s)
     bar, update = _progress(args, steps, f"morph for {robot.name}")
     try:
         return retarget(motion, robot, config=config, progress=update)
@@ -235,7 +225,7 @@ def cmd_retarget(args) -> int:
 
         return run_arms(args, robot, motion)
     result = _retarget(args, motion, robot, args.steps, args.window_frames,
-                       support=not args.no_support, balance=not args.no_balance)
+                       support=not args.no_support, balance=args.balance)
     report = result.report()
     if args.plots and result.balance is not None:
         from .balance.plots import plot_balance
@@ -249,17 +239,20 @@ def cmd_retarget(args) -> int:
     save_robot_motion(args.output, robot_motion)
     if args.markers:
         save_marker_motion(args.markers, result.adapted)
+    # the summary is the evaluator's report of the motion as written, not an intermediate stage
+    from .evaluate import evaluate_motion, format_table
+
+    metrics = evaluate_motion(robot, robot_motion, adapted=result.adapted,
+                              seconds=result.seconds)
+    report["metrics"] = metrics
     if args.report:
         write_json(args.report, report)
-    fit = report["fit"]
-    bal = report.get("balance")
-    zmp = (f", ZMP error {bal['zmp_error_mm_before']:.0f} -> {bal['zmp_error_mm_after']:.0f} mm "
-           f"(inside {100 * bal['zmp_inside_fraction_before']:.0f} -> "
-           f"{100 * bal['zmp_inside_fraction_after']:.0f} %)" if bal else "")
     print(f"retargeted {report['frames']} frames to {robot.name} in "
-          f"{report['seconds']['total']:.2f} s: bone residual {report['bone_residual_m']:.1e} m, "
-          f"key-point RMS {1e3 * fit.get('keypoint_rms_m', float('nan')):.1f} mm{zmp} -> "
-          f"{args.output}")
+          f"{report['seconds']['total']:.2f} s -> {args.output}")
+    if report["unconstrained_frames"]:
+        print(f"flight frames without support or ZMP constraint: "
+              f"{report['unconstrained_frames']}")
+    print(format_table(metrics))
     return 0
 
 

@@ -40,6 +40,7 @@ from .metrics.collision import (
     check_ground,
     check_self_collisions,
 )
+from .metrics.dynamics import MU, reference_dynamics
 from .metrics.kinematics import (
     SKID_THRESHOLD_MM,
     SupportDetection,
@@ -48,6 +49,7 @@ from .metrics.kinematics import (
     limit_violations,
     motion_derivatives,
     planted_feet,
+    sole_deviation,
     sole_tracks,
     zmp_report,
     zmp_trajectory,
@@ -63,10 +65,13 @@ METRIC_NAMES: tuple[str, ...] = (
     "marker_rms_mm", "close_pair_error", "self_collision_frames", "ground_penetration_mm",
     "foot_skid_mm_per_frame", "limit_violation_frames", "zmp_inside_fraction", "zmp_error_mm",
     "physics_fell", "physics_survived_s", "tracking_rms_rad", "torque_ratio_max",
-    "seconds_per_frame",
+    "seconds_per_frame", "sole_deviation_mm", "sole_tilt_deg", "torque_ratio_ref",
+    "friction_ratio_max",
 )
 
 UNITS: dict[str, str] = {
+    "sole_deviation_mm": "mm", "sole_tilt_deg": "deg", "torque_ratio_ref": "ratio",
+    "friction_ratio_max": "ratio",
     "marker_rms_mm": "mm", "close_pair_error": "height fraction",
     "self_collision_frames": "frames", "ground_penetration_mm": "mm",
     "foot_skid_mm_per_frame": "mm/frame at 30 fps", "limit_violation_frames": "frames",
@@ -348,13 +353,36 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
             "foot_skid_mm_per_frame", "no support frame detected (no sole within "
             f"{(support_config or SupportDetection()).height_m * 1e3:.0f} mm of the ground and "
             "slow)")
+    dev = sole_deviation(soles, support)
+    if dev.samples:
+        out["sole_deviation_mm"] = _metric("sole_deviation_mm", dev.deviation_mm,
+                                           footprint="median sole centre of the phase on z = 0",
+                                           support_samples=dev.samples)
+        out["sole_tilt_deg"] = _metric("sole_tilt_deg", dev.tilt_deg,
+                                       support_samples=dev.samples)
+    else:
+        for name in ("sole_deviation_mm", "sole_tilt_deg"):
+            out[name] = _missing(name, "no support frame detected")
     lim = limit_violations(robot, q, fps)
     out["limit_violation_frames"] = _metric(
         "limit_violation_frames", int(lim.any.sum()), position=int(lim.position.sum()),
-        velocity=int(lim.velocity.sum()), worst_position_excess_rad=lim.worst_position_rad,
+        velocity=int(lim.velocity.sum()), acceleration=int(lim.acceleration.sum()),
+        worst_position_excess_rad=lim.worst_position_rad,
         worst_velocity_ratio=lim.worst_velocity_ratio,
-        position_joints=lim.position_joints, velocity_joints=lim.velocity_joints)
+        worst_acceleration_ratio=lim.worst_acceleration_ratio,
+        position_joints=lim.position_joints, velocity_joints=lim.velocity_joints,
+        acceleration_joints=lim.acceleration_joints)
     v, a = motion_derivatives(q, fps)
+    if sup_frames:
+        dyn = reference_dynamics(robot, q, v, a, support)
+        out["torque_ratio_ref"] = _metric("torque_ratio_ref", dyn.torque_ratio,
+                                          joint=dyn.torque_joint, frame=dyn.torque_frame,
+                                          note="inverse dynamics, sole wrenches least-norm")
+        out["friction_ratio_max"] = _metric("friction_ratio_max", dyn.friction_ratio,
+                                            frame=dyn.friction_frame, mu=MU)
+    else:
+        for name in ("torque_ratio_ref", "friction_ratio_max"):
+            out[name] = _missing(name, "no support frame detected")
     zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
     phases = {"support_frames": sup_frames, "double_support_frames":
               int(support.all(axis=1).sum()), "flight_frames": int(T - sup_frames)}

@@ -1,8 +1,11 @@
 """The main pipeline: human motion -> robot joint trajectories.
 
-    standard markers -> arrangement for the robot (sec. IV-A) -> contacts (sec. V-A)
-      -> support-foot constraints (sec. V-B) -> spacetime morph (sec. III)
-      -> joint fitting with motor limits (sec. IV-B; Kim 2005) -> RobotMotion
+    standard markers (resampled to the working rate) -> arrangement for the robot (sec. IV-A)
+      -> contacts (sec. V-A) -> support-foot constraints (sec. V-B) -> spacetime morph (sec. III)
+      -> initial fit with motor limits (sec. IV-B; Kim 2005)
+      -> whole-body spacetime solve with a standing lead-in/out (imesh.solve; default)
+         or the paper's Nishiwaki waist loop (sec. V-C/D; ``balance="nishiwaki"``)
+      -> RobotMotion
 
 Every stage is a public function of its own module; this one only wires them.
 """
@@ -20,25 +23,18 @@ import numpy as np
 from .adapt import prepare_markers
 from .arrange import Arrangement, arrange_for_robot
 from .contacts import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_contacts
+from .errors import OptionError
 from .filtering import lowpass
 from .morph.problem import MorphConfig, build_morph_problem
 from .morph.solver import MorphResult, MorphStepReport, solve_morph
 from .motion import MarkerMotion
+from .solve import WholeBodyConfig
 from .support import SupportConfig, flat_support, support_blend, support_foot_targets
 
 log = logging.getLogger(__name__)
 
 
-def _default_balance():
-    from .balance import BalanceConfig
-
-    return BalanceConfig()
-
-
-def _default_plant():
-    from .fit.legs import PlantConfig
-
-    return PlantConfig()
+BALANCE_MODES = ("wholebody", "nishiwaki", "none")
 
 
 @dataclass(frozen=True)
@@ -46,23 +42,28 @@ class RetargetConfig:
     """Settings of every stage.
 
     Attributes:
+        fps: the working and output frame rate [1/s]: the human motion is resampled to it
+            first (None keeps the source rate). 30 fps is the rate of the common retargeted
+            humanoid datasets; the whole-body solve's cost grows with the frame count.
         morph: MorphConfig of the spacetime morph. A robot must move smoothly: the default
             acceleration weight is 10 (adapt_motion's is 1). On the CMU walk the morph with
             weight 1 triples the markers' accelerations (centroid p50 2.4 vs 0.74 m/s^2 in the
-            source; 1.1 with weight 100) and the multibody ZMP error follows (700 mm; 180 mm
-            with 100); but 100 distorts the first frames (wave, frame 0 key-point RMS 93 mm vs
-            32 mm with 10).
+            source; 1.1 with weight 100); but 100 distorts the first frames (wave, frame 0
+            key-point RMS 93 mm vs 32 mm with 10).
         contacts: ContactConfig of the support detection.
-        support: SupportConfig; None disables the support-foot constraints.
-        fit: an :class:`imesh.fit.FitConfig` (None: defaults).
-        plant: an :class:`imesh.fit.legs.PlantConfig`: after the fit, the base is smoothed,
-            each support sole is planted flat on its footprint and the legs are solved for it
-            (:func:`imesh.fit.legs.plant_feet`); None keeps the fitted motion. It needs the
-            support-foot constraints.
-        balance: an :class:`imesh.balance.BalanceConfig`; None skips the balance loop
-            (sec. V-C/D). It needs the support-foot constraints. With ``plant`` (and
-            ``balance.feedback == "joints"``) the waist correction moves the planted motion's
-            base and the legs are solved again; otherwise it goes back into the morph.
+        support: SupportConfig; None disables the support-foot constraints of the morph.
+        fit: an :class:`imesh.fit.FitConfig` of the initial fit (None: defaults).
+        balance: ``"wholebody"`` (default: the whole-body spacetime solve, :mod:`imesh.solve`),
+            ``"nishiwaki"`` (the paper's loop: the Nishiwaki waist correction fed back into the
+            morph, :func:`imesh.balance.balance_loop`) or ``"none"`` (the initial fit).
+        wholebody: WholeBodyConfig of the whole-body solve.
+        nishiwaki: BalanceConfig of the Nishiwaki loop (``balance="nishiwaki"``).
+        lead_s: standing lead-in and lead-out of the whole-body solve [s] (0: none).
+        plan_contacts: plan the robot's support on the whole human contact phases instead of
+            their flat part (heel strike and toe-off then happen flat-footed).
+        allow_flight: accept flight phases (both feet up): those frames get no support and no
+            ZMP constraint, and the result lists them. False: refuse them with FlightPhaseError
+            before any work.
         pelvis_weight: priority of the pelvis triangle (pelvis, hip_l, hip_r) and the base's
             lateral direction: the paper fits the waist 6-DOF from these first; a high weight
             keeps the feet from swinging the base when other targets disagree.
@@ -72,15 +73,31 @@ class RetargetConfig:
             (``imesh.filtering``); None keeps them as recorded.
     """
 
+    fps: float | None = 30.0
     morph: MorphConfig = field(default_factory=lambda: MorphConfig(accel_weight=10.0))
     contacts: ContactConfig = field(default_factory=ContactConfig)
     support: SupportConfig | None = field(default_factory=SupportConfig)
     fit: object | None = None
-    plant: object | None = field(default_factory=lambda: _default_plant())
-    balance: object | None = field(default_factory=lambda: _default_balance())
+    balance: str = "wholebody"
+    wholebody: WholeBodyConfig = field(default_factory=WholeBodyConfig)
+    nishiwaki: object | None = None
+    lead_s: float = 1.0
+    plan_contacts: bool = False
+    allow_flight: bool = False
     lowpass_hz: float | None = 8.0
     foot_weight: float = 10.0
     pelvis_weight: float = 3.0
+
+    def __post_init__(self) -> None:
+        if self.balance not in BALANCE_MODES:
+            raise OptionError("balance", self.balance, BALANCE_MODES)
+        if self.fps is not None and not (np.isfinite(self.fps) and self.fps > 0):
+            raise OptionError("fps", self.fps, "a positive number or None")
+        if not (np.isfinite(self.lead_s) and self.lead_s >= 0):
+            raise OptionError("lead_s", self.lead_s, "a number of seconds >= 0")
+        if self.balance == "wholebody" and self.support is None:
+            raise OptionError("support", None, "a SupportConfig: the whole-body solve plans "
+                              "footprints from the support phases")
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,20 +105,20 @@ class RetargetResult:
     """Everything the pipeline produced, stage by stage.
 
     Attributes:
-        motion: the robot motion (an :class:`imesh.robot_motion.RobotMotion`).
+        motion: the robot motion (an :class:`imesh.robot_motion.RobotMotion`), including the
+            standing lead-in/out frames of the whole-body solve.
         arrangement: the arranged, scaled human markers and robot targets.
-        adapted: the morphed markers (same names as ``arrangement.motion``).
+        adapted: the morphed markers, frame-aligned with ``motion`` (the lead-in/out frames
+            hold the first/last frame): the targets ``marker_rms_mm`` is measured against.
         contacts: support phases of the source (footfalls, flight phases).
-        support: the robot's planned support: the flat part of each source support phase
-            (:func:`imesh.support.flat_support`), held by the support-foot constraints; equal
-            to ``contacts`` when the constraints are off.
+        support: the robot's planned support, frame-aligned with ``motion``.
         morph: the spacetime solver's result.
-        fit: the fitting result (residuals, limit counts) of the markers; ``motion`` differs
-            from ``fit.motion`` when the feet were planted or the motion balanced.
-        planted: the planted-feet stage's result (:class:`imesh.fit.legs.Planted`; None when
-            off).
-        balance: the balance loop's result (:class:`imesh.balance.BalanceResult`; None when
-            the balance stage is off). ``adapted``, ``morph`` and ``fit`` are its best iterate.
+        fit: the initial fit (residuals, limit counts).
+        wholebody: the whole-body solve (:class:`imesh.solve.WholeBodySolution`), or None.
+        balance: the Nishiwaki loop's result (``balance="nishiwaki"``), or None.
+        lead_frames: (lead-in, lead-out) frames added before and after the clip.
+        unconstrained_frames: flight frames left without support or ZMP constraint
+            (``allow_flight``), as [start, stop) ranges of ``motion``'s frames.
         seconds: wall time per stage [s].
     """
 
@@ -112,9 +129,11 @@ class RetargetResult:
     support: Contacts
     morph: MorphResult
     fit: object
+    wholebody: object | None
     balance: object | None
+    lead_frames: tuple[int, int]
+    unconstrained_frames: list
     seconds: dict
-    planted: object | None = None
 
     def report(self) -> dict:
         fit_report = self.fit.report() if hasattr(self.fit, "report") else {}
@@ -122,6 +141,8 @@ class RetargetResult:
             "robot": self.arrangement.motion.meta.get("robot"),
             "frames": self.adapted.n_frames,
             "fps": self.adapted.fps,
+            "lead_frames": list(self.lead_frames),
+            "unconstrained_frames": self.unconstrained_frames,
             "markers": list(self.adapted.names),
             "human_scale": self.arrangement.scale,
             "bone_residual_m": self.morph.bone_residual_m,
@@ -129,6 +150,7 @@ class RetargetResult:
             "morph_steps": self.morph.morph_steps,
             "contacts": self.contacts.summary(),
             "fit": fit_report,
+            "wholebody": self.wholebody.report() if self.wholebody is not None else None,
             "balance": self.balance.report() if self.balance is not None else None,
             "seconds": self.seconds,
         }
@@ -225,14 +247,6 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
     return markers, tuple(directions)
 
 
-def _support_height_p95(robot, q: np.ndarray, fps: float, support: np.ndarray) -> float:
-    """[m] 95th percentile of |lowest sole corner z| over the support frames (0 if none)."""
-    from .metrics.kinematics import sole_tracks
-
-    h = sole_tracks(robot, q, fps).support_heights(support)
-    return float(np.percentile(h, 95)) if h.size else 0.0
-
-
 def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = None,
              progress: Callable[[MorphStepReport], None] | None = None) -> RetargetResult:
     """Adapt a human motion to ``robot`` (an :class:`imesh.robot.Robot`).
@@ -245,22 +259,34 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
 
     Returns:
         RetargetResult; ``result.motion`` is the RobotMotion.
+
+    Raises:
+        FlightPhaseError: the clip has flight phases and ``allow_flight`` is off (before any
+            solve).
+        SolverError: the whole-body solve failed.
     """
+    from .balance import BalanceConfig, check_flight
     from .fit import FitConfig, fit_motion  # the fitting stage needs the robot stack
+    from .fit.dls import joint_limits
+    from .fit.targets import compile_targets
+    from .solve import add_lead, plan_whole_body, solve_whole_body
 
     config = config or RetargetConfig()
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
     human = prepare_markers(motion)
+    if config.fps is not None and abs(human.fps - config.fps) > 1e-9:
+        human = human.resample(config.fps)
     if config.lowpass_hz is not None:
         human = lowpass(human, config.lowpass_hz)
     arrangement = arrange_for_robot(human, robot)
     source = arrangement.motion
     contacts = detect_contacts(source, config.contacts)
-    if config.balance is not None:  # fail before the morph, not after it
-        from .balance import check_flight
-
-        check_flight(motion.source or "motion", contacts.support, source.fps, config.balance)
+    nishiwaki = config.nishiwaki or BalanceConfig(error_lowpass_hz=1.5,
+                                                  allow_flight=config.allow_flight)
+    if config.balance != "none":  # fail before the morph, not after it
+        check_flight(motion.source or "motion", contacts.support, source.fps,
+                     BalanceConfig(allow_flight=config.allow_flight))
     hard = soft = soft_w = None
     flat = contacts
     if config.support is not None:
@@ -274,19 +300,18 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     blend = (support_blend(flat, config.support.ramp_s) if config.support is not None
              else None)
     # Priorities (W_e of eq. 7) as in the paper's order of fitting: the waist from the pelvis
-    # triangle, the feet (they carry the robot), then the rest; so the whole-body fit does not
-    # swing the base or slide a sole to meet an upper-body marker it cannot reach.
+    # triangle, the feet (they carry the robot), then the rest; so the fit does not swing the
+    # base or slide a sole to meet an upper-body marker it cannot reach.
     gain = {m: config.foot_weight for side in SIDES for m in FOOT_MARKERS[side]}
     gain.update({m: config.pelvis_weight for m in ("pelvis", "hip_l", "hip_r")})
     keypoints = {n: (dataclasses.replace(k, weight=k.weight * gain[n]) if n in gain else k)
                  for n, k in arrangement.keypoints.items()}
-    stages: list[tuple[MorphResult, MarkerMotion, object]] = []
 
-    def morph_and_fit(hard_m, q_init=None, soft_m=soft, soft_wm=soft_w):
+    def morph_and_fit(soft_m=soft, soft_wm=soft_w, q_init=None):
         t1 = time.perf_counter()
         problem = build_morph_problem(source, pairs=arrangement.pairs,
                                       target_lengths_m=arrangement.target_lengths_m,
-                                      hard_positions_m=hard_m, soft_positions_m=soft_m,
+                                      hard_positions_m=hard, soft_positions_m=soft_m,
                                       soft_weights=soft_wm, config=config.morph)
         morph = solve_morph(problem, progress=progress)
         adapted = source.with_positions(morph.positions_m, source=f"adapted:{source.source}")
@@ -299,79 +324,66 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                          q_init=q_init)
         seconds["morph"] = seconds.get("morph", 0.0) + t2 - t1
         seconds["fit"] = seconds.get("fit", 0.0) + time.perf_counter() - t2
-        stages.append((morph, adapted, fit))
-        return fit
+        return morph, adapted, fit_markers, fit, arrangement.directions + extra_dirs
 
-    fit = morph_and_fit(hard)
+    morph, adapted, fit_markers, fit, directions = morph_and_fit()
     q_out = fit.motion.q
-    planted = balance = None
-    limits = None
-    chosen = 0  # the stage (morph, adapted, fit) the output comes from
-    if config.plant is not None and config.support is not None:
-        from .fit.dls import joint_limits
-        from .fit.legs import plant_feet
-
-        t3 = time.perf_counter()
-        limits = joint_limits(robot, fit_config)
-        planted = plant_feet(robot, q_out, source.fps, flat.support, limits, config.plant)
-        # a quality gate: planting must not put the support soles further off the ground than
-        # the fit had them (where the legs cannot reach the footprints even after letting go)
-        before, after = (_support_height_p95(robot, q, source.fps, flat.support)
-                         for q in (q_out, planted.q))
-        if after <= before + 1e-3:
-            q_out = planted.q
-        else:
-            log.warning("planted feet: support soles %.1f mm off the ground (95th percentile) "
-                        "vs %.1f mm in the fit; keeping the fitted motion", 1e3 * after,
-                        1e3 * before)
-            planted = None
-        seconds["plant"] = time.perf_counter() - t3
-    if config.balance is not None:
+    balance = solution = None
+    lead = (0, 0)
+    unconstrained: list = []
+    support_out = flat
+    if config.balance == "nishiwaki":
         from .balance import balance_loop
 
         t3 = time.perf_counter()
-        if planted is not None and config.balance.feedback == "joints":
-            from .fit.legs import resolve_legs
+        pelvis = source.index("pelvis")
+        shape = source.positions_m.shape
+        base_soft = soft if soft is not None else np.full(shape, np.nan)
+        base_w = soft_w if soft_w is not None else np.zeros(shape[:2])
+        stages = [(morph, adapted, fit)]
 
-            base = planted.q
+        def step(waist_xy: np.ndarray) -> np.ndarray:
+            # The corrected waist is a soft target of large weight rather than the paper's hard
+            # constraint: with both feet pinned, a correction the legs cannot reach would make
+            # the hard constraints inconsistent and the morph fail.
+            s_m, w_m = base_soft.copy(), base_w.copy()
+            s_m[:, pelvis, :2] = waist_xy
+            w_m[:, pelvis] = nishiwaki.waist_weight
+            m_, a_, _, f_, _ = morph_and_fit(s_m, w_m, q_init=stages[-1][2].motion)
+            stages.append((m_, a_, f_))
+            return f_.motion.q
 
-            def step(waist_xy: np.ndarray) -> np.ndarray:
-                # the corrected waist moves the base; the planted soles stay, the legs follow
-                q = base.copy()
-                q[:, :2] = waist_xy
-                return resolve_legs(robot, q, planted.targets, source.fps, limits,
-                                    config.plant).q
-
-            balance = balance_loop(robot, q_out, source.fps, flat.support, base[:, :2], step,
-                                   config.balance)
-        else:
-            pelvis = source.index("pelvis")
-            shape = source.positions_m.shape
-            base_soft = soft if soft is not None else np.full(shape, np.nan)
-            base_w = soft_w if soft_w is not None else np.zeros(shape[:2])
-
-            def step(waist_xy: np.ndarray) -> np.ndarray:
-                # The corrected waist is a soft target of large weight rather than the
-                # paper's hard constraint: with both feet pinned, a correction the legs cannot
-                # reach would make the hard constraints inconsistent and the morph fail.
-                s_m, w_m = base_soft.copy(), base_w.copy()
-                s_m[:, pelvis, :2] = waist_xy
-                w_m[:, pelvis] = config.balance.waist_weight
-                return morph_and_fit(hard, q_init=stages[-1][2].motion, soft_m=s_m,
-                                     soft_wm=w_m).motion.q
-
-            balance = balance_loop(robot, q_out, source.fps, flat.support,
-                                   stages[0][1].positions_m[:, pelvis, :2], step,
-                                   config.balance)
-            chosen = balance.best
+        balance = balance_loop(robot, q_out, source.fps, flat.support,
+                               adapted.positions_m[:, pelvis, :2], step, nishiwaki)
+        morph, adapted, fit = stages[balance.best]
         q_out = balance.q
         seconds["balance"] = time.perf_counter() - t3
-    morph, adapted, fit = stages[chosen]
-    motion_out = fit.motion if q_out is fit.motion.q else dataclasses.replace(fit.motion,
-                                                                               q=q_out)
+    elif config.balance == "wholebody":
+        t3 = time.perf_counter()
+        n_lead = int(round(config.lead_s * source.fps))
+        planned = contacts.support if config.plan_contacts else flat.support
+        ext = add_lead(q_out, fit_markers.positions_m, planned, n_lead, n_lead)
+        targets = compile_targets(robot, fit_markers.names, keypoints, directions,
+                                  source=fit_markers.source or "motion")
+        limits = joint_limits(robot, fit_config)
+        plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
+                                           source.fps, limits, config.wholebody,
+                                           rest_frames=3 if n_lead >= 3 else 0)
+        seconds["plan"] = time.perf_counter() - t3
+        t4 = time.perf_counter()
+        solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody)
+        seconds["wholebody"] = time.perf_counter() - t4
+        q_out = solution.q
+        lead = (n_lead, n_lead)
+        unconstrained = [(a + n_lead, b + n_lead) for a, b in contacts.flight_phases()]
+        adapted = adapted.with_positions(
+            ext.markers[:, :adapted.n_markers], source=adapted.source)
+        support_out = Contacts(support=ext.support, fps=source.fps)
+    motion_out = dataclasses.replace(fit.motion, q=q_out)
     seconds["total"] = time.perf_counter() - t0
     log.info("retargeted %s to %s: %d frames in %.2f s", motion.source, robot.name,
-             adapted.n_frames, seconds["total"])
+             motion_out.n_frames, seconds["total"])
     return RetargetResult(motion=motion_out, arrangement=arrangement, adapted=adapted,
-                          contacts=contacts, support=flat, morph=morph, fit=fit,
-                          balance=balance, seconds=seconds, planted=planted)
+                          contacts=contacts, support=support_out, morph=morph, fit=fit,
+                          wholebody=solution, balance=balance, lead_frames=lead,
+                          unconstrained_frames=unconstrained, seconds=seconds)

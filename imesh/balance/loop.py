@@ -3,12 +3,10 @@ correction -> a motion with the corrected waist -> ZMP again; until the ZMP erro
 tolerance or an iteration limit.
 
 This module owns the loop and its report; producing the motion for a corrected waist is a
-callable supplied by the pipeline (:func:`imesh.retarget.retarget`): by default the planted
-motion's base is moved and its legs are solved again (``feedback="joints"``,
-:func:`imesh.fit.legs.resolve_legs`); the paper's way, the waist as a target of the morph and a
-new fit (``feedback="mesh"``), is kept as an option. On the CMU walk (JVRC-1) the mesh loop
-stalled (each re-fit adds new base jitter: ZMP error 527 -> 280 mm at best) while the joint loop
-reaches 25 mm.
+callable supplied by the pipeline (:func:`imesh.retarget.retarget`, ``balance="nishiwaki"``):
+the paper's way, the corrected waist as a target of the morph and a new fit. It is kept as the
+paper's mode; the default balance is the whole-body solve (:mod:`imesh.solve`), which holds the
+ZMP, the footprints and the limits in one problem.
 """
 
 from __future__ import annotations
@@ -46,9 +44,9 @@ class FlightPhaseError(ImeshError):
         spans = ", ".join(f"frames {a}-{b - 1} ({a / fps:.2f}-{(b - 1) / fps:.2f} s)"
                           for a, b in phases)
         super().__init__(f"{source}: {len(phases)} flight phase(s) (both feet off the ground): "
-                         f"{spans}. The ZMP balance needs ground contact; pass "
-                         "--balance-flight (BalanceConfig(allow_flight=True)) to balance only "
-                         "the supported segments, or --no-balance")
+                         f"{spans}. Balance needs ground contact; pass --allow-flight "
+                         "(RetargetConfig(allow_flight=True)) to leave those frames without "
+                         "support and ZMP constraints, or --balance none")
 
 
 @dataclass(frozen=True)
@@ -67,19 +65,10 @@ class BalanceConfig:
         allow_flight: balance only the supported segments of a motion with flight phases
             instead of refusing it.
         error_lowpass_hz: the ZMP error is low-passed (zero phase) at this frequency before the
-            Nishiwaki solve [Hz]; None: no filter (the default: with ``feedback="joints"``
-            the correction lands on the base exactly and the loop needs the error's whole
-            band; on the CMU walk, JVRC-1, 4 Hz left the error at 239 mm after 10
-            iterations, unfiltered 25 mm). With ``feedback="mesh"`` use ~1.5 Hz: each re-fit
-            adds new frame-to-frame jitter, which the correction would chase.
+            Nishiwaki solve [Hz]; None: no filter. Each re-fit adds frame-to-frame jitter,
+            which the correction would chase: the pipeline uses ~1.5 Hz.
         waist_weight: weight of the corrected waist position in the morph (a soft target as
-            strong as the support-foot footprints; the Laplacian rows weigh ~1); mesh
-            feedback only.
-        feedback: ``"joints"``: the correction moves the base of the planted motion and the
-            legs are solved again (:func:`imesh.fit.legs.resolve_legs`; needs
-            ``RetargetConfig.plant``); ``"mesh"``: the corrected waist goes back into the
-            morph as a target of the pelvis marker and the markers are fitted again (the
-            paper's loop, sec. V-D).
+            strong as the support-foot footprints; the Laplacian rows weigh ~1).
     """
 
     iterations: int = 10
@@ -90,7 +79,6 @@ class BalanceConfig:
     allow_flight: bool = False
     error_lowpass_hz: float | None = None
     waist_weight: float = 1e3
-    feedback: str = "joints"
 
     def __post_init__(self) -> None:
         if not (isinstance(self.iterations, int) and self.iterations >= 0):
@@ -99,8 +87,6 @@ class BalanceConfig:
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise OptionError(name, value, "a positive number")
-        if self.feedback not in ("joints", "mesh"):
-            raise OptionError("feedback", self.feedback, "'joints' or 'mesh'")
         if not 0.0 <= self.inside_target <= 1.0:
             raise OptionError("inside_target", self.inside_target, "a fraction in [0, 1]")
 

@@ -405,6 +405,40 @@ def foot_skid(soles: SoleTracks, support: np.ndarray) -> SkidReport:
                       max_mm_per_frame=float(d.max()), samples=int(d.size))
 
 
+@dataclass(frozen=True)
+class SoleDeviation:
+    """How far supporting soles leave their footprints.
+
+    Attributes:
+        deviation_mm: largest distance of a support sole centre from its footprint (the median
+            centre of its support phase, on z = 0) [mm].
+        tilt_deg: largest angle between a supporting sole's normal and the vertical [deg].
+        samples: (foot, frame) support samples.
+    """
+
+    deviation_mm: float
+    tilt_deg: float
+    samples: int
+
+
+def sole_deviation(soles: SoleTracks, support: np.ndarray) -> SoleDeviation:
+    """Sole deviation and tilt over the support phases (DESIGN.md ``sole_deviation_mm``,
+    ``sole_tilt_deg``)."""
+    dev, tilt, n = 0.0, 0.0, 0
+    for k, side in enumerate(SIDES):
+        c = soles.corners[side]
+        normal = np.cross(c[:, 1] - c[:, 0], c[:, 3] - c[:, 0])
+        cos = np.abs(normal[:, 2]) / np.maximum(np.linalg.norm(normal, axis=1), 1e-12)
+        angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        for a, b in runs(support[:, k]):
+            centre = soles.centers[side][a:b]
+            foot = np.r_[np.median(centre[:, :2], axis=0), 0.0]
+            dev = max(dev, float(np.linalg.norm(centre - foot, axis=1).max()))
+            tilt = max(tilt, float(angle[a:b].max()))
+            n += b - a
+    return SoleDeviation(deviation_mm=1e3 * dev, tilt_deg=tilt, samples=n)
+
+
 @dataclass(frozen=True, eq=False)
 class LimitReport:
     """Joint-limit violations of a motion.
@@ -413,6 +447,8 @@ class LimitReport:
         position: (T,) bool frames with a joint outside its position limits.
         velocity: (T,) bool frames with a joint faster than its velocity limit (backward
             differences; frame 0 never).
+        acceleration: (T,) bool frames with a joint's second difference over its acceleration
+            limit (central: frame t from t-1, t, t+1; first and last frame never).
         position_joints: joint -> frames outside its position limits (violating joints only).
         velocity_joints: joint -> frames above its velocity limit (violating joints only).
         worst_position_rad: largest excursion beyond a position limit [rad].
@@ -421,20 +457,24 @@ class LimitReport:
 
     position: np.ndarray
     velocity: np.ndarray
+    acceleration: np.ndarray
     position_joints: dict[str, int]
     velocity_joints: dict[str, int]
+    acceleration_joints: dict[str, int]
     worst_position_rad: float
     worst_velocity_ratio: float
+    worst_acceleration_ratio: float
 
     @property
     def any(self) -> np.ndarray:
         """(T,) bool frames with any violation."""
-        return self.position | self.velocity
+        return self.position | self.velocity | self.acceleration
 
 
 def limit_violations(robot, q: np.ndarray, fps: float, position_tol: float = 1e-6,
                      velocity_tol: float = 1e-6) -> LimitReport:
-    """Frames with joints outside their position limits or above their velocity limits.
+    """Frames with joints outside their position limits or above their velocity or
+    acceleration limits (one tolerance: ``velocity_tol`` is relative to both rate limits).
 
     Args:
         robot: the robot (``q_lower``, ``q_upper``, ``v_max``, ``joint_names``).
@@ -450,10 +490,19 @@ def limit_violations(robot, q: np.ndarray, fps: float, position_tol: float = 1e-
     if len(qj) > 1:
         vel_ratio[1:] = np.abs(np.diff(qj, axis=0)) * fps / robot.v_max
     vel = vel_ratio > 1.0 + velocity_tol
+    acc_ratio = np.zeros_like(qj)
+    if len(qj) > 2:
+        acc_ratio[1:-1] = np.abs(np.diff(qj, n=2, axis=0)) * fps * fps / robot.a_max
+    acc = acc_ratio > 1.0 + velocity_tol
     names = robot.joint_names
+
+    def per_joint(mask):
+        return {names[j]: int(mask[:, j].sum()) for j in np.flatnonzero(mask.any(0))}
+
     return LimitReport(
-        position=pos.any(axis=1), velocity=vel.any(axis=1),
-        position_joints={names[j]: int(pos[:, j].sum()) for j in np.flatnonzero(pos.any(0))},
-        velocity_joints={names[j]: int(vel[:, j].sum()) for j in np.flatnonzero(vel.any(0))},
+        position=pos.any(axis=1), velocity=vel.any(axis=1), acceleration=acc.any(axis=1),
+        position_joints=per_joint(pos), velocity_joints=per_joint(vel),
+        acceleration_joints=per_joint(acc),
         worst_position_rad=float(max(over.max(initial=0.0), 0.0)),
-        worst_velocity_ratio=float(vel_ratio.max(initial=0.0)))
+        worst_velocity_ratio=float(vel_ratio.max(initial=0.0)),
+        worst_acceleration_ratio=float(acc_ratio.max(initial=0.0)))

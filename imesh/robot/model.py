@@ -419,6 +419,24 @@ def load_robot(name_or_toml: str | os.PathLike, urdf: str | os.PathLike | None =
 # the Robot
 
 
+@dataclass(frozen=True, eq=False)
+class TrajectoryKinematics:
+    """Kinematics of a configuration trajectory (:meth:`Robot.trajectory_kinematics`).
+
+    Attributes:
+        placements: (T, F, 4, 4) float world poses of the frames.
+        jacobians: (T, F, 6, nv) float world-aligned frame Jacobians (rows 0-2 the origin's
+            linear velocity, 3-5 the angular velocity).
+        com: (T, 3) float [m] centre of mass.
+        com_jacobians: (T, 3, nv) float Jacobians of the centre of mass.
+    """
+
+    placements: np.ndarray
+    jacobians: np.ndarray
+    com: np.ndarray
+    com_jacobians: np.ndarray
+
+
 def _skew(r: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
 
@@ -668,6 +686,62 @@ class Robot:
         for k, i in enumerate(self._ids(frames)):
             out[k] = pin.getFrameJacobian(self.model, self.data, i, pin.LOCAL_WORLD_ALIGNED)
         return out
+
+    def trajectory_kinematics(self, q: np.ndarray, frames: Sequence[int | str]
+                              ) -> TrajectoryKinematics:
+        """Placements and world-aligned Jacobians of frames, CoM and its Jacobian, at every
+        configuration of a trajectory (one pass of pinocchio calls per configuration: joint
+        Jacobians once, then the frames and the CoM from them).
+
+        Args:
+            q: (T, nq) float configurations.
+            frames: F frame indices (or names).
+        """
+        pin, model, data = self._pin, self.model, self.data
+        q = np.asarray(q, dtype=float)
+        ids = self._ids(frames)
+        T = len(q)
+        place = np.empty((T, len(ids), 4, 4))
+        jac = np.empty((T, len(ids), 6, self.nv))
+        com = np.empty((T, 3))
+        jcom = np.empty((T, 3, self.nv))
+        world = pin.LOCAL_WORLD_ALIGNED
+        for t in range(T):  # pinocchio is per configuration; ~30 us per frame
+            pin.computeJointJacobians(model, data, q[t])
+            pin.updateFramePlacements(model, data)
+            jcom[t] = pin.jacobianCenterOfMass(model, data, True)
+            com[t] = data.com[0]
+            for k, i in enumerate(ids):
+                place[t, k] = data.oMf[i].homogeneous
+                jac[t, k] = pin.getFrameJacobian(model, data, i, world)
+        self._q = None  # the data no longer matches a single cached configuration
+        self._jac_valid = False
+        return TrajectoryKinematics(placements=place, jacobians=jac, com=com,
+                                    com_jacobians=jcom)
+
+    def centroidal_trajectory(self, q: np.ndarray, v: np.ndarray, a: np.ndarray
+                              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centroidal quantities along a trajectory (pinocchio ``ccrba`` and
+        ``computeCentroidalMomentumTimeVariation``).
+
+        Args:
+            q: (T, nq) configurations; v, a: (T, nv) velocities and accelerations.
+
+        Returns:
+            (com (T, 3) [m], dh (T, 6) rate of the centroidal momentum [linear N, angular Nm]
+            about the CoM, Ag (T, 6, nv) centroidal momentum matrix: ``h = Ag v``).
+        """
+        pin, model, data = self._pin, self.model, self.data
+        T = len(q)
+        com, dh, ag = np.empty((T, 3)), np.empty((T, 6)), np.empty((T, 6, self.nv))
+        for t in range(T):  # pinocchio is per configuration
+            ag[t] = pin.ccrba(model, data, q[t], v[t])
+            dh[t] = pin.computeCentroidalMomentumTimeVariation(model, data, q[t], v[t],
+                                                               a[t]).np
+            com[t] = data.com[0]
+        self._q = None
+        self._jac_valid = False
+        return com, dh, ag
 
     def frame_angular_jacobians(self, q, frames: Sequence[int | str]) -> np.ndarray:
         """(F, 3, nv) float world angular-velocity Jacobians of frames (``omega = J @ v``)."""

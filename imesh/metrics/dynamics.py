@@ -1,0 +1,77 @@
+"""What a reference motion asks of the robot before physics: joint torques and contact friction.
+
+Inverse dynamics (pinocchio RNEA, free-flyer) gives the wrench the base would need and the joint
+torques. The ground supplies the base wrench through the support soles: the sole wrenches ``f``
+(world-aligned force and moment at each support sole frame) solve ``J_b^T f = tau_b`` (the six
+base rows) in the least-norm sense, and the joint torques are ``tau_j - J_j^T f``. The torque
+ratio is ``max |tau_j| / effort_max``; the friction ratio is ``|f_xy| / (mu f_z)`` of each
+support sole (infinite where a sole would have to pull, f_z <= 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contacts import SIDES
+
+#: Friction coefficient of the friction ratio.
+MU = 0.7
+
+
+@dataclass(frozen=True)
+class ReferenceDynamics:
+    """Torque and friction demands of a reference motion.
+
+    Attributes:
+        torque_ratio: largest |joint torque| / effort limit.
+        torque_joint: the joint of that ratio; torque_frame: its frame.
+        friction_ratio: largest tangential / (mu x normal) sole force ratio over the support
+            frames (inf when a sole must pull).
+        friction_frame: the frame of that ratio (-1 without support).
+    """
+
+    torque_ratio: float
+    torque_joint: str
+    torque_frame: int
+    friction_ratio: float
+    friction_frame: int
+
+
+def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                       support: np.ndarray, mu: float = MU) -> ReferenceDynamics:
+    """Joint torques and sole forces the motion needs (see the module docstring).
+
+    Args:
+        robot: the robot.
+        q: (T, nq) configurations; v, a: (T, nv) velocities and accelerations.
+        support: (T, 2) bool [left, right] soles in support.
+        mu: friction coefficient.
+    """
+    T = len(q)
+    frames = [robot.soles[s].frame for s in SIDES]
+    kin = robot.trajectory_kinematics(q, frames)
+    ratio = np.zeros((T, robot.dof))
+    friction = np.zeros(T)
+    for t in range(T):  # one RNEA and one small least-squares problem per frame
+        tau = robot.inverse_dynamics(q[t], v[t], a[t])
+        feet = np.flatnonzero(support[t])
+        if len(feet):
+            J = kin.jacobians[t, feet].reshape(-1, robot.nv)  # (6k, nv)
+            f = np.linalg.lstsq(J[:, :6].T, tau[:6], rcond=None)[0]
+            tau = tau - J.T @ f
+            fk = f.reshape(-1, 6)
+            fz = fk[:, 2]
+            tang = np.linalg.norm(fk[:, :2], axis=1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                r = np.where(fz > 0, tang / (mu * np.maximum(fz, 1e-12)), np.inf)
+            friction[t] = r.max()
+        ratio[t] = np.abs(tau[6:]) / robot.effort_max
+    t, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    sup = support.any(axis=1)
+    ft = int(np.argmax(np.where(sup, friction, -1.0))) if sup.any() else -1
+    return ReferenceDynamics(torque_ratio=float(ratio[t, j]), torque_joint=robot.joint_names[j],
+                             torque_frame=int(t),
+                             friction_ratio=float(friction[ft]) if ft >= 0 else float("nan"),
+                             friction_frame=ft)

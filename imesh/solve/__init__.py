@@ -1,0 +1,15 @@
+"""The whole-body spacetime solve (DESIGN.md, "Whole-body spacetime solve"; docs/wholebody.md).
+
+``plan_whole_body`` fixes footprints, polygons, targets and limits; ``solve_whole_body`` runs the
+sequential QP over all frames; ``add_lead`` adds the standing lead-in and lead-out.
+"""
+
+from .footprints import Footprint, plan_footprints
+from .lead import Lead, add_lead
+from .problem import WholeBodyConfig, build_qp
+from .qp import SOLVERS, QpProblem, QpSolution, solve_qp
+from .sqp import IterationReport, WholeBodySolution, plan_whole_body, solve_whole_body
+
+__all__ = ["SOLVERS", "Footprint", "IterationReport", "Lead", "QpProblem", "QpSolution",
+           "WholeBodyConfig", "WholeBodySolution", "add_lead", "build_qp", "plan_footprints",
+           "plan_whole_body", "solve_qp", "solve_whole_body"]

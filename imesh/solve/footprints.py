@@ -1,0 +1,134 @@
+"""Footprints: one flat sole placement on the ground per support phase.
+
+For support phase s of foot f the sole keeps one pose F_s for the whole phase (DESIGN.md,
+"Whole-body spacetime solve"): the sole centre on z = 0, the sole level (its normal along world
+z), and x, y, yaw from the initial trajectory: the median sole centre and the circular mean of
+the yaw over the middle half of the phase (the ends of a phase carry the heel strike and toe-off
+of the fit).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contacts import SIDES, runs
+from ..metrics.kinematics import SoleTracks, convex_hull_2d
+from ..support import middle_half
+
+
+@dataclass(frozen=True, eq=False)
+class Footprint:
+    """The ground placement of one sole over one support phase.
+
+    Attributes:
+        side: ``"left"`` or ``"right"``.
+        start, stop: the frames [start, stop) of the phase.
+        frame_pose: (4, 4) float world pose the sole *frame* keeps (so the sole rectangle lies
+            on z = 0, level).
+        center_m: (3,) float [m] world sole centre (z = 0).
+        corners_m: (4, 3) float [m] world sole corners (z = 0).
+    """
+
+    side: str
+    start: int
+    stop: int
+    frame_pose: np.ndarray
+    center_m: np.ndarray
+    corners_m: np.ndarray
+
+
+def _yaw(rot: np.ndarray) -> np.ndarray:
+    """(N,) yaw [rad] of rotation matrices (N, 3, 3) (heading of their x axis)."""
+    return np.arctan2(rot[:, 1, 0], rot[:, 0, 0])
+
+
+def _rz(yaw: float) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray
+                    ) -> list[Footprint]:
+    """One level footprint on z = 0 per support phase of each foot.
+
+    Args:
+        robot: the robot (``soles``, ``q_nominal`` give the level sole orientation).
+        sole_poses: side -> (T, 4, 4) float world poses of the sole frames along the initial
+            trajectory.
+        support: (T, 2) bool [left, right] planned support.
+
+    Returns:
+        Footprints of both feet, in order of side then time.
+    """
+    out = []
+    level = robot.frame_rotations(robot.q_nominal,
+                                  [robot.soles[s].frame for s in SIDES])  # soles level there
+    for k, side in enumerate(SIDES):
+        sole = robot.soles[side]
+        rot_level = level[k]
+        poses = sole_poses[side]
+        for start, stop in runs(support[:, k]):
+            a, b = middle_half(start, stop)
+            sel = poses[a:b]
+            centers = sel[:, :3, :3] @ sole.center + sel[:, :3, 3]
+            # yaw of the sole relative to its level orientation in the nominal pose
+            yaw = _yaw(sel[:, :3, :3] @ rot_level.T)
+            psi = float(np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean()))
+            R = _rz(psi) @ rot_level
+            c = np.array([*np.median(centers[:, :2], axis=0), 0.0])
+            pose = np.eye(4)
+            pose[:3, :3] = R
+            pose[:3, 3] = c - R @ sole.center
+            corners = sole.corners() @ R.T + pose[:3, 3]
+            out.append(Footprint(side=side, start=start, stop=stop, frame_pose=pose,
+                                 center_m=c, corners_m=corners))
+    return out
+
+
+def footprint_tracks(footprints: list[Footprint], n_frames: int, fps: float) -> SoleTracks:
+    """Sole tracks of the planned support: the footprints' corners and centres in their phases,
+    NaN elsewhere (for :func:`imesh.metrics.kinematics.desired_zmp` and the polygons)."""
+    corners = {s: np.full((n_frames, 4, 3), np.nan) for s in SIDES}
+    centers = {s: np.full((n_frames, 3), np.nan) for s in SIDES}
+    for f in footprints:
+        corners[f.side][f.start:f.stop] = f.corners_m
+        centers[f.side][f.start:f.stop] = f.center_m
+    return SoleTracks(corners=corners, centers=centers, fps=fps)
+
+
+def support_halfplanes(footprints: list[Footprint], support: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The support polygon of every supported frame as half-planes ``n . p >= b``.
+
+    Args:
+        footprints: the planned footprints.
+        support: (T, 2) bool planned support.
+
+    Returns:
+        (frame (R,) int, normal (R, 2) unit inward normals, offset (R,) [m]) over all edges of
+        all supported frames' convex hulls.
+    """
+    T = len(support)
+    phase_of = {s: np.full(T, -1) for s in SIDES}
+    for i, f in enumerate(footprints):
+        phase_of[f.side][f.start:f.stop] = i
+    frames, normals, offsets = [], [], []
+    cache: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+    for t in np.flatnonzero(support.any(axis=1)):
+        key = (int(phase_of["left"][t]), int(phase_of["right"][t]))
+        if key not in cache:  # the polygon only changes with the phases: one hull per pair
+            pts = np.concatenate([footprints[i].corners_m[:, :2] for i in key if i >= 0])
+            hull = convex_hull_2d(pts)  # counter-clockwise
+            edge = np.roll(hull, -1, axis=0) - hull
+            n = np.stack([-edge[:, 1], edge[:, 0]], axis=1)  # inward for counter-clockwise
+            n /= np.linalg.norm(n, axis=1, keepdims=True)
+            cache[key] = (n, np.sum(n * hull, axis=1))
+        n, b = cache[key]
+        frames.append(np.full(len(n), t))
+        normals.append(n)
+        offsets.append(b)
+    if not frames:
+        return np.zeros(0, dtype=int), np.zeros((0, 2)), np.zeros(0)
+    return np.concatenate(frames), np.concatenate(normals), np.concatenate(offsets)

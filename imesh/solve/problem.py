@@ -1,0 +1,418 @@
+"""The QP of one whole-body SQP iteration (DESIGN.md, "Whole-body spacetime solve").
+
+Unknowns: the tangent update ``dq_t`` (base twist in the base frame, joint increments; nv per
+frame) of every frame t, ordered frame by frame, so every term couples at most frames t-2..t+2
+and the QP is banded. Linearized at the current trajectory ``q_t`` with pinocchio Jacobians:
+
+Objective (weights in :class:`WholeBodyConfig`):
+
+* interaction mesh + key points: ``sum_t e_t^T (W_t + w_L L_t^T L_t) e_t`` with
+  ``e_t = X_t + J_X dq_t - M_t`` the key points' offsets from the adapted markers, ``W_t`` their
+  squared weights (Nakaoka eq. 7-8) and ``L_t`` the Laplacian of the frame's interaction mesh
+  over the key-point markers (Nakaoka eq. 1-2; ``E_L`` measured on the robot's key points);
+* directions: ``w_d^2 |u_t - d_t - [u_t]x J_w dq_t|^2`` (the key directions of the fit);
+* smoothness: ``w_a |Delta^2 y|^2`` of the world-aligned coordinates ``y`` (base position, the
+  base's accumulated rotation vector, joints), second differences at 30 fps;
+* ZMP: ``w_z |p_t - p*_t|^2`` towards the desired ZMP (sole centre, hull centre);
+* ``w_r |dq|^2`` (step damping) and ``w_i |q_j + dq_j - q_init,j|^2`` (pull to the
+  initializer, joints).
+
+Constraints:
+
+* support soles: ``J_f dq_t = [p_F - p_f; log(R_F R_f^T)]`` (6 rows per support foot and frame);
+* swing soles: every corner ``z + J_z dq_t >= 0``;
+* joints: position bounds; ``|Delta q| <= v_max dt``; ``|Delta^2 q| <= a_max dt^2``;
+* ZMP (cart-table with the evaluator's difference operator ``D`` = gradient of gradient):
+  ``p_t = c_xy,t - (c_z,t / g) (D c)_xy,t + delta_t`` inside the support polygon shrunk by
+  ``zmp_margin_m``, where ``delta_t`` is the multibody ZMP minus the cart-table ZMP at the
+  current iterate (Nishiwaki's correction idea in joint space: at convergence the constraint
+  holds for the multibody ZMP the evaluator computes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..contacts import SIDES
+from ..errors import OptionError
+from .qp import SOLVERS, QpProblem
+
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class WholeBodyConfig:
+    """Settings of the whole-body solve.
+
+    Attributes:
+        iterations: largest number of SQP iterations.
+        step_tolerance: stop when no coordinate of the update exceeds this [m or rad].
+        mesh_weight: w_L, weight of the interaction-mesh (Laplacian) energy of the key points.
+        direction_weight: multiplies the key directions' weights.
+        accel_weight: w_a, weight of the squared second differences (at 30 fps) of the base and
+            joint coordinates [per (m or rad)^2].
+        zmp_weight: w_z, weight of the squared distance to the desired ZMP [1/m^2].
+        damping: w_r, weight of |dq|^2 in every iteration.
+        init_weight: w_i, pull of the joints towards the initializer.
+        zmp_margin_m: the support polygon is shrunk by this much [m].
+        velocity_margin, acceleration_margin: the limits are used times (1 - margin), so the
+            written motion meets them with room for rounding.
+        clearance_m: swing-sole corners stay this high above the ground [m].
+        zmp_slack_weight: price of the ZMP constraints' slack per metre (an exact penalty:
+            above the multipliers of a feasible problem the slack is 0 where it can be).
+        trust_region: largest change of any base or joint coordinate in one iteration [m or
+            rad], so the linearization stays valid.
+        solver: QP solver, one of :data:`imesh.solve.qp.SOLVERS`.
+        qp_tolerance: absolute tolerance of each QP solve.
+    """
+
+    iterations: int = 8
+    step_tolerance: float = 1e-4
+    mesh_weight: float = 1.0
+    direction_weight: float = 1.0
+    accel_weight: float = 1.0
+    zmp_weight: float = 0.002
+    damping: float = 1e-3
+    init_weight: float = 1e-2
+    zmp_margin_m: float = 0.01
+    velocity_margin: float = 1e-3
+    acceleration_margin: float = 1e-3
+    clearance_m: float = 0.0
+    zmp_slack_weight: float = 1e3
+    trust_region: float = 0.3
+    solver: str = "piqp"
+    qp_tolerance: float = 1e-7
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.iterations, int) and self.iterations >= 1):
+            raise OptionError("iterations", self.iterations, "an integer >= 1")
+        for name in ("step_tolerance", "qp_tolerance"):
+            if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise OptionError(name, getattr(self, name), "a positive number")
+        for name in ("mesh_weight", "direction_weight", "accel_weight", "zmp_weight", "damping",
+                     "init_weight", "zmp_margin_m", "velocity_margin", "acceleration_margin",
+                     "clearance_m", "zmp_slack_weight", "trust_region"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise OptionError(name, value, "a non-negative number")
+        if self.solver not in SOLVERS:
+            raise OptionError("solver", self.solver, SOLVERS)
+
+
+@dataclass(frozen=True, eq=False)
+class Linearization:
+    """Everything one SQP iteration needs at the current trajectory.
+
+    Attributes:
+        points: (T, K, 3) key points [m]; point_jacobians: (T, K, 3, nv).
+        axes: (T, D, 3) world axes of the direction frames; axis_jacobians: (T, D, 3, nv)
+            angular Jacobians of those frames.
+        soles: (T, 2, 4, 4) sole frame poses [left, right]; sole_jacobians: (T, 2, 6, nv).
+        corners: (T, 2, P, 3) [m] the feet's ground points (sole corners and the bottom of
+            their collision proxies); corner_jacobians_z: (T, 2, P, nv) rows of their heights.
+        com: (T, 3) [m]; com_jacobians: (T, 3, nv).
+        com_acceleration: (T, 3) [m/s^2] and angular_momentum_rate: (T, 3) [Nm] from
+            pinocchio with the evaluator's finite-difference velocities and accelerations.
+        centroidal_angular: (T, 2, nv) x, y rows of the centroidal momentum matrix's angular
+            part; mass: [kg].
+        zmp_multibody: (T, 2) [m] the evaluator's multibody ZMP of the trajectory.
+        base_rotations: (T, 3, 3) world rotations of the base.
+    """
+
+    points: np.ndarray
+    point_jacobians: np.ndarray
+    axes: np.ndarray
+    axis_jacobians: np.ndarray
+    soles: np.ndarray
+    sole_jacobians: np.ndarray
+    corners: np.ndarray
+    corner_jacobians_z: np.ndarray
+    com: np.ndarray
+    com_jacobians: np.ndarray
+    com_acceleration: np.ndarray
+    angular_momentum_rate: np.ndarray
+    centroidal_angular: np.ndarray
+    mass: float
+    zmp_multibody: np.ndarray
+    base_rotations: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """What the solve holds fixed: targets, support, footprints, limits.
+
+    Attributes:
+        marker_points: (T, K, 3) adapted marker positions of the key points [m].
+        keypoint_weights: (K,) weights of the key points.
+        mesh_metric: (T, K, K) ``W + w_L L_t^T L_t`` per frame.
+        target_directions: (T, D, 3) unit target directions; direction_weights: (D,).
+        support: (T, 2) bool planned support [left, right].
+        sole_targets: (T, 2, 4, 4) footprint poses of the sole frames (NaN where not in
+            support).
+        halfplanes: (frame (R,), normal (R, 2), offset (R,)) of the support polygons.
+        desired_zmp: (T, 2) [m].
+        q_init: (T, nq) the initializer.
+        lower, upper, v_max, a_max: (n,) joint limits.
+        fps: frame rate.
+        rest_frames: the first and the last this many frames are held identical (the motion
+            starts and ends at rest: zero velocity and acceleration for a controller); 0: free.
+    """
+
+    marker_points: np.ndarray
+    keypoint_weights: np.ndarray
+    mesh_metric: np.ndarray
+    target_directions: np.ndarray
+    direction_weights: np.ndarray
+    support: np.ndarray
+    sole_targets: np.ndarray
+    halfplanes: tuple
+    desired_zmp: np.ndarray
+    q_init: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    v_max: np.ndarray
+    a_max: np.ndarray
+    fps: float
+    rest_frames: int = 0
+
+
+def gradient_operator(n: int, h: float) -> sp.csr_matrix:
+    """(n, n) sparse matrix of ``numpy.gradient`` with spacing h (central inside, one-sided
+    first order at the ends), so ``D @ x == np.gradient(x, h)``."""
+    if n < 2:
+        return sp.csr_matrix((n, n))
+    rows = np.r_[0, 0, np.repeat(np.arange(1, n - 1), 2), n - 1, n - 1]
+    cols = np.r_[0, 1, np.stack([np.arange(0, n - 2), np.arange(2, n)], 1).ravel(), n - 2, n - 1]
+    vals = np.r_[-1.0, 1.0, np.tile([-0.5, 0.5], n - 2), -1.0, 1.0] / h
+    return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+
+
+def difference_operator(n: int, order: int) -> sp.csr_matrix:
+    """((n - order), n) sparse forward difference of the given order (1 or 2)."""
+    stencil = {1: [-1.0, 1.0], 2: [1.0, -2.0, 1.0]}[order]
+    m = n - order
+    rows = np.repeat(np.arange(m), len(stencil))
+    cols = (np.arange(m)[:, None] + np.arange(len(stencil))).ravel()
+    return sp.csr_matrix((np.tile(stencil, m), (rows, cols)), shape=(m, n))
+
+
+def block_diagonal(blocks: np.ndarray) -> sp.csr_matrix:
+    """(T*r, T*c) sparse block diagonal of dense blocks (T, r, c), from index arrays."""
+    T, r, c = blocks.shape
+    rows = (np.arange(T)[:, None, None] * r + np.arange(r)[None, :, None]) + 0 * np.arange(c)
+    cols = (np.arange(T)[:, None, None] * c + np.arange(c)[None, None, :]) + 0 * rows
+    return sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(T * r, T * c))
+
+
+def _rows_at(frames: np.ndarray, rows: np.ndarray, stride: int, n_frames: int,
+             first: int = 0) -> sp.csr_matrix:
+    """(R, T*stride) sparse matrix whose row r is ``rows[r]`` (w,) at the columns
+    ``frames[r] * stride + first + [0, w)``."""
+    R, w = rows.shape
+    cols = frames[:, None] * stride + first + np.arange(w)
+    return sp.csr_matrix((rows.ravel(), (np.repeat(np.arange(R), w), cols.ravel())),
+                         shape=(R, n_frames * stride))
+
+
+def _log3(R: np.ndarray) -> np.ndarray:
+    """(N, 3) rotation vectors of rotation matrices (N, 3, 3)."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_matrix(R).as_rotvec()
+
+
+def world_coordinates(q: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+    """(T, nv) coordinates whose second differences measure accelerations: base position,
+    the base's accumulated world rotation vector, joints."""
+    T = len(q)
+    steps = _log3(rotations[1:] @ np.transpose(rotations[:-1], (0, 2, 1)))  # world increments
+    phi = np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)]) if T else np.zeros((0, 3))
+    return np.concatenate([q[:, :3], phi, q[:, 7:]], axis=1)
+
+
+def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
+             ) -> QpProblem:
+    """The QP of one SQP iteration at the trajectory ``q`` (T, nq); see the module docstring.
+
+    Returns:
+        QpProblem over x = (x_0, ..., x_{T-1}) with x_t = (dq_t (nv), dc_t (3), dk_t (2), s_t):
+        the tangent update, the CoM update ``dc_t = J_c dq_t`` and the horizontal centroidal
+        angular momentum update ``dk_t`` (auxiliaries that keep the ZMP rows sparse: written in
+        dq they would couple whole 35-column blocks over 9 frames) and
+        the ZMP slack ``s_t >= 0`` (an exact L1 penalty, so a linearization whose polygon
+        cannot be met still has a solution; at a feasible point it is 0).
+    """
+    T, K = lin.points.shape[:2]
+    nv = lin.point_jacobians.shape[-1]
+    nx = nv + 6
+    n_j = nv - 6
+    N = T * nx
+    h = 1.0 / plan.fps
+    C0, K0, S0 = nv, nv + 3, nv + 5  # offsets of dc, dk and the slack in a frame's block
+
+    # --- per-frame blocks: key points + interaction mesh, directions, damping ------------------
+    Jp = lin.point_jacobians.reshape(T, K, 3 * nv)
+    e = lin.points - plan.marker_points  # (T, K, 3)
+    GJ = np.matmul(plan.mesh_metric, Jp).reshape(T, K * 3, nv)
+    Jflat = lin.point_jacobians.reshape(T, K * 3, nv)
+    H = np.zeros((T, nx, nx))
+    g = np.zeros((T, nx))
+    H[:, :nv, :nv] = np.matmul(np.transpose(Jflat, (0, 2, 1)), GJ)
+    Ge = np.matmul(plan.mesh_metric, e).reshape(T, K * 3)
+    g[:, :nv] = np.einsum("tri,tr->ti", Jflat, Ge)
+    if lin.axes.shape[1]:
+        u = lin.axes
+        Jw = lin.axis_jacobians  # (T, D, 3, nv): du = omega x u = -u x omega
+        Ad = -np.cross(u[..., None, :], np.swapaxes(Jw, -1, -2)).swapaxes(-1, -2)
+        w = (config.direction_weight * plan.direction_weights) ** 2
+        r = u - plan.target_directions
+        H[:, :nv, :nv] += np.einsum("tdan,d,tdam->tnm", Ad, w, Ad)
+        g[:, :nv] += np.einsum("tdan,d,tda->tn", Ad, w, r)
+    H[:, np.arange(nv), np.arange(nv)] += config.damping
+    H[:, np.arange(6, nv), np.arange(6, nv)] += config.init_weight
+    g[:, 6:nv] += config.init_weight * (q[:, 7:] - plan.q_init[:, 7:])
+    g[:, S0] = config.zmp_slack_weight
+    P = block_diagonal(H)
+    c = g.ravel()
+
+    # --- smoothness: second differences of world-aligned coordinates -------------------------
+    if T >= 3 and config.accel_weight > 0:
+        Rb = lin.base_rotations
+        S = np.zeros((T, nv, nx))
+        S[:, :3, :3] = Rb
+        S[:, 3:6, 3:6] = Rb
+        S[:, np.arange(6, nv), np.arange(6, nv)] = 1.0
+        scale = (plan.fps / 30.0) ** 2
+        D2 = sp.kron(difference_operator(T, 2), sp.identity(nv), format="csr") * scale
+        A_s = D2 @ block_diagonal(S)
+        r_s = D2 @ world_coordinates(q, Rb).ravel()
+        P = P + config.accel_weight * (A_s.T @ A_s)
+        c = c + config.accel_weight * (A_s.T @ r_s)
+
+    # --- ZMP: the multibody ZMP linearized in the CoM and angular-momentum auxiliaries -------
+    # p_x = c_x - N_x / Dn, p_y = c_y - N_y / Dn with N_x = c_z a_x + Ld_y / m,
+    # N_y = c_z a_y - Ld_x / m, Dn = a_z + g; a = Dacc c (the evaluator's operator: gradient of
+    # gradient), Ld = grad(k) with k the centroidal angular momentum, dk = Ag_ang grad(dq).
+    grad = gradient_operator(T, h)
+    Dacc = (grad @ grad).tocsr()
+    com, acc, ld, m = lin.com, lin.com_acceleration, lin.angular_momentum_rate, lin.mass
+    cz = com[:, 2]
+    Dn = acc[:, 2] + GRAVITY
+    Nx = cz * acc[:, 0] + ld[:, 1] / m
+    Ny = cz * acc[:, 1] - ld[:, 0] / m
+
+    def pick(offset: int) -> sp.csr_matrix:  # (T, N) selects one auxiliary of every frame
+        return sp.csr_matrix((np.ones(T), (np.arange(T), np.arange(T) * nx + offset)),
+                             shape=(T, N))
+
+    cx, cy, czs, kx, ky = (pick(C0), pick(C0 + 1), pick(C0 + 2), pick(K0), pick(K0 + 1))
+    dg = sp.diags
+    acc_z = Dacc @ czs
+    Zx = (cx - dg(acc[:, 0] / Dn) @ czs - dg(cz / Dn) @ Dacc @ cx
+          - dg(1.0 / (m * Dn)) @ grad @ ky + dg(Nx / Dn ** 2) @ acc_z)
+    Zy = (cy - dg(acc[:, 1] / Dn) @ czs - dg(cz / Dn) @ Dacc @ cy
+          + dg(1.0 / (m * Dn)) @ grad @ kx + dg(Ny / Dn ** 2) @ acc_z)
+    order = np.argsort(np.r_[2 * np.arange(T), 2 * np.arange(T) + 1], kind="stable")
+    Z = sp.vstack([Zx, Zy], format="csr")[order]  # rows x_0, y_0, x_1, y_1, ...
+    p0 = lin.zmp_multibody
+    sup = plan.support.any(axis=1)
+    if config.zmp_weight > 0 and sup.any():
+        rows = np.flatnonzero(np.repeat(sup, 2))
+        Zs = Z[rows]
+        r_z = (p0 - plan.desired_zmp)[sup].ravel()
+        P = P + config.zmp_weight * (Zs.T @ Zs)
+        c = c + config.zmp_weight * (Zs.T @ r_z)
+
+    # --- equalities: CoM auxiliaries; support soles on their footprints -----------------------
+    frames_all = np.arange(T)
+    eq = [_rows_at(np.repeat(frames_all, 3), lin.com_jacobians.reshape(-1, nv), nx, T)
+          - _rows_at(np.repeat(frames_all, 3), np.tile(np.eye(3), (T, 1)), nx, T, C0)]
+    rhs = [np.zeros(3 * T)]
+    # dk_t = Ag_ang,t (x, y rows) sum_s grad_ts dq_s  (velocity perturbation of frame t)
+    gc = grad.tocoo()
+    vals = gc.data[:, None, None] * lin.centroidal_angular[gc.row]  # (nnz, 2, nv)
+    rows = (2 * gc.row[:, None, None] + np.arange(2)[None, :, None]) + 0 * np.arange(nv)
+    cols = (gc.col[:, None, None] * nx + np.arange(nv)[None, None, :]) + 0 * rows
+    Mk = sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(2 * T, N))
+    eq.append(_rows_at(np.repeat(frames_all, 2), np.tile(np.eye(2), (T, 1)), nx, T, K0) - Mk)
+    rhs.append(np.zeros(2 * T))
+    for k in range(len(SIDES)):
+        ts = np.flatnonzero(plan.support[:, k])
+        if not len(ts):
+            continue
+        cur, tgt = lin.soles[ts, k], plan.sole_targets[ts, k]
+        dp = tgt[:, :3, 3] - cur[:, :3, 3]
+        dr = _log3(tgt[:, :3, :3] @ np.transpose(cur[:, :3, :3], (0, 2, 1)))
+        eq.append(_rows_at(np.repeat(ts, 6), lin.sole_jacobians[ts, k].reshape(-1, nv), nx, T))
+        rhs.append(np.concatenate([dp, dr], axis=1).ravel())
+    # rest at both ends: world coordinates of frames t and t+1 equal (first and last frames)
+    if plan.rest_frames > 1 and T >= 2 * plan.rest_frames:
+        Rb = lin.base_rotations
+        Sb = np.zeros((T, nv, nv))
+        Sb[:, :3, :3] = Rb
+        Sb[:, 3:6, 3:6] = Rb
+        Sb[:, np.arange(6, nv), np.arange(6, nv)] = 1.0
+        y = world_coordinates(q, Rb)
+        k = plan.rest_frames - 1
+        for t in [*range(k), *range(T - 1 - k, T - 1)]:
+            rows_now = _rows_at(np.full(nv, t), Sb[t], nx, T)
+            rows_next = _rows_at(np.full(nv, t + 1), Sb[t + 1], nx, T)
+            eq.append(rows_next - rows_now)
+            rhs.append(y[t] - y[t + 1])
+    A = sp.vstack(eq, format="csc")
+    b = np.concatenate(rhs)
+
+    # --- inequalities --------------------------------------------------------------------------
+    G_blocks, lo, hi = [], [], []
+    # swing-sole corners above the ground
+    tt, kk = np.nonzero(~plan.support)
+    if len(tt):
+        z = lin.corners[tt, kk, :, 2].ravel()
+        n_pts = lin.corners.shape[2]
+        G_blocks.append(_rows_at(np.repeat(tt, n_pts),
+                                 lin.corner_jacobians_z[tt, kk].reshape(-1, nv), nx, T))
+        lo.append(config.clearance_m - z)
+        hi.append(np.full(len(z), np.inf))
+    # joint velocity and acceleration
+    sel = sp.csr_matrix((np.ones(T * n_j), (np.arange(T * n_j),
+                                             (np.arange(T)[:, None] * nx + 6
+                                              + np.arange(n_j)).ravel())), shape=(T * n_j, N))
+    qj = q[:, 7:]
+    for order, limit, margin in ((1, plan.v_max * h, config.velocity_margin),
+                                 (2, plan.a_max * h * h, config.acceleration_margin)):
+        if T <= order:
+            continue
+        D = sp.kron(difference_operator(T, order), sp.identity(n_j), format="csr") @ sel
+        lim = np.tile(limit * (1 - margin), T - order)
+        d = np.diff(qj, n=order, axis=0).ravel()
+        finite = np.isfinite(lim)
+        G_blocks.append(D[finite])
+        lo.append((-lim - d)[finite])
+        hi.append((lim - d)[finite])
+    # ZMP inside the shrunk support polygons: n . (p0 + Z x) + s_t >= b + margin
+    hp_frame, hp_n, hp_b = plan.halfplanes
+    if len(hp_frame):
+        R = len(hp_frame)
+        Nmat = sp.csr_matrix((hp_n.ravel(), (np.repeat(np.arange(R), 2),
+                                              (hp_frame[:, None] * 2 + np.arange(2)).ravel())),
+                             shape=(R, 2 * T))
+        slack = sp.csr_matrix((np.ones(R), (np.arange(R), hp_frame * nx + S0)), shape=(R, N))
+        G_blocks.append(Nmat @ Z + slack)
+        lo.append(hp_b + config.zmp_margin_m - np.sum(hp_n * p0[hp_frame], axis=1))
+        hi.append(np.full(R, np.inf))
+    G = sp.vstack(G_blocks, format="csc") if G_blocks else sp.csc_matrix((0, N))
+    # bounds: joint positions, a trust region on the update, slack >= 0
+    x_l = np.full((T, nx), -np.inf)
+    x_u = np.full((T, nx), np.inf)
+    x_l[:, :nv], x_u[:, :nv] = -config.trust_region, config.trust_region
+    x_l[:, 6:nv] = np.maximum(plan.lower - qj, -config.trust_region)
+    x_u[:, 6:nv] = np.minimum(plan.upper - qj, config.trust_region)
+    x_l[:, S0] = 0.0
+    P = ((P + P.T) * 0.5).tocsc()
+    return QpProblem(P=P, c=np.asarray(c).ravel(), A=A, b=b, G=G,
+                     l=np.concatenate(lo) if lo else np.zeros(0),
+                     u=np.concatenate(hi) if hi else np.zeros(0),
+                     x_l=x_l.ravel(), x_u=x_u.ravel())

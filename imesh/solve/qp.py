@@ -1,0 +1,152 @@
+"""One sparse convex QP and the solvers that take it.
+
+    minimize    1/2 x^T P x + c^T x
+    subject to  A x = b,   l <= G x <= u,   x_l <= x <= x_u
+
+The whole-body solve builds one of these per SQP iteration (:mod:`imesh.solve.problem`). The
+solver was chosen by measurement on the real problem (``benchmarks/wholebody.py``,
+docs/wholebody.md): PIQP's sparse interior-point method is the default; Clarabel and OSQP are
+kept for comparison.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import OptionError, SolverError
+
+SOLVERS = ("piqp", "clarabel", "osqp")
+
+
+@dataclass(frozen=True, eq=False)
+class QpProblem:
+    """A sparse QP (see the module docstring); infinite bounds allowed."""
+
+    P: sp.csc_matrix
+    c: np.ndarray
+    A: sp.csc_matrix
+    b: np.ndarray
+    G: sp.csc_matrix
+    l: np.ndarray  # noqa: E741 - the usual name of the lower bound
+    u: np.ndarray
+    x_l: np.ndarray
+    x_u: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return len(self.c)
+
+    def residuals(self, x: np.ndarray) -> dict[str, float]:
+        """Largest violation of the equalities, the inequalities and the bounds at ``x``."""
+        gx = self.G @ x
+        return {
+            "equality": float(np.abs(self.A @ x - self.b).max(initial=0.0)),
+            "inequality": float(np.maximum(self.l - gx, gx - self.u).max(initial=0.0)),
+            "bounds": float(np.maximum(self.x_l - x, x - self.x_u).max(initial=0.0)),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class QpSolution:
+    """Result of one QP solve.
+
+    Attributes:
+        x: (n,) float solution.
+        status: the solver's status text.
+        iterations: solver iterations.
+        seconds: wall time of setup and solve [s].
+        residuals: largest equality / inequality / bound violation at ``x``.
+        kkt_residual: infinity norm of the stationarity residual
+            ``P x + c + A^T y + G^T z + z_x`` with the solver's multipliers (NaN if not given).
+    """
+
+    x: np.ndarray
+    status: str
+    iterations: int
+    seconds: float
+    residuals: dict
+    kkt_residual: float
+
+
+def _solve_piqp(p: QpProblem, tol: float):
+    import piqp
+
+    solver = piqp.SparseSolver()
+    solver.settings.eps_abs = tol
+    solver.settings.eps_rel = 0.0
+    solver.settings.verbose = False
+    big = 1e30  # PIQP takes infinite bounds as +-inf; keep them finite for the KKT check
+    solver.setup(p.P, p.c, p.A, p.b, p.G, np.maximum(p.l, -big), np.minimum(p.u, big),
+                 p.x_l, p.x_u)
+    status = solver.solve()
+    r = solver.result
+    x = np.asarray(r.x)
+    # PIQP's multipliers: y (equalities), z_l/z_u (G rows), z_bl/z_bu (bounds)
+    stat = p.P @ x + p.c + p.A.T @ np.asarray(r.y) \
+        + p.G.T @ (np.asarray(r.z_u) - np.asarray(r.z_l)) \
+        + (np.asarray(r.z_bu) - np.asarray(r.z_bl))
+    return x, str(status), int(r.info.iter), float(np.abs(stat).max(initial=0.0))
+
+
+def _solve_clarabel(p: QpProblem, tol: float):
+    import clarabel
+
+    finite_lo, finite_hi = np.isfinite(p.l), np.isfinite(p.u)
+    bl, bu = np.isfinite(p.x_l), np.isfinite(p.x_u)
+    eye = sp.identity(p.n, format="csc")
+    # Clarabel: A x + s = b, s in cones: zero cone for equalities, nonnegative for the rest
+    blocks = [p.A, -p.G[finite_lo], p.G[finite_hi], -eye[bl], eye[bu]]
+    rhs = [p.b, -p.l[finite_lo], p.u[finite_hi], -p.x_l[bl], p.x_u[bu]]
+    A = sp.vstack(blocks, format="csc")
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_feas = tol
+    settings.tol_gap_rel = tol
+    cones = [clarabel.ZeroConeT(p.A.shape[0]),
+             clarabel.NonnegativeConeT(A.shape[0] - p.A.shape[0])]
+    solver = clarabel.DefaultSolver(sp.triu(p.P, format="csc"), p.c, A, np.concatenate(rhs),
+                                    cones, settings)
+    sol = solver.solve()
+    return np.asarray(sol.x), str(sol.status), int(sol.iterations), float("nan")
+
+
+def _solve_osqp(p: QpProblem, tol: float):
+    import osqp
+
+    eye = sp.identity(p.n, format="csc")
+    A = sp.vstack([p.A, p.G, eye], format="csc")
+    lo = np.concatenate([p.b, p.l, p.x_l])
+    hi = np.concatenate([p.b, p.u, p.x_u])
+    solver = osqp.OSQP()
+    solver.setup(sp.triu(p.P, format="csc"), p.c, A, lo, hi, eps_abs=tol, eps_rel=0.0,
+                 max_iter=20000, polishing=True, verbose=False)
+    r = solver.solve()
+    return np.asarray(r.x), str(r.info.status), int(r.info.iter), float("nan")
+
+
+def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7) -> QpSolution:
+    """Solve a QP with one of :data:`SOLVERS`.
+
+    Raises:
+        OptionError: unknown solver.
+        SolverError: the solver failed or returned a non-finite point (the message carries the
+            status and the residuals).
+    """
+    run = {"piqp": _solve_piqp, "clarabel": _solve_clarabel, "osqp": _solve_osqp}.get(solver)
+    if run is None:
+        raise OptionError("QP solver", solver, SOLVERS)
+    t0 = time.perf_counter()
+    x, status, iterations, kkt = run(problem, tol)
+    seconds = time.perf_counter() - t0
+    if not np.all(np.isfinite(x)):
+        raise SolverError(f"QP solver {solver} returned a non-finite point (status {status})")
+    res = problem.residuals(x)
+    if max(res.values()) > 1e3 * tol + 1e-6:
+        raise SolverError(f"QP solver {solver} stopped with status {status}: constraint "
+                          f"residuals {res}", residual=max(res.values()))
+    return QpSolution(x=x, status=status, iterations=iterations, seconds=seconds,
+                      residuals=res, kkt_residual=kkt)

@@ -1,0 +1,313 @@
+"""The whole-body spacetime solve: sequential QP over all frames in joint space.
+
+``plan_whole_body`` fixes what the solve holds (targets, interaction mesh of the key points,
+support, footprints, polygons, desired ZMP, limits); ``solve_whole_body`` linearizes the robot
+at the current trajectory (:meth:`imesh.robot.Robot.trajectory_kinematics`), builds one banded
+QP (:func:`imesh.solve.problem.build_qp`), solves it (:func:`imesh.solve.qp.solve_qp`) and
+moves every frame by its update, until the update is below tolerance. The
+:class:`WholeBodySolution` carries the residuals of every iteration measured on the nonlinear
+trajectory, so a result can be checked.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contacts import SIDES
+from ..errors import SolverError
+from ..fit.targets import CompiledTargets
+from ..mesh.interaction import build_interaction_mesh
+from ..metrics.kinematics import desired_zmp, motion_derivatives
+from .footprints import Footprint, footprint_tracks, plan_footprints, support_halfplanes
+from .problem import GRAVITY, Linearization, Plan, WholeBodyConfig, build_qp
+from .qp import solve_qp
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class IterationReport:
+    """Residuals of one SQP iterate, measured on the nonlinear trajectory.
+
+    Attributes:
+        step: largest |dq| of the update that led here [m or rad].
+        sole_error_m: largest distance of a support sole frame from its footprint [m].
+        sole_error_rad: largest rotation of a support sole frame from its footprint [rad].
+        lowest_swing_m: lowest swing-sole corner [m].
+        zmp_outside_m: largest distance of the multibody ZMP outside its shrunk polygon [m].
+        velocity_ratio, acceleration_ratio: largest |velocity| / limit, |acceleration| / limit.
+        keypoint_rms_m: RMS key-point distance to the adapted markers [m].
+        qp_seconds, qp_iterations: the QP's wall time and iterations.
+    """
+
+    step: float
+    sole_error_m: float
+    sole_error_rad: float
+    lowest_swing_m: float
+    zmp_outside_m: float
+    velocity_ratio: float
+    acceleration_ratio: float
+    keypoint_rms_m: float
+    qp_seconds: float
+    qp_iterations: int
+
+
+@dataclass(frozen=True, eq=False)
+class WholeBodySolution:
+    """Result of :func:`solve_whole_body`.
+
+    Attributes:
+        q: (T, nq) float the solved trajectory.
+        footprints: the planned footprints.
+        plan: what the solve held fixed.
+        history: one IterationReport per iterate (0 = the initializer).
+        converged: the last update was below ``step_tolerance``.
+        seconds: wall time [s] split into ``linearize``, ``build``, ``qp``, ``total``.
+        config: the settings used.
+    """
+
+    q: np.ndarray
+    footprints: list[Footprint]
+    plan: Plan
+    history: list[IterationReport]
+    converged: bool
+    seconds: dict
+    config: WholeBodyConfig
+
+    def report(self) -> dict:
+        last = self.history[-1]
+        return {"iterations": len(self.history) - 1, "converged": self.converged,
+                "footprints": len(self.footprints),
+                "sole_error_mm": 1e3 * last.sole_error_m,
+                "sole_error_deg": float(np.degrees(last.sole_error_rad)),
+                "lowest_swing_mm": 1e3 * last.lowest_swing_m,
+                "zmp_outside_mm": 1e3 * last.zmp_outside_m,
+                "velocity_ratio": last.velocity_ratio,
+                "acceleration_ratio": last.acceleration_ratio,
+                "keypoint_rms_mm": 1e3 * last.keypoint_rms_m,
+                "seconds": dict(self.seconds)}
+
+
+class _Frames:
+    """The robot frames one linearization asks for, and where each target finds its frame."""
+
+    def __init__(self, robot, targets: CompiledTargets):
+        soles = [robot.frame_id(robot.soles[s].frame) for s in SIDES]
+        ids = list(dict.fromkeys(list(targets.kp_frame_ids) + list(targets.dir_frame_ids)
+                                 + soles + [robot.frame_id(robot.waist_frame)]))
+        self.ids = ids
+        self.kp = np.array([ids.index(f) for f in targets.kp_frame_ids], dtype=int)
+        self.dirs = np.array([ids.index(f) for f in targets.dir_frame_ids], dtype=int)
+        self.soles = np.array([ids.index(f) for f in soles], dtype=int)
+        self.kp_offsets = targets.kp_offsets
+        self.dir_axes = targets.dir_axes
+        self.sole_corners = foot_ground_points(robot)  # (2, P, 3)
+
+
+def foot_ground_points(robot, band_m: float = 0.005) -> np.ndarray:
+    """(2, P, 3) points of each foot [left, right], in its sole frame, that must stay above the
+    ground in swing: the sole corners and the bottom (within ``band_m`` of the lowest, along
+    the sole normal) support points of the collision proxies on the sole frame (a proxy larger
+    than the sole rectangle would otherwise dip into the ground when the foot pitches)."""
+    out = []
+    for side in SIDES:
+        sole = robot.soles[side]
+        pts = [sole.corners()]
+        for shape in robot.collision_shapes:
+            if shape.frame == sole.frame:
+                sp_ = shape.support_points(n_circle=8)
+                height = sp_ @ sole.normal
+                pts.append(sp_[height <= height.min() + band_m])
+        out.append(np.concatenate(pts))
+    n = max(len(p) for p in out)
+    return np.stack([np.concatenate([p, np.repeat(p[-1:], n - len(p), axis=0)]) for p in out])
+
+
+def _cross_rows(J: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``[r]x^T``-style lever: (..., 3, nv) angular Jacobian rows -> ``-(r x J)`` so that
+    ``J_point = J_origin + (J_omega x r)`` column-wise, with r (..., 3)."""
+    return -np.cross(r[..., None, :], np.swapaxes(J, -1, -2)).swapaxes(-1, -2)
+
+
+def linearize(robot, q: np.ndarray, frames: _Frames, fps: float) -> Linearization:
+    """Key points, directions, soles, CoM and their Jacobians at every frame of ``q``."""
+    kin = robot.trajectory_kinematics(q, frames.ids)
+    M, J = kin.placements, kin.jacobians
+    R, p = M[..., :3, :3], M[..., :3, 3]
+    # key points: origin + R offset; J_p = J_o + J_omega x (R offset)
+    lever = np.einsum("tkij,kj->tki", R[:, frames.kp], frames.kp_offsets)
+    points = p[:, frames.kp] + lever
+    jk = J[:, frames.kp]
+    point_j = jk[:, :, :3] + _cross_rows(jk[:, :, 3:], lever)
+    axes = np.einsum("tdij,dj->tdi", R[:, frames.dirs], frames.dir_axes)
+    soles = M[:, frames.soles]
+    js = J[:, frames.soles]  # (T, 2, 6, nv)
+    lever_c = np.einsum("tsij,scj->tsci", soles[..., :3, :3], frames.sole_corners)
+    corners = soles[:, :, None, :3, 3] + lever_c
+    # height rows of the corner Jacobians: J_o,z + (J_omega x r)_z
+    jw = js[:, :, None, 3:]  # (T, 2, 1, 3, nv)
+    cz = js[:, :, None, 2] + (jw[..., 0, :] * lever_c[..., 1:2] - jw[..., 1, :] * lever_c[..., 0:1])
+    v, a = motion_derivatives(q, fps)
+    com, dh, ag = robot.centroidal_trajectory(q, v, a)
+    m = robot.mass
+    acc, ld = dh[:, :3] / m, dh[:, 3:]
+    dn = acc[:, 2] + GRAVITY
+    zmp = np.stack([com[:, 0] - (com[:, 2] * acc[:, 0] + ld[:, 1] / m) / dn,
+                    com[:, 1] - (com[:, 2] * acc[:, 1] - ld[:, 0] / m) / dn], axis=1)
+    rot = _base_rotations(q)
+    return Linearization(points=points, point_jacobians=point_j, axes=axes,
+                         axis_jacobians=J[:, frames.dirs, 3:], soles=soles, sole_jacobians=js,
+                         corners=corners, corner_jacobians_z=cz, com=kin.com,
+                         com_jacobians=kin.com_jacobians, com_acceleration=acc,
+                         angular_momentum_rate=ld, centroidal_angular=ag[:, 3:5], mass=m,
+                         zmp_multibody=zmp,
+                         base_rotations=rot)
+
+
+def _base_rotations(q: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_quat(q[:, 3:7]).as_matrix()  # scipy and pinocchio: x, y, z, w
+
+
+def keypoint_laplacians(marker_points: np.ndarray) -> np.ndarray:
+    """(T, K, K) dense Laplacian L_t of each frame's interaction mesh over the key-point
+    markers (:func:`imesh.mesh.interaction.build_interaction_mesh`, inverse-distance
+    weights)."""
+    T, K, _ = marker_points.shape
+    lap = build_interaction_mesh(marker_points).laplacian.tocoo()
+    out = np.zeros((T, K, K))
+    out[lap.row // K, lap.row % K, lap.col % K] = lap.data
+    return out
+
+
+def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: CompiledTargets,
+                    support: np.ndarray, fps: float, limits: tuple, config: WholeBodyConfig,
+                    transition_s: float = 0.1, rest_frames: int = 3
+                    ) -> tuple[Plan, list[Footprint]]:
+    """Fix the targets, mesh, support, footprints and limits of a whole-body solve.
+
+    Args:
+        robot: the robot.
+        q_init: (T, nq) initial trajectory (within the joint limits).
+        markers: (T, M, 3) adapted markers (the fit's markers, ``targets`` index them).
+        targets: key points and directions compiled against ``markers``.
+        support: (T, 2) bool [left, right] planned support; every frame needs one foot.
+        fps: frame rate [1/s].
+        limits: (lower, upper, v_max, a_max) joint limits, each (n,).
+        config: WholeBodyConfig.
+        transition_s: blending of the desired ZMP between phases (as the evaluator's).
+        rest_frames: the first and last this many frames are held identical (start and end
+            at rest); 0: free.
+    """
+    T = len(q_init)
+    frames = _Frames(robot, targets)
+    kin = robot.trajectory_kinematics(q_init, [frames.ids[i] for i in frames.soles])
+    footprints = plan_footprints(robot, {s: kin.placements[:, k] for k, s in enumerate(SIDES)},
+                                 support)
+    sole_targets = np.full((T, 2, 4, 4), np.nan)
+    for f in footprints:
+        sole_targets[f.start:f.stop, SIDES.index(f.side)] = f.frame_pose
+    tracks = footprint_tracks(footprints, T, fps)
+    kp_markers = markers[:, targets.kp_markers]
+    lap = keypoint_laplacians(kp_markers)
+    w2 = targets.kp_weights ** 2
+    metric = np.einsum("tji,tjk->tik", lap, lap) * config.mesh_weight
+    metric[:, np.arange(len(w2)), np.arange(len(w2))] += w2
+    d = markers[:, targets.dir_to] - markers[:, targets.dir_from]
+    d /= np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-12)
+    lower, upper, vmax, amax = limits
+    plan = Plan(marker_points=kp_markers, keypoint_weights=targets.kp_weights,
+                mesh_metric=metric, target_directions=d, direction_weights=targets.dir_weights,
+                support=np.asarray(support, dtype=bool), sole_targets=sole_targets,
+                halfplanes=support_halfplanes(footprints, support),
+                desired_zmp=desired_zmp(tracks, support, transition_s), q_init=q_init,
+                lower=lower, upper=upper, v_max=vmax, a_max=amax, fps=fps,
+                rest_frames=rest_frames)
+    return plan, footprints
+
+
+def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_seconds: float,
+            qp_iterations: int, margin: float) -> IterationReport:
+    sup = plan.support
+    tt, kk = np.nonzero(sup)
+    cur, tgt = lin.soles[tt, kk], plan.sole_targets[tt, kk]
+    pos_err = np.linalg.norm(cur[:, :3, 3] - tgt[:, :3, 3], axis=1).max(initial=0.0)
+    rel = np.einsum("nji,njk->nik", tgt[:, :3, :3], cur[:, :3, :3])
+    ang = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1)).max(initial=0.0)
+    sw_t, sw_k = np.nonzero(~sup)
+    lowest = lin.corners[sw_t, sw_k, :, 2].min(initial=np.inf)
+    hp_frame, hp_n, hp_b = plan.halfplanes
+    outside = (hp_b + margin - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1))
+    # distance outside a convex polygon >= largest violated half-plane distance
+    zmp_out = float(np.maximum(outside, 0).max(initial=0.0))
+    qj = q[:, 7:]
+    h = 1.0 / plan.fps
+    vel = (np.abs(np.diff(qj, axis=0)) / (plan.v_max * h)).max(initial=0.0)
+    acc = (np.abs(np.diff(qj, 2, axis=0)) / (plan.a_max * h * h)).max(initial=0.0)
+    rms = float(np.sqrt(np.mean(np.sum((lin.points - plan.marker_points) ** 2, axis=-1))))
+    return IterationReport(step=step, sole_error_m=float(pos_err), sole_error_rad=float(ang),
+                           lowest_swing_m=float(lowest), zmp_outside_m=zmp_out,
+                           velocity_ratio=float(vel), acceleration_ratio=float(acc),
+                           keypoint_rms_m=rms, qp_seconds=qp_seconds,
+                           qp_iterations=qp_iterations)
+
+
+def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: CompiledTargets,
+                     config: WholeBodyConfig | None = None) -> WholeBodySolution:
+    """Sequential QP from ``plan.q_init`` (see the module docstring).
+
+    Raises:
+        SolverError: a QP failed (infeasible linearization, non-finite result).
+    """
+    config = config or WholeBodyConfig()
+    frames = _Frames(robot, targets)
+    q = plan.q_init.copy()
+    seconds = {"linearize": 0.0, "build": 0.0, "qp": 0.0}
+    t_all = time.perf_counter()
+    t0 = time.perf_counter()
+    lin = linearize(robot, q, frames, plan.fps)
+    seconds["linearize"] += time.perf_counter() - t0
+    history = [_report(lin, plan, q, 0.0, 0.0, 0, config.zmp_margin_m)]
+    converged = False
+    T, nv = len(q), robot.nv
+    for it in range(config.iterations):
+        t0 = time.perf_counter()
+        qp = build_qp(lin, plan, q, config)
+        seconds["build"] += time.perf_counter() - t0
+        try:
+            sol = solve_qp(qp, config.solver, config.qp_tolerance)
+        except SolverError as exc:
+            if config.solver == "clarabel":
+                raise SolverError(f"whole-body solve, iteration {it + 1}: {exc}",
+                                  residual=exc.residual) from None
+            # PIQP stalls on some badly scaled linearizations where Clarabel's homogeneous
+            # embedding still converges (measured: docs/wholebody.md)
+            log.info("whole-body iteration %d: %s; retrying with clarabel", it + 1, exc)
+            sol = solve_qp(qp, "clarabel", config.qp_tolerance)
+        seconds["qp"] += sol.seconds
+        dq = sol.x.reshape(T, nv + 6)[:, :nv]
+        q = np.array([robot.integrate(q[t], dq[t]) for t in range(T)])
+        t0 = time.perf_counter()
+        lin = linearize(robot, q, frames, plan.fps)
+        seconds["linearize"] += time.perf_counter() - t0
+        step = float(np.abs(dq).max())
+        history.append(_report(lin, plan, q, step, sol.seconds, sol.iterations,
+                               config.zmp_margin_m))
+        r = history[-1]
+        log.info("whole-body iteration %d: step %.2e, soles %.2f mm / %.3f deg, swing low %.1f "
+                 "mm, ZMP outside %.1f mm, v %.3f a %.3f of limits, key points %.1f mm RMS, "
+                 "QP %.2f s (%d it)", it + 1, step, 1e3 * r.sole_error_m,
+                 np.degrees(r.sole_error_rad), 1e3 * r.lowest_swing_m, 1e3 * r.zmp_outside_m,
+                 r.velocity_ratio, r.acceleration_ratio, 1e3 * r.keypoint_rms_m, sol.seconds,
+                 sol.iterations)
+        if step < config.step_tolerance:
+            converged = True
+            break
+    seconds["total"] = time.perf_counter() - t_all
+    return WholeBodySolution(q=q, footprints=footprints, plan=plan, history=history,
+                             converged=converged, seconds=seconds, config=config)
