@@ -269,7 +269,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     from .fit import FitConfig, fit_motion  # the fitting stage needs the robot stack
     from .fit.dls import joint_limits
     from .fit.targets import compile_targets
-    from .solve import add_lead, plan_whole_body, solve_whole_body
+    from .solve import add_lead, plan_whole_body, smooth_initializer, solve_whole_body
 
     config = config or RetargetConfig()
     seconds: dict[str, float] = {}
@@ -362,13 +362,16 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         t3 = time.perf_counter()
         n_lead = int(round(config.lead_s * source.fps))
         planned = contacts.support if config.plan_contacts else flat.support
-        ext = add_lead(q_out, fit_markers.positions_m, planned, n_lead, n_lead)
+        q_init = smooth_initializer(robot, q_out, source.fps, config.wholebody.initial_lowpass_hz)
+        ext = add_lead(q_init, fit_markers.positions_m, planned, n_lead, n_lead,
+                       step_frames=int(round(0.5 * source.fps)))
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")
         limits = joint_limits(robot, fit_config)
         plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
                                            source.fps, limits, config.wholebody,
-                                           rest_frames=3 if n_lead >= 3 else 0)
+                                           rest_frames=3 if n_lead >= 3 else 0,
+                                           pose_frames=ext.pose_frames)
         seconds["plan"] = time.perf_counter() - t3
         t4 = time.perf_counter()
         solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody)

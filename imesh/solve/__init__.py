@@ -5,6 +5,7 @@ sequential QP over all frames; ``add_lead`` adds the standing lead-in and lead-o
 """
 
 from .footprints import Footprint, plan_footprints
+from .initial import smooth_initializer
 from .lead import Lead, add_lead
 from .problem import WholeBodyConfig, build_qp
 from .qp import SOLVERS, QpProblem, QpSolution, solve_qp
@@ -12,4 +13,4 @@ from .sqp import IterationReport, WholeBodySolution, plan_whole_body, solve_whol
 
 __all__ = ["SOLVERS", "Footprint", "IterationReport", "Lead", "QpProblem", "QpSolution",
            "WholeBodyConfig", "WholeBodySolution", "add_lead", "build_qp", "plan_footprints",
-           "plan_whole_body", "solve_qp", "solve_whole_body"]
+           "plan_whole_body", "smooth_initializer", "solve_qp", "solve_whole_body"]

@@ -49,6 +49,48 @@ def _rz(yaw: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, fps: float,
+                 yaw_tol_rad: float = 0.15, move_tol_m: float = 0.04, gap_s: float = 0.3
+                 ) -> np.ndarray:
+    """Turn a support foot that pivots or slides into steps.
+
+    A human foot turns on its heel or slides while it carries weight; a robot sole that must
+    keep one footprint cannot. Where the initial trajectory's sole leaves the start of its
+    support run by more than ``yaw_tol_rad`` of yaw or ``move_tol_m``, the run is cut there and
+    the foot gets a swing of ``gap_s`` to re-place itself, provided the other foot supports
+    during the whole gap (otherwise the run is kept: one footprint, the mean).
+
+    Args:
+        robot: the robot (``soles``, ``q_nominal``).
+        sole_poses: side -> (T, 4, 4) sole frame poses along the initial trajectory.
+        support: (T, 2) bool planned support.
+        fps: frame rate [1/s].
+
+    Returns:
+        (T, 2) bool support with the re-steps cut out.
+    """
+    out = np.array(support, dtype=bool)
+    gap = max(2, int(round(gap_s * fps)))
+    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in SIDES])
+    for k, side in enumerate(SIDES):
+        poses = sole_poses[side]
+        centre = poses[:, :3, :3] @ robot.soles[side].center + poses[:, :3, 3]
+        yaw = np.unwrap(_yaw(poses[:, :3, :3] @ level[k].T))
+        for start, stop in runs(support[:, k]):
+            a = start
+            t = start + 1
+            while t < stop:
+                moved = np.linalg.norm(centre[t, :2] - centre[a, :2])
+                if abs(yaw[t] - yaw[a]) > yaw_tol_rad or moved > move_tol_m:
+                    lo, hi = max(t - gap // 2, a + 1), min(t + gap - gap // 2, stop - 1)
+                    if hi - lo >= 2 and out[lo:hi, 1 - k].all():
+                        out[lo:hi, k] = False
+                        a, t = hi, hi + 1
+                        continue
+                t += 1
+    return out
+
+
 def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray
                     ) -> list[Footprint]:
     """One level footprint on z = 0 per support phase of each foot.

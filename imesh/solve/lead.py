@@ -5,8 +5,9 @@ A controller has to start from rest and stop at rest, but mocap clips start and 
 solve therefore gets ``n_in`` frames before the clip and ``n_out`` after it in which both feet
 are in support: a foot in support at the clip's first (last) frame keeps that phase's footprint,
 a foot in the air is put down under where it is. The initializer and the marker targets hold
-the first (last) frame; the solve then moves the CoM over the support and the swing foot into
-its first step within the joint limits and with the ZMP inside the support polygon.
+the first (last) frame; the jump from rest into the clip's velocity is covered by the elastic
+acceleration rows of the solve, which then moves the CoM over the support and the swing foot
+into its first step with the ZMP inside the support polygon.
 """
 
 from __future__ import annotations
@@ -24,25 +25,37 @@ class Lead:
         q: (n_in + T + n_out, nq) initializer.
         markers: (n_in + T + n_out, M, 3) marker targets [m].
         support: (n_in + T + n_out, 2) bool support, both feet in the added frames.
+        pose_frames: (n_in + T + n_out, 2) int, per foot the frame whose sole pose places the
+            footprint of that frame's phase: itself, except in the lead of a foot that is in
+            the air at the clip's end: there the footprint of its nearest support phase of
+            the clip (where it lands next, or where it left last).
         n_in, n_out: added frames before and after the clip.
     """
 
     q: np.ndarray
     markers: np.ndarray
     support: np.ndarray
+    pose_frames: np.ndarray
     n_in: int
     n_out: int
 
 
 def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
-             n_out: int) -> Lead:
+             n_out: int, step_frames: int = 0) -> Lead:
     """Extend a clip by ``n_in`` standing frames before it and ``n_out`` after it.
+
+    A foot in the air at the clip's first frame stands during the lead-in and swings over its
+    last ``step_frames`` frames to where the clip has it (its targets are the first frame's);
+    a foot in the air at the last frame swings over the lead-out's first ``step_frames``
+    frames before it stands. Without this, the sole would have to leave the ground in one
+    frame (the CMU wave starts with the right foot lifted and pitched 54 degrees).
 
     Args:
         q: (T, nq) initializer of the clip.
         markers: (T, M, 3) marker targets [m].
         support: (T, 2) bool planned support.
         n_in, n_out: frames to add (>= 0).
+        step_frames: frames of those swings (at most half the lead).
     """
     def pad(a: np.ndarray) -> np.ndarray:
         return np.concatenate([np.repeat(a[:1], n_in, axis=0), a,
@@ -51,4 +64,22 @@ def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
     sup = pad(np.asarray(support, dtype=bool))
     sup[:n_in] = True
     sup[len(sup) - n_out:] = True
-    return Lead(q=pad(q), markers=pad(markers), support=sup, n_in=n_in, n_out=n_out)
+    T = len(support)
+    pose = np.repeat(np.arange(len(sup))[:, None], sup.shape[1], axis=1)
+    for k in range(sup.shape[1]):
+        on = np.flatnonzero(support[:, k])
+        if n_in and not support[0, k]:
+            sup[n_in - min(step_frames, n_in // 2):n_in, k] = False
+            if len(on):  # stand where the foot lands first
+                first = on[0] + np.argmax(~support[on[0]:, k]) if not support[on[0]:, k].all() \
+                    else T
+                pose[:n_in, k] = n_in + (on[0] + first) // 2
+        if n_out and not support[-1, k]:
+            sup[n_in + T:n_in + T + min(step_frames, n_out // 2), k] = False
+            if len(on):  # stand where the foot left last
+                start = on[-1]
+                while start > 0 and support[start - 1, k]:
+                    start -= 1
+                pose[n_in + T:, k] = n_in + (start + on[-1]) // 2
+    return Lead(q=pad(q), markers=pad(markers), support=sup, pose_frames=pose, n_in=n_in,
+                n_out=n_out)

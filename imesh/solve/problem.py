@@ -20,8 +20,12 @@ Objective (weights in :class:`WholeBodyConfig`):
 Constraints:
 
 * support soles: ``J_f dq_t = [p_F - p_f; log(R_F R_f^T)]`` (6 rows per support foot and frame);
-* swing soles: every corner ``z + J_z dq_t >= 0``;
-* joints: position bounds; ``|Delta q| <= v_max dt``; ``|Delta^2 q| <= a_max dt^2``;
+* swing soles: every ground point of the foot ``z + J_z dq_t >= 0``;
+  (both elastic: an exact L1 penalty on one slack per foot and frame keeps every linearization
+  solvable; the slack vanishes where the constraints can be met);
+* joints: position bounds; ``|Delta q| <= v_max dt``; ``|Delta^2 q| <= a_max dt^2`` (elastic,
+  one slack per frame);
+* normal force: ``g + c_z'' >= min_normal g`` (elastic);
 * ZMP (cart-table with the evaluator's difference operator ``D`` = gradient of gradient):
   ``p_t = c_xy,t - (c_z,t / g) (D c)_xy,t + delta_t`` inside the support polygon shrunk by
   ``zmp_margin_m``, where ``delta_t`` is the multibody ZMP minus the cart-table ZMP at the
@@ -63,8 +67,17 @@ class WholeBodyConfig:
         clearance_m: swing-sole corners stay this high above the ground [m].
         zmp_slack_weight: price of the ZMP constraints' slack per metre (an exact penalty:
             above the multipliers of a feasible problem the slack is 0 where it can be).
+        elastic_weight: price per metre (or radian) of the slack of the sole and ground
+            constraints: an exact penalty, so a linearization that cannot put a sole on its
+            footprint at once (the initializer far from it) still has a solution that moves
+            towards it; at a feasible point the slack is 0.
+        min_normal: the total normal force stays above this fraction of the weight
+            (``g + c_z'' >= min_normal g``): the ground cannot pull.
         trust_region: largest change of any base or joint coordinate in one iteration [m or
             rad], so the linearization stays valid.
+        base_trust: the base translation's region is this fraction of ``trust_region`` [m].
+        initial_lowpass_hz: cut-off of the low-pass applied to the initial fit before the
+            solve [Hz] (:func:`imesh.solve.initial.smooth_initializer`).
         solver: QP solver, one of :data:`imesh.solve.qp.SOLVERS`.
         qp_tolerance: absolute tolerance of each QP solve.
     """
@@ -82,7 +95,11 @@ class WholeBodyConfig:
     acceleration_margin: float = 1e-3
     clearance_m: float = 0.0
     zmp_slack_weight: float = 1e3
+    elastic_weight: float = 1e4
+    min_normal: float = 0.3
     trust_region: float = 0.3
+    base_trust: float = 0.2
+    initial_lowpass_hz: float = 4.0
     solver: str = "piqp"
     qp_tolerance: float = 1e-7
 
@@ -94,7 +111,8 @@ class WholeBodyConfig:
                 raise OptionError(name, getattr(self, name), "a positive number")
         for name in ("mesh_weight", "direction_weight", "accel_weight", "zmp_weight", "damping",
                      "init_weight", "zmp_margin_m", "velocity_margin", "acceleration_margin",
-                     "clearance_m", "zmp_slack_weight", "trust_region"):
+                     "clearance_m", "zmp_slack_weight", "elastic_weight", "trust_region",
+                     "initial_lowpass_hz", "base_trust", "min_normal"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise OptionError(name, value, "a non-negative number")
@@ -247,11 +265,13 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     """
     T, K = lin.points.shape[:2]
     nv = lin.point_jacobians.shape[-1]
-    nx = nv + 6
+    nx = nv + 10
     n_j = nv - 6
     N = T * nx
     h = 1.0 / plan.fps
-    C0, K0, S0 = nv, nv + 3, nv + 5  # offsets of dc, dk and the slack in a frame's block
+    # offsets in a frame's block: dc, dk, the ZMP slack, the two soles' slacks, the ground's
+    # and the acceleration rows'
+    C0, K0, S0, F0, G0, A0 = nv, nv + 3, nv + 5, nv + 6, nv + 8, nv + 9
 
     # --- per-frame blocks: key points + interaction mesh, directions, damping ------------------
     Jp = lin.point_jacobians.reshape(T, K, 3 * nv)
@@ -275,6 +295,9 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     H[:, np.arange(6, nv), np.arange(6, nv)] += config.init_weight
     g[:, 6:nv] += config.init_weight * (q[:, 7:] - plan.q_init[:, 7:])
     g[:, S0] = config.zmp_slack_weight
+    g[:, F0:F0 + 2] = config.elastic_weight
+    g[:, G0] = config.elastic_weight
+    g[:, A0] = config.elastic_weight
     P = block_diagonal(H)
     c = g.ravel()
 
@@ -339,15 +362,6 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     Mk = sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(2 * T, N))
     eq.append(_rows_at(np.repeat(frames_all, 2), np.tile(np.eye(2), (T, 1)), nx, T, K0) - Mk)
     rhs.append(np.zeros(2 * T))
-    for k in range(len(SIDES)):
-        ts = np.flatnonzero(plan.support[:, k])
-        if not len(ts):
-            continue
-        cur, tgt = lin.soles[ts, k], plan.sole_targets[ts, k]
-        dp = tgt[:, :3, 3] - cur[:, :3, 3]
-        dr = _log3(tgt[:, :3, :3] @ np.transpose(cur[:, :3, :3], (0, 2, 1)))
-        eq.append(_rows_at(np.repeat(ts, 6), lin.sole_jacobians[ts, k].reshape(-1, nv), nx, T))
-        rhs.append(np.concatenate([dp, dr], axis=1).ravel())
     # rest at both ends: world coordinates of frames t and t+1 equal (first and last frames)
     if plan.rest_frames > 1 and T >= 2 * plan.rest_frames:
         Rb = lin.base_rotations
@@ -367,13 +381,28 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
 
     # --- inequalities --------------------------------------------------------------------------
     G_blocks, lo, hi = [], [], []
+    # support soles on their footprints, elastic: |J_f dq_t - e_t| <= s_f,t (each of 6 rows)
+    for k in range(len(SIDES)):
+        ts = np.flatnonzero(plan.support[:, k])
+        if not len(ts):
+            continue
+        cur, tgt = lin.soles[ts, k], plan.sole_targets[ts, k]
+        dp = tgt[:, :3, 3] - cur[:, :3, 3]
+        dr = _log3(tgt[:, :3, :3] @ np.transpose(cur[:, :3, :3], (0, 2, 1)))
+        e = np.concatenate([dp, dr], axis=1).ravel()
+        rows = _rows_at(np.repeat(ts, 6), lin.sole_jacobians[ts, k].reshape(-1, nv), nx, T)
+        slack = _rows_at(np.repeat(ts, 6), np.ones((6 * len(ts), 1)), nx, T, F0 + k)
+        G_blocks += [rows - slack, rows + slack]
+        lo += [np.full(len(e), -np.inf), e]
+        hi += [e, np.full(len(e), np.inf)]
     # swing-sole corners above the ground
     tt, kk = np.nonzero(~plan.support)
     if len(tt):
         z = lin.corners[tt, kk, :, 2].ravel()
         n_pts = lin.corners.shape[2]
         G_blocks.append(_rows_at(np.repeat(tt, n_pts),
-                                 lin.corner_jacobians_z[tt, kk].reshape(-1, nv), nx, T))
+                                 lin.corner_jacobians_z[tt, kk].reshape(-1, nv), nx, T)
+                        + _rows_at(np.repeat(tt, n_pts), np.ones((len(z), 1)), nx, T, G0))
         lo.append(config.clearance_m - z)
         hi.append(np.full(len(z), np.inf))
     # joint velocity and acceleration
@@ -389,6 +418,13 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         lim = np.tile(limit * (1 - margin), T - order)
         d = np.diff(qj, n=order, axis=0).ravel()
         finite = np.isfinite(lim)
+        if order == 2:  # elastic (one slack per frame): the lead-in's start from rest
+            centre = np.repeat(np.arange(1, T - 1), n_j)
+            slack = _rows_at(centre, np.ones((len(centre), 1)), nx, T, A0)
+            G_blocks += [(D - slack)[finite], (D + slack)[finite]]
+            lo += [np.full(int(finite.sum()), -np.inf), (-lim - d)[finite]]
+            hi += [(lim - d)[finite], np.full(int(finite.sum()), np.inf)]
+            continue
         G_blocks.append(D[finite])
         lo.append((-lim - d)[finite])
         hi.append((lim - d)[finite])
@@ -403,16 +439,69 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         G_blocks.append(Nmat @ Z + slack)
         lo.append(hp_b + config.zmp_margin_m - np.sum(hp_n * p0[hp_frame], axis=1))
         hi.append(np.full(R, np.inf))
+    # the ground only pushes: normal force m (g + c_z'') >= min_normal m g (also keeps the
+    # ZMP's denominator away from 0, where its linearization means nothing); elastic
+    G_blocks.append(acc_z + pick(S0))
+    lo.append((config.min_normal - 1.0) * GRAVITY - acc[:, 2])
+    hi.append(np.full(T, np.inf))
     G = sp.vstack(G_blocks, format="csc") if G_blocks else sp.csc_matrix((0, N))
     # bounds: joint positions, a trust region on the update, slack >= 0
     x_l = np.full((T, nx), -np.inf)
     x_u = np.full((T, nx), np.inf)
     x_l[:, :nv], x_u[:, :nv] = -config.trust_region, config.trust_region
+    # the base's translation moves every link: its vertical second difference enters the ZMP's
+    # denominator (g + c_z''), so it gets a tighter region
+    x_l[:, :3], x_u[:, :3] = -config.trust_region * config.base_trust, \
+        config.trust_region * config.base_trust
     x_l[:, 6:nv] = np.maximum(plan.lower - qj, -config.trust_region)
     x_u[:, 6:nv] = np.minimum(plan.upper - qj, config.trust_region)
-    x_l[:, S0] = 0.0
+    x_l[:, S0:] = 0.0
     P = ((P + P.T) * 0.5).tocsc()
     return QpProblem(P=P, c=np.asarray(c).ravel(), A=A, b=b, G=G,
                      l=np.concatenate(lo) if lo else np.zeros(0),
                      u=np.concatenate(hi) if hi else np.zeros(0),
                      x_l=x_l.ravel(), x_u=x_u.ravel())
+
+
+def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig) -> float:
+    """The exact-penalty merit of a trajectory: the QP's objective terms evaluated on the
+    nonlinear trajectory (``1/2 sum w |r|^2``) plus the slack prices times the violations the
+    slacks would have to cover (ZMP outside the shrunk polygon, soles off their footprints,
+    swing ground points below the clearance). An SQP step is accepted when it lowers this.
+    """
+    e = lin.points - plan.marker_points
+    f = np.einsum("tka,tkl,tla->", e, plan.mesh_metric, e)
+    if lin.axes.shape[1]:
+        w = (config.direction_weight * plan.direction_weights) ** 2
+        f += np.einsum("d,tda->", w, (lin.axes - plan.target_directions) ** 2)
+    f += config.init_weight * np.sum((q[:, 7:] - plan.q_init[:, 7:]) ** 2)
+    T = len(q)
+    if T >= 3 and config.accel_weight > 0:
+        y = world_coordinates(q, lin.base_rotations)
+        f += config.accel_weight * np.sum((np.diff(y, 2, axis=0) * (plan.fps / 30.0) ** 2) ** 2)
+    sup = plan.support.any(axis=1)
+    f += config.zmp_weight * np.sum((lin.zmp_multibody - plan.desired_zmp)[sup] ** 2)
+    penalty = 0.0
+    hp_frame, hp_n, hp_b = plan.halfplanes
+    if len(hp_frame):
+        out = hp_b + config.zmp_margin_m - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1)
+        worst = np.zeros(T)
+        np.maximum.at(worst, hp_frame, out)
+        penalty += config.zmp_slack_weight * np.sum(np.maximum(worst, 0.0))
+    tt, kk = np.nonzero(plan.support)
+    if len(tt):
+        cur, tgt = lin.soles[tt, kk], plan.sole_targets[tt, kk]
+        dp = np.abs(tgt[:, :3, 3] - cur[:, :3, 3]).max(axis=1)
+        dr = np.abs(_log3(tgt[:, :3, :3] @ np.transpose(cur[:, :3, :3], (0, 2, 1)))).max(axis=1)
+        penalty += config.elastic_weight * np.sum(np.maximum(dp, dr))
+    tt, kk = np.nonzero(~plan.support)
+    if len(tt):
+        low = np.full(T, np.inf)
+        np.minimum.at(low, tt, lin.corners[tt, kk, :, 2].min(axis=1))
+        penalty += config.elastic_weight * np.sum(np.maximum(config.clearance_m - low, 0.0))
+    penalty += config.zmp_slack_weight * np.sum(np.maximum(
+        (config.min_normal - 1.0) * GRAVITY - lin.com_acceleration[:, 2], 0.0))
+    over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
+        1 - config.acceleration_margin)
+    penalty += config.elastic_weight * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
+    return float(0.5 * f + penalty)

@@ -11,6 +11,7 @@ trajectory, so a result can be checked.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from dataclasses import dataclass
@@ -22,8 +23,14 @@ from ..errors import SolverError
 from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh
 from ..metrics.kinematics import desired_zmp, motion_derivatives
-from .footprints import Footprint, footprint_tracks, plan_footprints, support_halfplanes
-from .problem import GRAVITY, Linearization, Plan, WholeBodyConfig, build_qp
+from .footprints import (
+    Footprint,
+    footprint_tracks,
+    plan_footprints,
+    split_pivots,
+    support_halfplanes,
+)
+from .problem import GRAVITY, Linearization, Plan, WholeBodyConfig, build_qp, merit
 from .qp import solve_qp
 
 log = logging.getLogger(__name__)
@@ -187,8 +194,8 @@ def keypoint_laplacians(marker_points: np.ndarray) -> np.ndarray:
 
 def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: CompiledTargets,
                     support: np.ndarray, fps: float, limits: tuple, config: WholeBodyConfig,
-                    transition_s: float = 0.1, rest_frames: int = 3
-                    ) -> tuple[Plan, list[Footprint]]:
+                    transition_s: float = 0.1, rest_frames: int = 3,
+                    pose_frames: np.ndarray | None = None) -> tuple[Plan, list[Footprint]]:
     """Fix the targets, mesh, support, footprints and limits of a whole-body solve.
 
     Args:
@@ -203,12 +210,17 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
         transition_s: blending of the desired ZMP between phases (as the evaluator's).
         rest_frames: the first and last this many frames are held identical (start and end
             at rest); 0: free.
+        pose_frames: (T, 2) int, per foot the frame whose initial sole pose places the
+            footprint (:attr:`imesh.solve.lead.Lead.pose_frames`); None: each frame its own.
     """
     T = len(q_init)
     frames = _Frames(robot, targets)
     kin = robot.trajectory_kinematics(q_init, [frames.ids[i] for i in frames.soles])
-    footprints = plan_footprints(robot, {s: kin.placements[:, k] for k, s in enumerate(SIDES)},
-                                 support)
+    if pose_frames is None:
+        pose_frames = np.repeat(np.arange(T)[:, None], 2, axis=1)
+    poses = {s: kin.placements[pose_frames[:, k], k] for k, s in enumerate(SIDES)}
+    support = split_pivots(robot, poses, support, fps)
+    footprints = plan_footprints(robot, poses, support)
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
         sole_targets[f.start:f.stop, SIDES.index(f.side)] = f.frame_pose
@@ -275,9 +287,11 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     history = [_report(lin, plan, q, 0.0, 0.0, 0, config.zmp_margin_m)]
     converged = False
     T, nv = len(q), robot.nv
+    phi = merit(lin, plan, q, config)
+    trust = config.trust_region
     for it in range(config.iterations):
         t0 = time.perf_counter()
-        qp = build_qp(lin, plan, q, config)
+        qp = build_qp(lin, plan, q, dataclasses.replace(config, trust_region=trust))
         seconds["build"] += time.perf_counter() - t0
         try:
             sol = solve_qp(qp, config.solver, config.qp_tolerance)
@@ -290,21 +304,38 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             log.info("whole-body iteration %d: %s; retrying with clarabel", it + 1, exc)
             sol = solve_qp(qp, "clarabel", config.qp_tolerance)
         seconds["qp"] += sol.seconds
-        dq = sol.x.reshape(T, nv + 6)[:, :nv]
-        q = np.array([robot.integrate(q[t], dq[t]) for t in range(T)])
+        dq = sol.x.reshape(T, -1)[:, :nv]
+        # backtracking on the exact-penalty merit: the linearized ZMP and rotations are only
+        # valid near q, and a full step far from a feasible point can make things worse
         t0 = time.perf_counter()
-        lin = linearize(robot, q, frames, plan.fps)
+        for alpha in (1.0, 0.5, 0.25, 0.125):
+            q_new = np.array([robot.integrate(q[t], alpha * dq[t]) for t in range(T)])
+            lin_new = linearize(robot, q_new, frames, plan.fps)
+            phi_new = merit(lin_new, plan, q_new, config)
+            if phi_new < phi:
+                break
         seconds["linearize"] += time.perf_counter() - t0
-        step = float(np.abs(dq).max())
+        step = float(alpha * np.abs(dq).max())
+        if phi_new >= phi:  # no decrease along the step: a smaller trust region next time
+            trust *= 0.25
+            log.info("whole-body iteration %d: no merit decrease (%.6g >= %.6g); trust region "
+                     "%.3g", it + 1, phi_new, phi, trust)
+            if trust < config.step_tolerance:
+                converged = True
+                break
+            continue
+        if alpha == 1.0:
+            trust = min(2.0 * trust, config.trust_region)
+        q, lin, phi = q_new, lin_new, phi_new
         history.append(_report(lin, plan, q, step, sol.seconds, sol.iterations,
                                config.zmp_margin_m))
         r = history[-1]
-        log.info("whole-body iteration %d: step %.2e, soles %.2f mm / %.3f deg, swing low %.1f "
-                 "mm, ZMP outside %.1f mm, v %.3f a %.3f of limits, key points %.1f mm RMS, "
-                 "QP %.2f s (%d it)", it + 1, step, 1e3 * r.sole_error_m,
-                 np.degrees(r.sole_error_rad), 1e3 * r.lowest_swing_m, 1e3 * r.zmp_outside_m,
-                 r.velocity_ratio, r.acceleration_ratio, 1e3 * r.keypoint_rms_m, sol.seconds,
-                 sol.iterations)
+        log.info("whole-body iteration %d: step %.2e (alpha %.3g), merit %.6g, soles %.2f mm / "
+                 "%.3f deg, swing low %.1f mm, ZMP outside %.1f mm, v %.3f a %.3f of limits, "
+                 "key points %.1f mm RMS, QP %.2f s (%d it)", it + 1, step, alpha, phi,
+                 1e3 * r.sole_error_m, np.degrees(r.sole_error_rad), 1e3 * r.lowest_swing_m,
+                 1e3 * r.zmp_outside_m, r.velocity_ratio, r.acceleration_ratio,
+                 1e3 * r.keypoint_rms_m, sol.seconds, sol.iterations)
         if step < config.step_tolerance:
             converged = True
             break
