@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import pytest
 
 import imesh.io as io
-from imesh.errors import ImeshError, MissingMarkerError, MotionFileError
-from imesh.io.c3d import C3DDependencyError, read_c3d, screen_up_axis, unique_names
+from imesh.errors import MissingMarkerError, MotionFileError
+from imesh.io.c3d import read_c3d, screen_up_axis, unique_names
 
 ezc3d = pytest.importorskip("ezc3d")
 
@@ -136,13 +134,6 @@ def test_truncated_c3d(tmp_path, mocap):
     cut.write_bytes(data[: len(data) // 2])
     with pytest.raises(MotionFileError, match="cut.c3d.*truncated"):
         read_c3d(cut)
-
-
-def test_missing_ezc3d(monkeypatch, mocap):
-    monkeypatch.setitem(sys.modules, "ezc3d", None)
-    with pytest.raises(C3DDependencyError, match="pip install ezc3d") as info:
-        read_c3d(mocap(QUALISYS))
-    assert isinstance(info.value, ImeshError) and isinstance(info.value, ImportError)
 
 
 # ---------------------------------------------------------------- standard marker set
