@@ -23,6 +23,7 @@ import os
 import stat
 import struct
 import tempfile
+import tokenize
 import zipfile
 import zlib
 from collections.abc import Iterable, Iterator, Sequence
@@ -313,7 +314,7 @@ def save_marker_motion(path: str | os.PathLike, motion: MarkerMotion) -> None:
 #: What reading a corrupt archive can raise (zipfile, zlib, numpy's .npy header parser).
 _NPZ_ERRORS = (OSError, EOFError, ValueError, zipfile.BadZipFile, zlib.error,
                NotImplementedError, RuntimeError, struct.error, OverflowError, SyntaxError,
-               KeyError)
+               KeyError, tokenize.TokenError)
 
 
 def load_npz(path: str | os.PathLike, what: str = ".npz file") -> dict[str, np.ndarray]:

@@ -273,7 +273,7 @@ def _parse_amc(path: Path, skel: _Skeleton) -> tuple[dict[str, np.ndarray], int,
     names = set(re.findall(r"^[ \t]*([A-Za-z_][^\s]*)", text, re.M))
     unknown = sorted(n for n in names if n != "root" and n not in skel.bones)
     if unknown:
-        pos = re.search(rf"^[ \t]*{re.escape(unknown[0])}\b", text, re.M).start()
+        pos = re.search(rf"^[ \t]*{re.escape(unknown[0])}(?=\s|$)", text, re.M).start()
         raise MotionFileError(p, f"unknown bone {unknown[0]!r} (skeleton {skel.path} has "
                               f"{', '.join(['root', *skel.bones])})", line=line_at(pos),
                               frame=int(np.searchsorted(starts, pos)) - 1)

@@ -190,11 +190,13 @@ class _Bytes:
         return self.decode_floats(self.data, offset, count)
 
     def decode_floats(self, data: bytes, offset: int, count: int) -> np.ndarray:
-        if self.processor == _DEC:  # VAX F-float: swap the 16-bit halves, IEEE value / 4
-            words = np.frombuffer(data, "<u2", 2 * count, offset).reshape(-1, 2)[:, ::-1]
-            return np.ascontiguousarray(words).view("<f4").reshape(-1).astype(np.float64) / 4
-        return np.frombuffer(data, ">f4" if self.big else "<f4", count, offset).astype(
-            np.float64)
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN payloads of corrupt files
+            if self.processor == _DEC:  # VAX F-float: swap the 16-bit halves, IEEE value / 4
+                words = np.frombuffer(data, "<u2", 2 * count, offset).reshape(-1, 2)[:, ::-1]
+                return np.ascontiguousarray(words).view("<f4").reshape(-1).astype(
+                    np.float64) / 4
+            return np.frombuffer(data, ">f4" if self.big else "<f4", count, offset).astype(
+                np.float64)
 
 
 def _int8(byte: int) -> int:
