@@ -317,7 +317,7 @@ def check_plausible(motion: MarkerMotion) -> None:
     fast = speed > MAX_MARKER_SPEED_M_S
     if fast.any():
         t = int(np.flatnonzero(fast.any(axis=1))[0])  # first step t -> t+1 too fast
-        j = int(np.argmax(speed[t]))
+        j = int(np.flatnonzero(speed[t] >= 0.99 * speed[t].max())[0])  # root before its kids
         others = int(fast[t].sum()) - 1
         spike = t + 1 < len(fast) and fast[t + 1, j]  # out and back: sample t+1 is corrupt
         frame = t + 1 if spike else t

@@ -79,10 +79,12 @@ def find_asf(amc_path: str | Path) -> Path:
         listing = ", ".join(p.name for p in asfs) or "none"
         raise MotionFileError(
             str(amc), f"no skeleton (.asf) whose name is a prefix of {amc.stem!r} in "
-            f"{amc.parent}; .asf files there: {listing}; pass the skeleton explicitly (asf=...)")
+            f"{amc.parent}; .asf files there: {listing}; pass the skeleton explicitly (--asf FILE, "
+            "or asf= in load_motion)")
     raise MotionFileError(
         str(amc), f"several skeletons could belong to this motion: "
-        f"{', '.join(p.name for p in matches)}; pass one explicitly (asf=...)")
+        f"{', '.join(p.name for p in matches)}; pass one explicitly (--asf FILE, or asf= in "
+        "load_motion)")
 
 
 def _floats(path: str, words: list[str], n: int, what: str, line: int) -> np.ndarray:
