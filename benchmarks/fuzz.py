@@ -9,7 +9,8 @@ a few milliseconds; the cut keeps the file consistent):
 - ``trc``: roboptim_human_grab_box.trc;
 - ``npz``: a robot motion written by ``imesh.robot_motion.save_robot_motion`` whose base and
   joint trajectories are the CMU walk's root position and rotation channels,
-  ``imesh.robot_motion.load_robot_motion``.
+  ``imesh.robot_motion.load_robot_motion``;
+- ``csv``: the same robot motion as .csv.
 
 Mutations (:func:`mutate`): byte flips (anywhere or in the header), truncation, numbers replaced
 by huge / NaN / inf / negative / overflowing values, header edits (counts, rates, offsets),
@@ -45,7 +46,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _data import data_root  # noqa: E402
 
-FORMATS = ("bvh", "asf/amc", "c3d", "trc", "npz")
+FORMATS = ("bvh", "asf/amc", "c3d", "trc", "npz", "csv")
 SPECIAL_NUMBERS = (b"1e17", b"-1e17", b"1e308", b"-1e308", b"1e309", b"nan", b"NaN", b"inf",
                    b"-inf", b"0", b"-1", b"1e-320", b"99999999999999999999999", b"4294967296",
                    b"65535", b"3.4e38", b"-0", b"1e5", b"0.0000001", b"", b"x", b"1.2.3")
@@ -84,8 +85,8 @@ def _cut_trc(data: bytes, frames: int) -> bytes:
             "".join(rows)).encode("latin-1")
 
 
-def _robot_motion_npz(frames: int) -> bytes:
-    """A robot motion .npz (the imesh writer) from the CMU walk's channels."""
+def _robot_motion_file(frames: int, suffix: str) -> bytes:
+    """A robot motion .npz or .csv (the imesh writer) from the CMU walk's channels."""
     from imesh.robot_motion import RobotMotion, save_robot_motion
 
     text = (data_root() / "mocap" / "cmu_02_01_walk.bvh").read_text()
@@ -99,7 +100,7 @@ def _robot_motion_npz(frames: int) -> bytes:
     motion = RobotMotion.from_parts(base, quat, joints, fps=120.0, robot="cmu_walk",
                                     joint_names=names)
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "seed.npz"
+        path = Path(tmp) / f"seed{suffix}"
         save_robot_motion(path, motion)
         return path.read_bytes()
 
@@ -119,8 +120,8 @@ def seeds(fmt: str, frames: int = 200) -> list[dict[str, bytes]]:
     if fmt == "trc":
         return [{"clip.trc": _cut_trc((mocap / "roboptim_human_grab_box.trc").read_bytes(),
                                       frames)}]
-    if fmt == "npz":
-        return [{"motion.npz": _robot_motion_npz(frames)}]
+    if fmt in ("npz", "csv"):
+        return [{f"motion.{fmt}": _robot_motion_file(frames, f".{fmt}")}]
     raise ValueError(f"unknown format {fmt!r}; valid: {', '.join(FORMATS)}")
 
 
@@ -239,10 +240,10 @@ def mutate(seed: _Seed, rng: np.random.Generator) -> tuple[dict[str, bytes], str
 
 def load(fmt: str, folder: Path):
     """Load the mutant written in ``folder`` with the public reader of ``fmt``."""
-    if fmt == "npz":
+    if fmt in ("npz", "csv"):
         from imesh.robot_motion import load_robot_motion
 
-        return load_robot_motion(folder / "motion.npz")
+        return load_robot_motion(folder / f"motion.{fmt}")
     from imesh.io import load_motion
 
     if fmt == "asf/amc":
