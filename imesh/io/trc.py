@@ -109,7 +109,8 @@ def read_trc(path: str | os.PathLike) -> RawMotion:
         raise MotionFileError(p, f"DataRate {header['DataRate']!r} is not a number", line=3
                               ) from None
     if not (np.isfinite(fps) and fps > 0):
-        raise MotionFileError(p, f"DataRate must be > 0, got {header['DataRate']!r}", line=3)
+        raise MotionFileError(p, f"DataRate {header['DataRate']!r} is not a frame rate; valid: "
+                              "a finite number > 0", line=3)
     # counts are checked against what the file can hold before anything is allocated
     n_frames = _header_count(p, header, "NumFrames", 0, 10**9)  # only compared with the rows
     longest = max(map(len, lines))  # a marker takes at least 3 characters of every row
