@@ -1,7 +1,9 @@
 """The ``imesh`` command line: inspect, adapt, retarget and demo.
 
 ``main(argv)`` returns the exit status, so it can be tested in-process. Any ImeshError is printed
-as one line (``imesh: error: ...``) with exit status 2; no traceback.
+as one line (``imesh: error: ...``) with exit status 2; no traceback. Every output path is checked
+before the command starts (:data:`OUTPUTS`), and the outputs of one command are kept together or
+not at all (:func:`imesh.export.output_transaction`). Exit statuses: docs/errors.md.
 """
 
 from __future__ import annotations
@@ -35,6 +37,8 @@ def _add_load_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fps", type=float, help="resample to this frame rate")
     p.add_argument("--source-fps", type=float,
                    help="frame rate of formats that store none (AMC; default 120)")
+    p.add_argument("--asf", help="skeleton (.asf) of an .amc clip (default: the .asf beside it "
+                   "whose name starts the .amc name)")
 
 
 def _add_morph_options(p: argparse.ArgumentParser) -> None:
@@ -110,12 +114,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Frames the adapt/retarget pipeline needs: its zero-phase low-pass (order 4, run forwards and
+#: backwards) pads 3 x 5 coefficients, and contacts, velocities and the acceleration energy need
+#: neighbouring frames.
+PIPELINE_MIN_FRAMES = 16
+
+
 def _load(args) -> object:
     from .io import load_motion
+    from .motion import require_frames
 
-    motion = load_motion(args.clip, units=args.units, up_axis=args.up_axis, fps=args.source_fps)
+    motion = load_motion(args.clip, units=args.units, up_axis=args.up_axis, fps=args.source_fps,
+                         asf=getattr(args, "asf", None))
     if args.fps:
         motion = motion.resample(args.fps)
+    if args.command in ("adapt", "retarget"):
+        require_frames(motion, PIPELINE_MIN_FRAMES, f"imesh {args.command} (its low-pass filter, "
+                       "contact and acceleration terms)")
     return motion
 
 
@@ -320,19 +335,79 @@ COMMANDS = {"inspect": cmd_inspect, "adapt": cmd_adapt, "retarget": cmd_retarget
             "reduce": cmd_reduce}
 
 
+_MOTION = (".npz", ".csv")
+_JSON = (".json",)
+_FOLDER = None
+#: The output options of each command, checked before it starts: (attribute of the parsed
+#: arguments, option, valid extensions or _FOLDER for an output folder). A new output option
+#: must be listed here.
+OUTPUTS: dict[str, tuple[tuple[str, str, tuple[str, ...] | None], ...]] = {
+    "adapt": (("output", "-o", _MOTION), ("report", "--json", _JSON)),
+    "retarget": (("output", "-o", _MOTION), ("report", "--json", _JSON),
+                 ("markers", "--markers", _MOTION), ("plots", "--plots", _FOLDER)),
+    "evaluate": (("report", "--json", _JSON), ("plot", "--plot", (".png", ".pdf", ".svg"))),
+    "reduce": (("output", "-o", (".npz",)), ("report", "--json", _JSON),
+               ("plots", "--plots", _FOLDER)),
+    "demo": (("output", "-o", _FOLDER),),
+}
+
+#: Exit statuses: 0 success, 2 bad input or usage, 3 reserved for an output that was written but
+#: failed its verification; 130 interrupted; 141 (128 + SIGPIPE) when the reader of the standard
+#: output went away (``imesh ... | head``).
+EXIT_OK, EXIT_USAGE, EXIT_VERIFY, EXIT_INTERRUPTED, EXIT_PIPE = 0, 2, 3, 130, 141
+
+
+def check_command_outputs(args) -> None:
+    """Check every output path of the parsed command (extension, folder exists and is
+    writable) before any work; raises :class:`~imesh.errors.OutputPathError`."""
+    from .export import Output, check_outputs
+
+    check_outputs(Output(getattr(args, attr), option, exts or (), folder=exts is None)
+                  for attr, option, exts in OUTPUTS.get(args.command, ())
+                  if getattr(args, attr, None))
+
+
+def _stdout_gone() -> int:
+    """The reader of stdout closed it: no traceback, no message (as ``cat`` and ``git``)."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # Python's final flush must not fail again
+    except (OSError, ValueError):  # stdout is not a real file (in-process tests)
+        pass
+    return EXIT_PIPE
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit status (0 ok, 2 on any ImeshError)."""
+    """Run the command line; returns the exit status (0 ok, 2 on any ImeshError, see
+    :data:`EXIT_OK` ...)."""
+    from .export import output_transaction
+
     parser = build_parser()
     args = parser.parse_args(argv)
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     logging.getLogger("imesh").setLevel(level)
     try:
-        return COMMANDS[args.command](args)
+        with output_transaction():
+            check_command_outputs(args)
+            return COMMANDS[args.command](args)
     except ImeshError as exc:
-        print(f"imesh: error: {exc}", file=sys.stderr)
-        return 2
+        one_line = " ".join(str(exc).split())  # names read from a file may hold newlines
+        print(f"imesh: error: {one_line}", file=sys.stderr)
+        return EXIT_USAGE
+    except BrokenPipeError:
+        return _stdout_gone()
+    except KeyboardInterrupt:
+        print("imesh: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 def entry_point() -> None:
-    sys.exit(main())
+    try:
+        status = main()
+        sys.stdout.flush()
+    except BrokenPipeError:
+        status = _stdout_gone()
+    sys.exit(status)

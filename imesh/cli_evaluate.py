@@ -21,6 +21,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--source", help="the human clip the motion was retargeted from")
     p.add_argument("--adapted", help="the adapted markers the robot fitted (.npz from "
                    "'imesh retarget --markers')")
+    p.add_argument("--resample", action="store_true",
+                   help="compare --source/--adapted markers of another frame rate or frame count "
+                   "(resampled to the motion's fps, first common frames); by default such a "
+                   "mismatch is refused")
     p.add_argument("--fps", type=float, help="frame rate of motion files that store none")
     p.add_argument("--physics", action="store_true", help="run the DART dynamics check")
     p.add_argument("--controller", choices=("spd", "pid"), default="spd",
@@ -46,7 +50,8 @@ def run(args) -> int:
         config = PhysicsConfig(controller=args.controller, fixed_base=args.fixed_base)
     report = evaluate_motion(robot, motion, source=args.source, physics=args.physics,
                              adapted=args.adapted, physics_config=config,
-                             plot=args.plot if args.physics else None)
+                             plot=args.plot if args.physics else None,
+                             resample=args.resample)
     print(f"{args.motion}: {motion.n_frames} frames of {robot.name} at {motion.fps:g} fps")
     print(format_table(report))
     if args.report:

@@ -3,7 +3,10 @@
 Every error imesh raises on bad input is an :class:`ImeshError` subclass whose message says what
 was wrong, where (file, frame, marker, joint) and what would have been valid. The command line
 prints the message on one line and exits with status 2; library users can catch the specific
-subclass and read the structured fields it carries.
+subclass and read the structured fields it carries. ``docs/errors.md`` lists every class.
+
+Exit statuses of the command line: 0 success, 2 bad input or usage (any ImeshError), 3 reserved
+for an output that was written but failed its verification.
 """
 
 from __future__ import annotations
@@ -101,3 +104,93 @@ class OptionError(ImeshError):
         valid_text = valid if isinstance(valid, str) else _listing(valid)
         self.valid = valid_text
         super().__init__(f"invalid {name} {value!r}; valid: {valid_text}")
+
+
+class ImplausibleMotionError(InvalidMotionError):
+    """A motion file parses but its content cannot be a recording of a person.
+
+    Raised by the plausibility checks at load time (:func:`imesh.motion.check_plausible`):
+    positions beyond the plausible range, a body height outside the plausible range, a marker
+    that jumps faster than any body part moves (a corrupted sample), every marker missing, or a
+    clip shorter than the method needs.
+
+    Attributes:
+        path: the file (or motion source).
+        check: which check failed ("position range", "height", "marker speed", "missing
+            markers", "frames", "frame rate", "non-finite").
+        frame: 0-based frame of the first offending sample, or None.
+        marker: name of the offending marker or joint, or None.
+        value: the offending value (metres, metres/second, frames...), or None.
+        valid: what would have been valid, as text.
+    """
+
+    def __init__(self, path: str, check: str, message: str, *, valid: str,
+                 frame: int | None = None, marker: str | None = None,
+                 value: float | None = None):
+        where = str(path)
+        if frame is not None:
+            where += f", frame {frame}"
+        if marker is not None:
+            where += f", marker {marker}"
+        super().__init__(f"{where}: {message}; valid: {valid}")
+        self.path = str(path)
+        self.check = check
+        self.frame = frame
+        self.marker = marker
+        self.value = value
+        self.valid = valid
+
+
+class TooFewFramesError(ImplausibleMotionError):
+    """A clip has fewer frames than the method needs.
+
+    Attributes:
+        frames: frames in the clip.
+        needed: frames the method needs.
+    """
+
+    def __init__(self, path: str, frames: int, needed: int, method: str):
+        super().__init__(path, "frames", f"{frames} frame{'s' if frames != 1 else ''}, too "
+                         f"short for {method}", valid=f"at least {needed} frames",
+                         value=float(frames))
+        self.frames = frames
+        self.needed = needed
+
+
+class OutputPathError(ImeshError):
+    """An output path cannot be written: wrong extension, missing or unwritable folder, a parent
+    that is a file. Raised before any computation starts (and if writing fails anyway).
+
+    Attributes:
+        path: the output path.
+        option: the option that named it (``-o``, ``--json``, ``--plots``...), or "".
+        reason: what is wrong.
+        valid: what would be valid.
+    """
+
+    def __init__(self, path: str, reason: str, *, option: str = "", valid: str = ""):
+        what = f"output {option} {str(path)!r}" if option else f"output {str(path)!r}"
+        text = f"{what}: {reason}"
+        if valid:
+            text += f"; valid: {valid}"
+        super().__init__(text)
+        self.path = str(path)
+        self.option = option
+        self.reason = reason
+        self.valid = valid
+
+
+class SourceMismatchError(ImeshError):
+    """Two motions that must describe the same take disagree (frame count or frame rate).
+
+    Attributes:
+        what: the quantity that differs ("frames" or "fps").
+        expected: the value of the reference motion.
+        found: the value of the other motion.
+    """
+
+    def __init__(self, message: str, *, what: str, expected: float, found: float):
+        super().__init__(message)
+        self.what = what
+        self.expected = expected
+        self.found = found

@@ -27,13 +27,19 @@ import logging
 import math
 import os
 import time
-import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
-from .errors import ImeshError, InvalidMotionError, MotionFileError, _listing
+from .errors import (
+    ImeshError,
+    InvalidMotionError,
+    MotionFileError,
+    SourceMismatchError,
+    _listing,
+)
+from .export import load_npz
 from .metrics.collision import (
     SELF_COLLISION_DEPTH_M,
     SelfCollisionChecker,
@@ -102,13 +108,9 @@ def load_motion_file(path: str | os.PathLike, robot, fps: float | None = None) -
     """
     path = Path(path)
     if path.suffix.lower() == ".npz" and path.is_file():
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                keys = set(data.files)
-        except (OSError, ValueError, zipfile.BadZipFile) as exc:
-            raise MotionFileError(str(path), f"not a readable .npz file ({exc})") from None
-        if not set(NPZ_KEYS) <= keys:
-            return _load_plain_npz(path, robot, fps)
+        arrays = load_npz(path, "robot motion")
+        if not set(NPZ_KEYS) <= set(arrays):
+            return _load_plain_npz(path, arrays, robot, fps)
     motion = load_robot_motion(path, robot)
     if fps is not None and abs(fps - motion.fps) > 1e-6 * motion.fps:
         log.warning("%s: the file says %g fps; using %g fps as asked", path, motion.fps, fps)
@@ -117,27 +119,27 @@ def load_motion_file(path: str | os.PathLike, robot, fps: float | None = None) -
     return motion
 
 
-def _load_plain_npz(path: Path, robot, fps: float | None) -> RobotMotion:
-    with np.load(path, allow_pickle=False) as data:
-        keys = set(data.files)
-        quat_keys = [k for k in _QUAT_KEYS if k in keys]
-        need = ["joint_names", "joint_positions", "base_position"]
-        missing = [k for k in need if k not in keys] + ([] if quat_keys else ["base_quat_xyzw"])
-        if missing or len(quat_keys) > 1:
-            raise MotionFileError(str(path), f"missing keys {missing}; a motion .npz has "
-                                  "joint_names (n,), joint_positions (T, n) [rad], base_position "
-                                  "(T, 3) [m], base_quat_xyzw or base_quat_wxyz (T, 4), fps and "
-                                  f"optionally robot; this file has {sorted(keys)}"
-                                  if missing else "give one base quaternion key, not both")
-        try:
-            names = tuple(str(n) for n in np.asarray(data["joint_names"]).reshape(-1))
-            joints = np.asarray(data["joint_positions"], dtype=float)
-            base = np.asarray(data["base_position"], dtype=float)
-            quat = np.asarray(data[quat_keys[0]], dtype=float)
-            file_fps = float(data["fps"]) if "fps" in keys else None
-            name = str(data["robot"]) if "robot" in keys else robot.name
-        except (TypeError, ValueError) as exc:
-            raise MotionFileError(str(path), f"wrong array types ({exc})") from None
+def _load_plain_npz(path: Path, data: Mapping[str, np.ndarray], robot, fps: float | None
+                    ) -> RobotMotion:
+    keys = set(data)
+    quat_keys = [k for k in _QUAT_KEYS if k in keys]
+    need = ["joint_names", "joint_positions", "base_position"]
+    missing = [k for k in need if k not in keys] + ([] if quat_keys else ["base_quat_xyzw"])
+    if missing or len(quat_keys) > 1:
+        raise MotionFileError(str(path), f"missing keys {missing}; a motion .npz has "
+                              "joint_names (n,), joint_positions (T, n) [rad], base_position "
+                              "(T, 3) [m], base_quat_xyzw or base_quat_wxyz (T, 4), fps and "
+                              f"optionally robot; this file has {sorted(keys)}"
+                              if missing else "give one base quaternion key, not both")
+    try:
+        names = tuple(str(n) for n in np.asarray(data["joint_names"]).reshape(-1))
+        joints = np.asarray(data["joint_positions"], dtype=float)
+        base = np.asarray(data["base_position"], dtype=float)
+        quat = np.asarray(data[quat_keys[0]], dtype=float)
+        file_fps = float(data["fps"]) if "fps" in keys else None
+        name = str(data["robot"]) if "robot" in keys else robot.name
+    except (TypeError, ValueError) as exc:
+        raise MotionFileError(str(path), f"wrong array types ({exc})") from None
     if name != robot.name:
         raise MotionFileError(str(path), f"this is a motion of robot {name!r}, not of "
                               f"{robot.name!r}")
@@ -203,18 +205,33 @@ def _markers(markers, what: str) -> MarkerMotion:
     if isinstance(markers, str | os.PathLike):
         from .export import load_marker_motion
 
-        try:
-            return load_marker_motion(markers)
-        except (OSError, KeyError, ValueError, zipfile.BadZipFile) as exc:
-            raise MotionFileError(str(markers), f"not an imesh marker .npz ({what}): {exc}"
-                                  ) from None
+        return load_marker_motion(markers)  # MotionFileError on anything unreadable
     return markers
 
 
-def _align(markers: MarkerMotion, fps: float, n_frames: int) -> tuple[MarkerMotion, str]:
-    """Markers at the motion's fps and frame count (resampled, truncated); a note if changed."""
+def _align(markers: MarkerMotion, fps: float, n_frames: int, what: str,
+           resample: bool = False) -> tuple[MarkerMotion, str]:
+    """Markers at the motion's fps and frame count; a note if they were changed.
+
+    Without ``resample`` a frame-rate or frame-count mismatch is refused: the markers are then
+    not of the take the motion was made from. With it, the markers are resampled to the motion's
+    fps and the first common frames are compared.
+
+    Raises:
+        SourceMismatchError: fps or frame count differ and ``resample`` is False.
+    """
+    fps_differs = abs(markers.fps - fps) > 1e-6 * fps
+    if not resample and (fps_differs or markers.n_frames != n_frames):
+        key = "fps" if fps_differs else "frames"
+        raise SourceMismatchError(
+            f"{what} {markers.source or ''} has {markers.n_frames} frames at {markers.fps:g} "
+            f"fps, the motion {n_frames} frames at {fps:g} fps: not the take the motion was made "
+            "from? valid: the same frame count and fps, or --resample (resample=True) to "
+            "compare the first common frames at the motion's fps",
+            what=key, expected=fps if fps_differs else n_frames,
+            found=markers.fps if fps_differs else markers.n_frames)
     note = ""
-    if abs(markers.fps - fps) > 1e-6 * fps:
+    if fps_differs:
         note = f"markers resampled from {markers.fps:g} fps; "
         markers = markers.resample(fps)
     if markers.n_frames != n_frames:
@@ -257,7 +274,7 @@ def _missing(name: str, reason: str, **details) -> dict:
 def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = False, *,
                     adapted=None, seconds: Mapping[str, float] | None = None,
                     physics_config=None, support_config: SupportDetection | None = None,
-                    plot: str | os.PathLike | None = None) -> dict:
+                    plot: str | os.PathLike | None = None, resample: bool = False) -> dict:
     """Every DESIGN.md quality metric of a robot motion.
 
     Args:
@@ -275,6 +292,9 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         physics_config: a :class:`imesh.physics.PhysicsConfig`.
         support_config: thresholds of the support detection.
         plot: write the DART run's figure here (physics only).
+        resample: compare ``source``/``adapted`` markers whose frame rate or frame count differ
+            from the motion's (resampled to its fps, first common frames); by default such a
+            mismatch raises SourceMismatchError.
 
     Returns:
         dict: exactly the keys :data:`METRIC_NAMES`; each a dict with ``value``, ``unit`` and
@@ -282,6 +302,8 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
 
     Raises:
         ImeshError: the motion is for another robot or has other joints; unreadable source.
+        SourceMismatchError: source or adapted markers of another frame count or fps (unless
+            ``resample``).
     """
     _check_motion(robot, motion)
     timing: dict[str, float] = {}
@@ -303,7 +325,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         out["marker_rms_mm"] = _missing("marker_rms_mm", "needs the adapted markers (--adapted) "
                                         "or the source clip (--source)")
     else:
-        aligned, note = _align(ref_markers, fps, T)
+        aligned, note = _align(ref_markers, fps, T, ref_kind.split(" (")[0], resample)
         n = min(aligned.n_frames, T)
         common = [m for m in kp_all.names if m in aligned.names]
         value = marker_rms_mm(kp_all.frames(0, n).subset(common), aligned.frames(0, n))
@@ -313,7 +335,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         out["close_pair_error"] = _missing("close_pair_error", "needs the source clip "
                                            "(--source)")
     else:
-        aligned, note = _align(src, fps, T)
+        aligned, note = _align(src, fps, T, "source", resample)
         n = min(aligned.n_frames, T)
         names = [m for m in aligned.names if m in kp_all.names]
         sub = aligned.frames(0, n).subset(names)

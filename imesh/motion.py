@@ -15,7 +15,13 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .errors import InvalidMotionError, MissingMarkerError, OptionError
+from .errors import (
+    ImplausibleMotionError,
+    InvalidMotionError,
+    MissingMarkerError,
+    OptionError,
+    TooFewFramesError,
+)
 
 log = logging.getLogger(__name__)
 
@@ -239,3 +245,99 @@ class MarkerMotion:
             "up_axis": self.meta.get("up_axis", "+Z"),
             "missing_fraction": self.missing_fraction,
         }
+
+
+# ---------------------------------------------------------------------------------------------
+# plausibility: is this a recording of a person? (checked once, when a file is loaded)
+
+#: Largest plausible |coordinate| of a marker [m] (floor-shifted world frame): capture volumes
+#: are tens of metres; beyond this the numbers are garbage (or the units are wrong).
+PLAUSIBLE_POSITION_M = 1000.0
+#: Plausible body height [m] (median vertical extent of the markers; joint rigs understate it).
+PLAUSIBLE_HEIGHT_M = (0.3, 3.0)
+#: Fastest plausible marker speed between two consecutive samples [m/s]. Body parts peak near
+#: 30 m/s; marker glitches in good clips reach 69 m/s (CMU salsa foot end site); a corrupted
+#: sample jumps far beyond.
+MAX_MARKER_SPEED_M_S = 100.0
+#: Plausible frame rates [1/s].
+PLAUSIBLE_FPS = (1.0, 10000.0)
+
+
+def check_plausible(motion: MarkerMotion) -> None:
+    """Raise unless ``motion`` can be a recording of a person (vectorized; cheap).
+
+    Checks, in order: the frame rate lies in :data:`PLAUSIBLE_FPS`; some marker is present in
+    some frame; the body height (:attr:`MarkerMotion.height_m`) can be measured and lies in
+    :data:`PLAUSIBLE_HEIGHT_M`; every present coordinate is within
+    :data:`PLAUSIBLE_POSITION_M`; no marker moves faster than :data:`MAX_MARKER_SPEED_M_S`
+    between two consecutive present samples (a corrupted sample, named by frame).
+
+    Raises:
+        ImplausibleMotionError: naming the file, the check, the frame and marker where one
+            applies, and the valid range.
+    """
+    src = motion.source or "motion"
+    lo, hi = PLAUSIBLE_FPS
+    if not lo <= motion.fps <= hi:
+        raise ImplausibleMotionError(src, "frame rate", f"frame rate {motion.fps:.6g} fps",
+                                     valid=f"{lo:g} to {hi:g} fps", value=motion.fps)
+    if not motion.valid.any():
+        raise ImplausibleMotionError(
+            src, "missing markers", f"all {motion.n_markers} markers are missing in all "
+            f"{motion.n_frames} frames", valid="a clip with markers present")
+    height = motion.height_m
+    lo, hi = PLAUSIBLE_HEIGHT_M
+    if not np.isfinite(height):
+        need = max(2, motion.n_markers // 2)
+        best = int(motion.valid.sum(axis=1).max())
+        raise ImplausibleMotionError(
+            src, "missing markers", f"no frame has {need} of the {motion.n_markers} markers "
+            f"present (at most {best}), so the body height cannot be measured",
+            valid=f"frames with at least {need} markers present")
+    if not lo <= height <= hi:
+        units = motion.meta.get("units")
+        hint = f" (units {units}: wrong units? pass --units)" if units else ""
+        raise ImplausibleMotionError(src, "height", f"body height {height:.4g} m{hint}",
+                                     valid=f"{lo:g} to {hi:g} m", value=height)
+    pos = motion.positions_m
+    far = motion.valid & (np.abs(np.where(motion.valid[..., None], pos, 0.0)) >
+                          PLAUSIBLE_POSITION_M).any(axis=2)
+    if far.any():
+        t, j = (int(i[0]) for i in np.nonzero(far))
+        value = float(np.abs(pos[t, j]).max())
+        raise ImplausibleMotionError(
+            src, "position range", f"coordinate {value:.4g} m ({int(far.sum())} samples beyond "
+            f"{PLAUSIBLE_POSITION_M:g} m)", valid=f"|coordinate| <= {PLAUSIBLE_POSITION_M:g} m",
+            frame=t, marker=motion.names[j], value=value)
+    if motion.n_frames < 2:
+        return
+    both = motion.valid[1:] & motion.valid[:-1]
+    step = np.linalg.norm(np.diff(pos, axis=0), axis=2)
+    speed = np.where(both, step, 0.0) * motion.fps  # (T-1, M) [m/s]
+    fast = speed > MAX_MARKER_SPEED_M_S
+    if fast.any():
+        t = int(np.flatnonzero(fast.any(axis=1))[0])  # first step t -> t+1 too fast
+        j = int(np.flatnonzero(speed[t] >= 0.99 * speed[t].max())[0])  # root before its kids
+        others = int(fast[t].sum()) - 1
+        spike = t + 1 < len(fast) and fast[t + 1, j]  # out and back: sample t+1 is corrupt
+        frame = t + 1 if spike else t
+        also = f" (and {others} other markers)" if others else ""
+        what = ("jumps there and back" if spike else
+                f"jumps between frames {t} and {t + 1}")
+        raise ImplausibleMotionError(
+            src, "marker speed", f"corrupted sample: the marker {what}{also}, "
+            f"{step[t, j]:.3g} m in one frame = {speed[t, j]:.3g} m/s",
+            valid=f"at most {MAX_MARKER_SPEED_M_S:g} m/s between frames", frame=frame,
+            marker=motion.names[j], value=float(speed[t, j]))
+
+
+def require_frames(motion: MarkerMotion, needed: int, method: str) -> None:
+    """Raise :class:`~imesh.errors.TooFewFramesError` unless ``motion`` has ``needed`` frames.
+
+    Args:
+        motion: the motion.
+        needed: frames the method needs.
+        method: what needs them, for the message ("the retarget pipeline (...)").
+    """
+    if motion.n_frames < needed:
+        raise TooFewFramesError(motion.source or "motion", motion.n_frames, needed, method)

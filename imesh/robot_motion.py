@@ -21,7 +21,6 @@ import dataclasses
 import logging
 import os
 import re
-import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -270,6 +269,7 @@ def load_robot_motion(path: str | os.PathLike, robot: RobotLike | str | None = N
     else:
         raise UnsupportedFormatError(str(path), f"unknown robot motion extension {suffix!r}; "
                                      "valid: .npz, .csv")
+    _check_plausible(path, fps, base_pos, q_joints, joints)
     if robot is not None:
         expected_name = robot if isinstance(robot, str) else robot.name
         if name != expected_name:
@@ -284,20 +284,40 @@ def load_robot_motion(path: str | os.PathLike, robot: RobotLike | str | None = N
         raise MotionFileError(str(path), str(exc)) from None
 
 
+#: Plausibility limits of a robot motion file: frame rate [1/s], |base coordinate| [m],
+#: |joint position| [rad or m].
+PLAUSIBLE_FPS = (1.0, 10000.0)
+PLAUSIBLE_BASE_M = 1000.0
+PLAUSIBLE_JOINT = 1000.0
+
+
+def _check_plausible(path: Path, fps: float, base_pos: np.ndarray, q_joints: np.ndarray,
+                     joints: tuple[str, ...]) -> None:
+    """Frame rate and magnitudes a robot motion can have (shapes are checked by RobotMotion)."""
+    lo, hi = PLAUSIBLE_FPS
+    if not lo <= fps <= hi:
+        raise MotionFileError(str(path), f"frame rate {fps:.6g} fps; valid: {lo:g} to {hi:g}")
+    for what, arr, limit, names in (("base position", base_pos, PLAUSIBLE_BASE_M, "xyz"),
+                                    ("joint position", q_joints, PLAUSIBLE_JOINT, joints)):
+        if arr.ndim != 2 or arr.size == 0:
+            continue
+        with np.errstate(invalid="ignore"):
+            far = np.abs(arr) > limit
+        if far.any():
+            t, c = (int(i[0]) for i in np.nonzero(far))
+            col = names[c] if c < len(names) else str(c)
+            raise MotionFileError(str(path), f"{what} {arr[t, c]:.4g} in column {col}; valid: "
+                                  f"|value| <= {limit:g}", frame=t)
+
+
 def _read_npz(path: Path):
-    try:
-        data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise MotionFileError(str(path), f"not a readable .npz file ({exc})") from None
-    with data:
-        missing = [k for k in NPZ_KEYS if k not in data.files]
-        if missing:
-            raise MotionFileError(str(path), f"missing keys {missing}; a robot motion .npz has "
-                                  f"{list(NPZ_KEYS)}, this file has {sorted(data.files)}")
-        try:
-            arrays = {k: data[k] for k in NPZ_KEYS}
-        except (ValueError, OSError, zipfile.BadZipFile) as exc:
-            raise MotionFileError(str(path), f"corrupt array ({exc})") from None
+    from .export import load_npz
+
+    arrays = load_npz(path, "robot motion")
+    missing = [k for k in NPZ_KEYS if k not in arrays]
+    if missing:
+        raise MotionFileError(str(path), f"missing keys {missing}; a robot motion .npz has "
+                              f"{list(NPZ_KEYS)}, this file has {sorted(arrays)}")
     try:
         fps = float(arrays["fps"])
         name = str(arrays["robot"])

@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import pytest
 
 import imesh.io as io
-from imesh.errors import ImeshError, MissingMarkerError, MotionFileError
-from imesh.io.c3d import C3DDependencyError, read_c3d, screen_up_axis, unique_names
+from imesh.errors import MissingMarkerError, MotionFileError
+from imesh.io.c3d import read_c3d, screen_up_axis, unique_names
 
 ezc3d = pytest.importorskip("ezc3d")
 
@@ -138,13 +136,6 @@ def test_truncated_c3d(tmp_path, mocap):
         read_c3d(cut)
 
 
-def test_missing_ezc3d(monkeypatch, mocap):
-    monkeypatch.setitem(sys.modules, "ezc3d", None)
-    with pytest.raises(C3DDependencyError, match="pip install ezc3d") as info:
-        read_c3d(mocap(QUALISYS))
-    assert isinstance(info.value, ImeshError) and isinstance(info.value, ImportError)
-
-
 # ---------------------------------------------------------------- standard marker set
 def test_qualisys_to_standard(loaded):
     markerset = pytest.importorskip("imesh.markerset")
@@ -201,3 +192,95 @@ def test_bts_partial_table(loaded):
     with pytest.raises(MarkerMappingError, match="bts") as info:
         markerset.to_standard(motion)
     assert {"elbow_l", "wrist_r", "head"} <= set(info.value.missing)
+
+
+# ---------------------------------------------------------------- processor formats
+def _convert(data: bytes, processor: int) -> bytes:
+    """The Intel (84) float-data Qualisys file rewritten for DEC (85) or MIPS (86) processors."""
+    out = bytearray(data)
+
+    def fl(k: int) -> None:
+        v = np.frombuffer(data, "<f4", 1, k)
+        if processor == 86:
+            out[k:k + 4] = v.astype(">f4").tobytes()
+        else:  # VAX F: 4 x the IEEE value with its 16-bit halves swapped
+            w = np.frombuffer((v * 4).astype("<f4").tobytes(), "<u2")[::-1]
+            out[k:k + 4] = w.tobytes()
+
+    def i2(k: int) -> None:
+        if processor == 86:
+            out[k:k + 2] = data[k:k + 2][::-1]
+
+    for k in (2, 4, 6, 8, 10, 16, 18):
+        i2(k)
+    fl(12)
+    fl(20)
+    start = (data[0] - 1) * 512
+    out[start + 3] = processor
+    pos = start + 4
+    while True:
+        n = abs(int(np.uint8(data[pos]).view(np.int8)))
+        gid = int(np.uint8(data[pos + 1]).view(np.int8))
+        if n == 0:
+            break
+        link = pos + 2 + n
+        offset = int(np.frombuffer(data, "<i2", 1, link)[0])
+        i2(link)
+        if gid > 0:
+            code = int(np.uint8(data[link + 2]).view(np.int8))
+            dims = list(data[link + 4:link + 4 + data[link + 3]])
+            first = link + 4 + len(dims)
+            for e in range(int(np.prod(dims)) if dims else 1):
+                if code == 2:
+                    i2(first + 2 * e)
+                elif code == 4:
+                    fl(first + 4 * e)
+        if offset <= 0:
+            break
+        pos = link + offset
+    data_start = (int(np.frombuffer(data, "<u2", 1, 16)[0]) - 1) * 512
+    floats = np.frombuffer(data, "<f4", (len(data) - data_start) // 4, data_start)
+    if processor == 86:
+        body = floats.astype(">f4").tobytes()
+    else:
+        body = np.frombuffer((floats * 4).astype("<f4").tobytes(), "<u2").reshape(-1, 2)[
+            :, ::-1].tobytes()
+    out[data_start:data_start + len(body)] = body
+    return bytes(out)
+
+
+@pytest.mark.parametrize("processor", [85, 86])
+def test_dec_and_mips_files_read_alike(tmp_path, mocap, processor):
+    data = mocap(QUALISYS).read_bytes()
+    path = tmp_path / f"proc{processor}.c3d"
+    path.write_bytes(_convert(data, processor))
+    intel, other = read_c3d(mocap(QUALISYS)), read_c3d(path)
+    assert other.names == intel.names and other.fps == intel.fps
+    np.testing.assert_array_equal(other.valid, intel.valid)
+    np.testing.assert_allclose(other.positions, intel.positions, rtol=1e-6, equal_nan=True)
+
+
+def test_integer_data_read_alike(tmp_path, mocap):
+    """The Qualisys clip stored as int16 x POINT:SCALE 0.1 mm (older Vicon files are)."""
+    data = mocap(QUALISYS).read_bytes()
+    out = bytearray(data)
+    n_points, n_analog = (int(np.frombuffer(data, "<u2", 1, k)[0]) for k in (2, 4))
+    first, last = (int(np.frombuffer(data, "<u2", 1, k)[0]) for k in (6, 8))
+    out[12:16] = np.float32(0.1).tobytes()
+    start = (data[0] - 1) * 512
+    scale_at = data.find(b"SCALE", start)  # the POINT:SCALE record: name, link, type, dims
+    assert scale_at > 0 and data[scale_at + 7] == 4 and data[scale_at + 8] == 0
+    out[scale_at + 9:scale_at + 13] = np.float32(0.1).tobytes()
+    data_start = (int(np.frombuffer(data, "<u2", 1, 16)[0]) - 1) * 512
+    words = 4 * n_points + n_analog
+    table = np.frombuffer(data, "<f4", (last - first + 1) * words, data_start).reshape(-1, words)
+    pts = table[:, :4 * n_points].reshape(len(table), n_points, 4)
+    ints = np.zeros(table.shape, dtype="<i2")
+    ip = ints[:, :4 * n_points].reshape(len(table), n_points, 4)
+    ip[..., :3] = np.round(pts[..., :3] / 0.1)
+    ip[..., 3] = np.where(pts[..., 3] < 0, -1, 0)
+    path = tmp_path / "int.c3d"
+    path.write_bytes(bytes(out[:data_start]) + ints.tobytes())
+    intel, other = read_c3d(mocap(QUALISYS)), read_c3d(path)
+    np.testing.assert_array_equal(other.valid, intel.valid)
+    np.testing.assert_allclose(other.positions, intel.positions, atol=0.051, equal_nan=True)

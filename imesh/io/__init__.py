@@ -54,7 +54,8 @@ def read_raw(path: str | os.PathLike, *, asf: str | os.PathLike | None = None,
 
 def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
                 up_axis: str | None = None, ground: str | float = "auto",
-                fps: float | None = None, asf: str | os.PathLike | None = None) -> MarkerMotion:
+                fps: float | None = None, asf: str | os.PathLike | None = None,
+                check: bool = True) -> MarkerMotion:
     """Read a motion file into a MarkerMotion (metres, Z up, floor at z = 0).
 
     Args:
@@ -64,9 +65,16 @@ def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
         ground: "auto" (shift to the floor when off by > 3 cm), "none", or a shift in metres.
         fps: frame rate for AMC files, which store none (default 120).
         asf: the skeleton for an .amc file (default: found beside it).
+        check: run the plausibility checks of :func:`imesh.motion.check_plausible` (frame
+            rate, body height 0.3-3 m, positions within 1 km, no marker faster than 100 m/s).
 
     Returns:
         The motion; ``motion.meta`` records every decision taken.
+
+    Raises:
+        MotionFileError: the file cannot be read (message names file, line, frame).
+        ImplausibleMotionError: the content cannot be a recording of a person (names the check,
+            frame and marker, and the valid range).
     """
     raw = read_raw(path, asf=asf, fps=fps)
-    return finalize(raw, units=units, up_axis=up_axis, ground=ground)
+    return finalize(raw, units=units, up_axis=up_axis, ground=ground, check=check)

@@ -79,10 +79,12 @@ def find_asf(amc_path: str | Path) -> Path:
         listing = ", ".join(p.name for p in asfs) or "none"
         raise MotionFileError(
             str(amc), f"no skeleton (.asf) whose name is a prefix of {amc.stem!r} in "
-            f"{amc.parent}; .asf files there: {listing}; pass the skeleton explicitly (asf=...)")
+            f"{amc.parent}; .asf files there: {listing}; pass the skeleton explicitly (--asf FILE, "
+            "or asf= in load_motion)")
     raise MotionFileError(
         str(amc), f"several skeletons could belong to this motion: "
-        f"{', '.join(p.name for p in matches)}; pass one explicitly (asf=...)")
+        f"{', '.join(p.name for p in matches)}; pass one explicitly (--asf FILE, or asf= in "
+        "load_motion)")
 
 
 def _floats(path: str, words: list[str], n: int, what: str, line: int) -> np.ndarray:
@@ -273,7 +275,7 @@ def _parse_amc(path: Path, skel: _Skeleton) -> tuple[dict[str, np.ndarray], int,
     names = set(re.findall(r"^[ \t]*([A-Za-z_][^\s]*)", text, re.M))
     unknown = sorted(n for n in names if n != "root" and n not in skel.bones)
     if unknown:
-        pos = re.search(rf"^[ \t]*{re.escape(unknown[0])}\b", text, re.M).start()
+        pos = re.search(rf"^[ \t]*{re.escape(unknown[0])}(?=\s|$)", text, re.M).start()
         raise MotionFileError(p, f"unknown bone {unknown[0]!r} (skeleton {skel.path} has "
                               f"{', '.join(['root', *skel.bones])})", line=line_at(pos),
                               frame=int(np.searchsorted(starts, pos)) - 1)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import logging
 import re
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -254,7 +255,11 @@ def read_bvh(path: str | Path) -> RawMotion:
 
     tokens = [(tok, i) for i, ln in enumerate(text[: m.start()].splitlines(), 1)
               for tok in _TOKEN.findall(ln)]
-    nodes = _HierarchyParser(p, tokens, motion_line).parse()
+    try:
+        nodes = _HierarchyParser(p, tokens, motion_line).parse()
+    except RecursionError:
+        raise MotionFileError(p, "malformed HIERARCHY: joints nested too deeply (more than "
+                              f"{sys.getrecursionlimit() // 2} levels)") from None
 
     # ------------------------------------------------------------------ MOTION header
     rest = text[m.end():]

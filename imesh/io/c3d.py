@@ -1,4 +1,4 @@
-"""C3D reader (marker trajectories) built on ezc3d.
+"""C3D reader (marker trajectories): a bounds-checked numpy parser of the C3D format.
 
 Only 3-D points are read; analog channels and force plates are ignored. Points that the file lists
 as computed quantities (``POINT:ANGLES``, ``FORCES``, ``MOMENTS``, ``POWERS``, ``SCALARS``,
@@ -6,17 +6,24 @@ as computed quantities (``POINT:ANGLES``, ``FORCES``, ``MOMENTS``, ``POWERS``, `
 
 A sample is missing when its residual is negative (the C3D convention), when any coordinate is
 not finite, or when it is exactly (0, 0, 0): many writers store gaps as zeros.
+
+The parser reads Intel, DEC and MIPS files with integer or float data (C3D User Guide: a 512-byte
+header block, parameter blocks of group/parameter records, then frames of 4 words per point
+followed by the analog samples). Every count and offset is checked against the file's size
+before it is used, so a corrupt file raises :class:`~imesh.errors.MotionFileError`; it does not
+crash, hang or allocate more than the file holds (ezc3d, used before, crashed on corrupt files).
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import os
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import ImeshError, MotionFileError
+from ..errors import MotionFileError
 from .raw import RawMotion
 from .units import UP_AXES, _frame_extents
 
@@ -40,10 +47,6 @@ RIG_SIGNATURES: dict[str, tuple[str, ...]] = {
 
 #: POINT parameters listing labels of points that are not marker positions.
 _NON_MARKER_GROUPS = ("ANGLES", "FORCES", "MOMENTS", "POWERS", "SCALARS", "REACTIONS")
-
-
-class C3DDependencyError(ImeshError, ImportError):
-    """ezc3d, needed to read C3D files, is not installed."""
 
 
 def detect_rig(names: tuple[str, ...] | list[str]) -> str:
@@ -87,11 +90,8 @@ def unique_names(raw_names: list[str], n: int, prefix: str = "M") -> tuple[str, 
 
 
 def _param(params: dict, group: str, name: str):
-    """Value of parameter GROUP:NAME, or None."""
-    try:
-        return params[group][name]["value"]
-    except (KeyError, TypeError):
-        return None
+    """Value of parameter GROUP:NAME (a list of str or a 1-D array), or None."""
+    return params.get(group, {}).get(name)
 
 
 def _first_str(value) -> str | None:
@@ -102,11 +102,12 @@ def _first_str(value) -> str | None:
 
 def _point_labels(params: dict, n: int) -> list[str]:
     """POINT:LABELS followed by LABELS2, LABELS3, ... (files with more than 255 points)."""
-    labels = list(_param(params, "POINT", "LABELS") or [])
+    first = _param(params, "POINT", "LABELS")
+    labels = list(first) if isinstance(first, list) else []
     k = 2
     while len(labels) < n:
         more = _param(params, "POINT", f"LABELS{k}")
-        if not more:
+        if not isinstance(more, list) or not more:
             break
         labels += list(more)
         k += 1
@@ -158,6 +159,182 @@ def screen_up_axis(y_screen: str | None, positions: np.ndarray, valid: np.ndarra
     return text, f"POINT:Y_SCREEN {text}"
 
 
+# ---------------------------------------------------------------------------------------------
+# the C3D file format
+
+_BLOCK = 512
+_INTEL, _DEC, _MIPS = 84, 85, 86
+
+
+class _Bytes:
+    """Typed reads from the file's bytes in the processor's formats, bounds-checked."""
+
+    def __init__(self, path: str, data: bytes, processor: int):
+        self.path = path
+        self.data = data
+        self.processor = processor
+        self.big = processor == _MIPS
+
+    def need(self, offset: int, size: int, what: str) -> None:
+        if offset < 0 or size < 0 or offset + size > len(self.data):
+            raise MotionFileError(self.path, f"truncated or corrupt: {what} at byte {offset} "
+                                  f"({size} bytes) lies beyond the end of the file "
+                                  f"({len(self.data)} bytes)")
+
+    def ints(self, offset: int, count: int, what: str) -> np.ndarray:
+        self.need(offset, 2 * count, what)
+        return np.frombuffer(self.data, ">i2" if self.big else "<i2", count, offset)
+
+    def floats(self, offset: int, count: int, what: str) -> np.ndarray:
+        self.need(offset, 4 * count, what)
+        return self.decode_floats(self.data, offset, count)
+
+    def decode_floats(self, data: bytes, offset: int, count: int) -> np.ndarray:
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN payloads of corrupt files
+            if self.processor == _DEC:  # VAX F-float: swap the 16-bit halves, IEEE value / 4
+                words = np.frombuffer(data, "<u2", 2 * count, offset).reshape(-1, 2)[:, ::-1]
+                return np.ascontiguousarray(words).view("<f4").reshape(-1).astype(
+                    np.float64) / 4
+            return np.frombuffer(data, ">f4" if self.big else "<f4", count, offset).astype(
+                np.float64)
+
+
+def _int8(byte: int) -> int:
+    return byte - 256 if byte > 127 else byte
+
+
+def _parse_parameters(buf: _Bytes, start: int) -> dict[str, dict[str, object]]:
+    """GROUP -> NAME -> value (list of str for characters, else a 1-D array) of the parameter
+    section starting at byte ``start``."""
+    data = buf.data
+    groups: dict[int, str] = {}
+    found: list[tuple[int, str, object]] = []
+    pos = start + 4
+    while pos + 2 <= len(data):
+        n_name = abs(_int8(data[pos]))
+        gid = _int8(data[pos + 1])
+        if n_name == 0:
+            break
+        name = data[pos + 2:pos + 2 + n_name].decode("latin-1").strip().upper()
+        link = pos + 2 + n_name
+        offset = int(buf.ints(link, 1, f"parameter record {name!r}")[0])
+        body = link + 2
+        if gid < 0:
+            groups[-gid] = name
+        elif gid > 0:
+            buf.need(body, 2, f"parameter {name!r}")
+            code = _int8(data[body])
+            n_dim = data[body + 1]
+            buf.need(body + 2, n_dim, f"dimensions of parameter {name!r}")
+            dims = list(data[body + 2:body + 2 + n_dim])
+            first = body + 2 + n_dim
+            count = math.prod(dims)  # Python int: no overflow before the bounds check
+            if code == -1:
+                buf.need(first, count, f"characters of parameter {name!r}")
+                raw = data[first:first + count].decode("latin-1")
+                width = dims[0] if dims else 1
+                value: object = ([raw[i:i + width] for i in range(0, count, width)]
+                                 if width else [])
+            elif code == 1:
+                buf.need(first, count, f"bytes of parameter {name!r}")
+                value = np.frombuffer(data, np.uint8, count, first).astype(np.int64)
+            elif code == 2:
+                value = buf.ints(first, count, f"integers of parameter {name!r}").astype(
+                    np.int64)
+            elif code == 4:
+                value = buf.floats(first, count, f"floats of parameter {name!r}")
+            else:
+                raise MotionFileError(buf.path, f"parameter {name!r} has data type {code}; "
+                                      "valid: -1 (char), 1 (byte), 2 (int16), 4 (float)")
+            found.append((gid, name, value))
+        if offset <= 0:  # the last record
+            break
+        pos = link + offset
+    params: dict[str, dict[str, object]] = {}
+    for gid, name, value in found:
+        params.setdefault(groups.get(gid, f"GROUP{gid}"), {})[name] = value
+    return params
+
+
+def _count(value) -> int | None:
+    """An unsigned 16-bit count stored as int16 (C3D counts above 32767 read negative)."""
+    if value is None or len(value) == 0 or isinstance(value, list):
+        return None
+    v = int(value[0])
+    return v + 65536 if v < 0 else v
+
+
+def _parse_c3d(path: str, data: bytes) -> tuple[dict, np.ndarray, np.ndarray, dict]:
+    """Parameters, positions (T, M, 3) in file units, residual-valid mask (T, M) and header
+    facts of a C3D file."""
+    if len(data) < _BLOCK or data[1] != 0x50:
+        raise MotionFileError(path, "not a readable C3D file (no C3D header: the second byte "
+                              "must be 0x50)" if len(data) >= 2 else
+                              "not a readable C3D file (too short)")
+    param_start = (data[0] - 1) * _BLOCK
+    if data[0] < 2 or param_start + 4 > len(data):
+        raise MotionFileError(path, f"not a readable C3D file (parameter block {data[0]} "
+                              "outside the file)")
+    processor = data[param_start + 3]
+    if processor not in (_INTEL, _DEC, _MIPS):
+        raise MotionFileError(path, f"not a readable C3D file (processor type {processor}; "
+                              f"valid: {_INTEL} Intel, {_DEC} DEC, {_MIPS} MIPS)")
+    buf = _Bytes(path, data, processor)
+    words = buf.ints(0, 12, "header").astype(np.int64) & 0xFFFF  # header words, unsigned
+    header_points, analog_per_frame = int(words[1]), int(words[2])
+    first_frame, last_frame = int(words[3]), int(words[4])
+    header_scale = float(buf.floats(12, 1, "header scale")[0])
+    header_start = int(words[8])
+    header_rate = float(buf.floats(20, 1, "header frame rate")[0])
+    params = _parse_parameters(buf, param_start)
+
+    used = _count(_param(params, "POINT", "USED"))
+    n_points = header_points if used is None else used
+    if used is not None and used != header_points:
+        raise MotionFileError(path, f"corrupt: the header says {header_points} points, "
+                              f"POINT:USED says {used}")
+    if n_points == 0:
+        raise MotionFileError(path, "the file has no 3-D points (markers)")
+    scale_param = _param(params, "POINT", "SCALE")
+    scale = (float(scale_param[0]) if scale_param is not None and len(scale_param)
+             and not isinstance(scale_param, list) else header_scale)
+    if not np.isfinite(scale):
+        raise MotionFileError(path, f"corrupt: POINT:SCALE {scale}")
+    start_param = _count(_param(params, "POINT", "DATA_START"))
+    start_block = start_param if start_param else header_start
+    data_start = (start_block - 1) * _BLOCK
+    if start_block < 2 or data_start > len(data):
+        raise MotionFileError(path, f"corrupt: data start block {start_block} outside the "
+                              f"file ({len(data)} bytes)")
+    n_frames = last_frame - first_frame + 1
+    long_frames = _param(params, "POINT", "LONG_FRAMES")
+    if long_frames is not None and len(long_frames) and not isinstance(long_frames, list):
+        declared = float(long_frames[0])
+        if np.isfinite(declared) and declared > n_frames:
+            n_frames = int(min(declared, 2**31))
+    if n_frames <= 0:
+        raise MotionFileError(path, f"the file has no frames (first frame {first_frame}, last "
+                              f"{last_frame})")
+    word = 4 if scale < 0 else 2
+    frame_words = 4 * n_points + analog_per_frame
+    frame_bytes = word * frame_words
+    have = (len(data) - data_start) // frame_bytes
+    if have < n_frames:
+        raise MotionFileError(path, f"truncated: {have} frames of data, the header says "
+                              f"{n_frames}")
+    if word == 4:
+        table = buf.decode_floats(data, data_start, n_frames * frame_words)
+    else:
+        table = np.frombuffer(data, ">i2" if buf.big else "<i2", n_frames * frame_words,
+                              data_start).astype(np.float64)
+    points = table.reshape(n_frames, frame_words)[:, :4 * n_points].reshape(n_frames,
+                                                                            n_points, 4)
+    positions = points[..., :3] * (1.0 if word == 4 else abs(scale))
+    valid = points[..., 3] >= 0
+    facts = {"first_frame": first_frame - 1, "rate": header_rate, "n_points": n_points}
+    return params, positions, valid, facts
+
+
 def read_c3d(path: str | os.PathLike) -> RawMotion:
     """Read the marker trajectories of a C3D file.
 
@@ -172,51 +349,26 @@ def read_c3d(path: str | os.PathLike) -> RawMotion:
         "roboptim" or "" from the marker names.
 
     Raises:
-        C3DDependencyError: ezc3d is not installed (an ImeshError and an ImportError).
-        MotionFileError: the file cannot be parsed, or has no frames or no points.
+        MotionFileError: the file cannot be parsed (not a C3D file, truncated, corrupt counts or
+            offsets), or has no frames or no points.
     """
-    try:
-        import ezc3d
-    except ImportError as exc:
-        raise C3DDependencyError(
-            f"reading C3D files needs the ezc3d package: pip install ezc3d ({exc})"
-        ) from exc
     p = str(Path(path))
-    if not Path(p).is_file():
-        raise MotionFileError(p, "no such file")
     try:
-        c3d = ezc3d.c3d(p, extract_forceplat_data=False)
-        params = c3d["parameters"]
-        points = np.asarray(c3d["data"]["points"], dtype=np.float64)
-        residuals = np.asarray(c3d["data"]["meta_points"]["residuals"], dtype=np.float64)
-    except Exception as exc:  # ezc3d raises RuntimeError/IOError/ValueError on corrupt input
-        raise MotionFileError(p, f"not a readable C3D file ({type(exc).__name__}: {exc})"
-                              ) from exc
-
-    if points.ndim != 3 or points.shape[0] < 3:
-        raise MotionFileError(p, f"unexpected point array shape {points.shape}")
-    n_points, n_frames = points.shape[1], points.shape[2]
-    if n_frames == 0:
-        raise MotionFileError(p, "the file has no frames")
-    if n_points == 0:
-        raise MotionFileError(p, "the file has no 3-D points (markers)")
-    # ezc3d silently shortens a file cut mid-data (and rewrites POINT:FRAMES); POINT:LONG_FRAMES,
-    # when present, still holds the written frame count.
-    long_frames = _param(params, "POINT", "LONG_FRAMES")
-    if long_frames is not None and len(long_frames) and float(long_frames[0]) > n_frames:
-        raise MotionFileError(p, f"truncated: {n_frames} frames of data, POINT:LONG_FRAMES says "
-                              f"{int(float(long_frames[0]))}")
-
+        data = Path(p).read_bytes()
+    except OSError as exc:
+        raise MotionFileError(p, "no such file" if not Path(p).exists() else
+                              f"cannot read file ({exc.strerror or exc})") from None
+    params, positions, valid, facts = _parse_c3d(p, data)
+    n_points = facts["n_points"]
     names = unique_names(_point_labels(params, n_points), n_points)
-    positions = points[:3].transpose(2, 1, 0).copy()  # (T, M, 3)
-    res = residuals.reshape(-1, n_points, n_frames)[0].T if residuals.size else \
-        np.zeros((n_frames, n_points))
-    valid = (res >= 0) & np.isfinite(positions).all(axis=2) & (positions != 0).any(axis=2)
+    valid = valid & np.isfinite(positions).all(axis=2) & (positions != 0).any(axis=2)
 
     # drop computed (non-marker) points
     non_marker: set[str] = set()
     for group in _NON_MARKER_GROUPS:
-        non_marker.update(str(s).strip() for s in (_param(params, "POINT", group) or []))
+        labels = _param(params, "POINT", group)
+        if isinstance(labels, list):
+            non_marker.update(str(s).strip() for s in labels)
     keep = np.array([n not in non_marker for n in names])
     if not keep.all():
         log.info("%s: dropped %d computed points (angles/forces/moments/powers/scalars)", p,
@@ -227,11 +379,13 @@ def read_c3d(path: str | os.PathLike) -> RawMotion:
         positions, valid = positions[:, keep], valid[:, keep]
         names = tuple(n for n, k in zip(names, keep, strict=True) if k)
     positions[~valid] = np.nan
+    n_frames = positions.shape[0]
 
     rate = _param(params, "POINT", "RATE")
-    fps = float(rate[0]) if rate is not None and len(rate) else float("nan")
+    fps = (float(rate[0]) if rate is not None and len(rate) and not isinstance(rate, list)
+           else float("nan"))
     if not (np.isfinite(fps) and fps > 0):
-        fps = float(c3d["header"]["points"].get("frame_rate", float("nan")))
+        fps = facts["rate"]
     if not (np.isfinite(fps) and fps > 0):
         raise MotionFileError(p, f"invalid point rate {fps} (POINT:RATE and header)")
 
@@ -246,9 +400,8 @@ def read_c3d(path: str | os.PathLike) -> RawMotion:
     up, up_why = screen_up_axis(y_screen, positions, valid)
 
     rig = detect_rig(names)
-    header = c3d["header"]["points"]
     meta = {
-        "c3d_first_frame": int(header.get("first_frame", 0)),
+        "c3d_first_frame": facts["first_frame"],
         "c3d_x_screen": x_screen,
         "c3d_y_screen": y_screen,
         "c3d_up_reason": up_why,

@@ -45,6 +45,24 @@ def _bad_field_position(cells: np.ndarray) -> int:
     return -1
 
 
+#: Longest number field a data row may hold (characters); longer fields are corrupt.
+_MAX_FIELD = 40
+
+
+def _header_count(path: str, header: dict, key: str, low: int, high: int) -> int:
+    """A header count (NumFrames, NumMarkers): an integer in [low, high] (for NumMarkers, high is
+    what the file's longest line can hold), checked before it sizes anything."""
+    text = header[key]
+    try:
+        value = float(text)
+    except ValueError:
+        raise MotionFileError(path, f"{key} {text!r} is not a number", line=3) from None
+    if not (np.isfinite(value) and value == int(value) and low <= value <= high):
+        raise MotionFileError(path, f"{key} {text!r} is not a count this file can hold; valid: "
+                              f"an integer from {low} to {high}", line=3)
+    return int(value)
+
+
 def read_trc(path: str | os.PathLike) -> RawMotion:
     """Read a TRC marker file.
 
@@ -87,14 +105,16 @@ def read_trc(path: str | os.PathLike) -> RawMotion:
                                   line=2)
     try:
         fps = float(header["DataRate"])
-        n_frames = int(float(header["NumFrames"]))
-        n_markers = int(float(header["NumMarkers"]))
-    except ValueError as exc:
-        raise MotionFileError(p, f"non-numeric header value ({exc})", line=3) from None
+    except ValueError:
+        raise MotionFileError(p, f"DataRate {header['DataRate']!r} is not a number", line=3
+                              ) from None
     if not (np.isfinite(fps) and fps > 0):
-        raise MotionFileError(p, f"DataRate must be > 0, got {header['DataRate']!r}", line=3)
-    if n_markers <= 0:
-        raise MotionFileError(p, f"NumMarkers must be > 0, got {n_markers}", line=3)
+        raise MotionFileError(p, f"DataRate {header['DataRate']!r} is not a frame rate; valid: "
+                              "a finite number > 0", line=3)
+    # counts are checked against what the file can hold before anything is allocated
+    n_frames = _header_count(p, header, "NumFrames", 0, 10**9)  # only compared with the rows
+    longest = max(map(len, lines))  # a marker takes at least 3 characters of every row
+    n_markers = _header_count(p, header, "NumMarkers", 1, max(longest // 3, 1))
     unit_text = header.get("Units")
     units = normalize_unit(unit_text)
     if units is None:
@@ -116,7 +136,15 @@ def read_trc(path: str | os.PathLike) -> RawMotion:
 
     # ---- data block: all rows at once
     n_cols = 2 + 3 * n_markers
-    rows = np.char.rstrip(np.array(lines[_HEADER_LINES:], dtype=str), "\r\n")
+    body = lines[_HEADER_LINES:]
+    lengths = np.fromiter(map(len, body), dtype=np.int64, count=len(body))
+    too_long = np.flatnonzero(lengths > _MAX_FIELD * n_cols + 64)
+    if too_long.size:  # also bounds the fixed-width string arrays below
+        k = int(too_long[0])
+        raise MotionFileError(p, f"data row of {lengths[k]} characters, more than {n_cols} "
+                              f"numbers of at most {_MAX_FIELD} characters can fill",
+                              line=_HEADER_LINES + k + 1)
+    rows = np.char.rstrip(np.array(body, dtype=str), "\r\n")
     line_no = np.arange(_HEADER_LINES, _HEADER_LINES + rows.size) + 1
     keep = np.char.strip(rows) != ""
     rows, line_no = rows[keep], line_no[keep]
@@ -149,6 +177,13 @@ def read_trc(path: str | os.PathLike) -> RawMotion:
         flat = flat.ravel()
     else:
         flat = np.array(" ".join(rows.tolist()).split())
+    widths = np.char.str_len(flat)
+    if widths.max(initial=0) > _MAX_FIELD:
+        k = int(np.argmax(widths))
+        row, col = divmod(k, n_cols)
+        raise MotionFileError(p, f"a field of {widths[k]} characters in column {col + 1}: not a "
+                              f"number of at most {_MAX_FIELD} characters",
+                              line=int(line_no[row]))
     flat = np.char.strip(flat)
     flat = np.where(flat == "", "nan", flat)  # np.where widens the dtype to fit "nan"
     try:

@@ -6,8 +6,8 @@ import logging
 
 import numpy as np
 
-from ..errors import OptionError
-from ..motion import MarkerMotion
+from ..errors import ImplausibleMotionError, OptionError
+from ..motion import MarkerMotion, check_plausible
 from .raw import RawMotion
 
 log = logging.getLogger(__name__)
@@ -107,8 +107,30 @@ def detect_units(raw: RawMotion, height_file_units: float) -> tuple[str, float, 
     return name, scale, f"height {height_file_units:.4g} units -> {h:.3f} m is the most plausible"
 
 
+def _check_raw(raw: RawMotion) -> None:
+    """What unit and up-axis detection need: some frame with half of the markers present."""
+    if not raw.valid.any():
+        raise ImplausibleMotionError(
+            raw.path, "missing markers", f"all {raw.valid.shape[1]} markers are missing in all "
+            f"{raw.valid.shape[0]} frames", valid="a clip with markers present")
+    bad = raw.valid & ~np.isfinite(raw.positions).all(axis=2)
+    if bad.any():
+        t, j = (int(i[0]) for i in np.nonzero(bad))
+        raise ImplausibleMotionError(
+            raw.path, "non-finite", f"position {raw.positions[t, j].tolist()} is not finite "
+            f"({int(bad.sum())} samples; values too large for the forward kinematics?)",
+            valid="finite positions", frame=t, marker=raw.names[j])
+    need = max(2, raw.valid.shape[1] // 2)
+    counts = raw.valid.sum(axis=1)
+    if counts.max() < need:
+        raise ImplausibleMotionError(
+            raw.path, "missing markers", f"no frame has {need} of the {raw.valid.shape[1]} "
+            f"markers present (at most {int(counts.max())}), so units, up axis and body height "
+            "cannot be measured", valid=f"frames with at least {need} markers present")
+
+
 def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str | None = None,
-             ground: str | float = "auto") -> MarkerMotion:
+             ground: str | float = "auto", check: bool = True) -> MarkerMotion:
     """Convert a RawMotion to a MarkerMotion in metres, Z up, floor at z = 0.
 
     Args:
@@ -118,7 +140,15 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
         ground: "auto" shifts the motion vertically so the floor (the 2nd percentile of the
             per-frame lowest marker) is at z = 0 when it is more than 3 cm away; "none" keeps the
             file's vertical origin; a number shifts by that many metres (up).
+        check: run the plausibility checks (:func:`imesh.motion.check_plausible`: frame rate,
+            body height, position range, marker speed); on by default.
+
+    Raises:
+        ImplausibleMotionError: every marker missing, positions that overflow when converted to
+            metres, or (``check``) a failed plausibility check.
+        OptionError: an invalid override.
     """
+    _check_raw(raw)
     if up_axis is not None:
         up, up_why = up_axis, "given by the user"
         if up not in UP_AXES:
@@ -126,7 +156,8 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
     else:
         up, up_why = detect_up_axis(raw)
     rot = rotation_to_z_up(up)
-    pos = raw.positions @ rot.T
+    with np.errstate(over="ignore", invalid="ignore"):
+        pos = raw.positions @ rot.T
     ext = _frame_extents(pos, raw.valid)
     height_units = float(np.nanmedian(ext[:, 2])) if np.isfinite(ext[:, 2]).any() else float("nan")
 
@@ -139,7 +170,18 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
         unit_why = "given by the user"
     else:
         unit_name, scale, unit_why = f"{float(units):.6g} m", float(units), "given by the user"
-    pos = pos * scale
+    if not (np.isfinite(scale) and scale > 0):
+        raise OptionError("units", units if units is not None else unit_name,
+                          "a unit name (m, cm, mm, in, cmu) or a positive number of metres")
+    with np.errstate(over="ignore", invalid="ignore"):
+        pos = pos * scale
+    overflow = raw.valid & ~np.isfinite(pos).all(axis=2)
+    if overflow.any():
+        t, j = (int(i[0]) for i in np.nonzero(overflow))
+        raise ImplausibleMotionError(
+            raw.path, "non-finite", f"position {raw.positions[t, j].tolist()} (file units) is "
+            f"not a finite number in metres ({int(overflow.sum())} samples)",
+            valid="finite positions", frame=t, marker=raw.names[j])
 
     floor = 0.0
     if ground == "auto":
@@ -169,5 +211,8 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
         format=raw.format, rig=raw.rig, units=unit_name, unit_scale_m=scale, units_reason=unit_why,
         up_axis=up, up_axis_reason=up_why, floor_offset_m=floor, floor_reason=ground_why,
     )
-    return MarkerMotion(positions_m=pos, fps=raw.fps, names=raw.names, valid=raw.valid,
-                        bones=raw.bones, source=raw.path, meta=meta)
+    motion = MarkerMotion(positions_m=pos, fps=raw.fps, names=raw.names, valid=raw.valid,
+                          bones=raw.bones, source=raw.path, meta=meta)
+    if check:
+        check_plausible(motion)
+    return motion
