@@ -90,6 +90,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--allow-flight", action="store_true",
                    help="accept flight phases (both feet up): those frames are left without "
                         "support and ZMP constraints and listed in the report")
+    p.add_argument("--force", action="store_true",
+                   help="write the motion even when it fails verification (exit 3 otherwise; "
+                        "the report marks the failed gates)")
     p.add_argument("--no-lead", action="store_true",
                    help="no standing lead-in/out (1 s of settled double support each)")
     _add_load_options(p)
@@ -251,15 +254,24 @@ def cmd_retarget(args) -> int:
         from .arms.cli import refine
 
         robot_motion, report["fit_sqp"] = refine(args, robot, result)
-    save_robot_motion(args.output, robot_motion)
-    if args.markers:
-        save_marker_motion(args.markers, result.adapted)
-    # the summary is the evaluator's report of the motion as written, not an intermediate stage
+    # verify before writing: the summary and the gates are the evaluator's report of the
+    # motion as it will be written (the file holds exactly these float64 configurations)
+    from .errors import VerificationError
     from .evaluate import evaluate_motion, format_table
+    from .verify import failed_gates
 
     metrics = evaluate_motion(robot, robot_motion, adapted=result.adapted,
                               seconds=result.seconds)
     report["metrics"] = metrics
+    failed = failed_gates(metrics, balanced=args.balance != "none")
+    report["verification"] = {"passed": not failed,
+                              "failed": {k: {"value": v[0], "gate": v[1]}
+                                         for k, v in failed.items()}}
+    if failed and not args.force:
+        raise VerificationError(f"retargeted motion of {args.clip} for {robot.name}", failed)
+    save_robot_motion(args.output, robot_motion)
+    if args.markers:
+        save_marker_motion(args.markers, result.adapted)
     if args.report:
         write_json(args.report, report)
     print(f"retargeted {report['frames']} frames to {robot.name} in "
@@ -396,7 +408,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ImeshError as exc:
         one_line = " ".join(str(exc).split())  # names read from a file may hold newlines
         print(f"imesh: error: {one_line}", file=sys.stderr)
-        return EXIT_USAGE
+        return getattr(exc, "exit_status", EXIT_USAGE)  # VerificationError: EXIT_VERIFY
     except BrokenPipeError:
         return _stdout_gone()
     except KeyboardInterrupt:

@@ -194,3 +194,21 @@ class SourceMismatchError(ImeshError):
         self.what = what
         self.expected = expected
         self.found = found
+
+
+class VerificationError(ImeshError):
+    """The motion was computed but failed the robot's gates (:mod:`imesh.verify`): nothing was
+    written (unless ``--force``). The command line exits with status 3.
+
+    Attributes:
+        failed: metric -> (value, gate text) of every failed gate.
+    """
+
+    exit_status = 3
+
+    def __init__(self, what: str, failed: dict):
+        self.failed = dict(failed)
+        items = "; ".join(f"{k} = {v[0]:.4g} (gate {v[1]})" if isinstance(v[0], (int, float))
+                          else f"{k} = {v[0]} (gate {v[1]})" for k, v in failed.items())
+        super().__init__(f"{what} failed verification: {items}; nothing written (--force writes "
+                         "it anyway, marked failed in the report)")

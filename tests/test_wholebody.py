@@ -102,7 +102,7 @@ def test_zmp_linearization_predicts_the_multibody_zmp(robot):
     x[:, nv + 3:nv + 5] = -(A[3 * T:5 * T] @ x.ravel()).reshape(T, 2)  # rows dk - M_k dq
     hp_frame, hp_n, hp_b = plan.halfplanes
     R = len(hp_frame)
-    G = qp.G.tocsr()[-R:]  # the ZMP rows are last
+    G = qp.G.tocsr()[-R - T:-T]  # the ZMP rows, before the T normal-force rows
     predicted = G @ x.ravel()
     actual = np.sum(hp_n * (lin2.zmp_multibody - lin.zmp_multibody)[hp_frame], axis=1)
     assert np.abs(actual).max() > 1e-4  # the step does move the ZMP

@@ -65,6 +65,9 @@ class WholeBodyConfig:
         velocity_margin, acceleration_margin: the limits are used times (1 - margin), so the
             written motion meets them with room for rounding.
         clearance_m: swing-sole corners stay this high above the ground [m].
+        swing_lift_m: over the middle third of a swing between two support phases of a foot,
+            its ground points stay this high [m]: a step is a step (the evaluator, like a
+            controller, tells phases apart by the sole leaving the ground).
         zmp_slack_weight: price of the ZMP constraints' slack per metre (an exact penalty:
             above the multipliers of a feasible problem the slack is 0 where it can be).
         elastic_weight: price per metre (or radian) of the slack of the sole and ground
@@ -94,6 +97,7 @@ class WholeBodyConfig:
     velocity_margin: float = 1e-3
     acceleration_margin: float = 1e-3
     clearance_m: float = 0.0
+    swing_lift_m: float = 0.03
     zmp_slack_weight: float = 1e3
     elastic_weight: float = 1e4
     min_normal: float = 0.3
@@ -111,8 +115,8 @@ class WholeBodyConfig:
                 raise OptionError(name, getattr(self, name), "a positive number")
         for name in ("mesh_weight", "direction_weight", "accel_weight", "zmp_weight", "damping",
                      "init_weight", "zmp_margin_m", "velocity_margin", "acceleration_margin",
-                     "clearance_m", "zmp_slack_weight", "elastic_weight", "trust_region",
-                     "initial_lowpass_hz", "base_trust", "min_normal"):
+                     "clearance_m", "swing_lift_m", "zmp_slack_weight", "elastic_weight",
+                     "trust_region", "initial_lowpass_hz", "base_trust", "min_normal"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise OptionError(name, value, "a non-negative number")
@@ -177,6 +181,8 @@ class Plan:
         fps: frame rate.
         rest_frames: the first and the last this many frames are held identical (the motion
             starts and ends at rest: zero velocity and acceleration for a controller); 0: free.
+        clearance: (T, 2) [m] height the swing feet's ground points keep per frame (None:
+            ``config.clearance_m`` everywhere).
     """
 
     marker_points: np.ndarray
@@ -195,6 +201,7 @@ class Plan:
     a_max: np.ndarray
     fps: float
     rest_frames: int = 0
+    clearance: np.ndarray | None = None
 
 
 def gradient_operator(n: int, h: float) -> sp.csr_matrix:
@@ -400,10 +407,11 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     if len(tt):
         z = lin.corners[tt, kk, :, 2].ravel()
         n_pts = lin.corners.shape[2]
+        clear = _clearance(plan, config)[tt, kk]
         G_blocks.append(_rows_at(np.repeat(tt, n_pts),
                                  lin.corner_jacobians_z[tt, kk].reshape(-1, nv), nx, T)
                         + _rows_at(np.repeat(tt, n_pts), np.ones((len(z), 1)), nx, T, G0))
-        lo.append(config.clearance_m - z)
+        lo.append(np.repeat(clear, n_pts) - z)
         hi.append(np.full(len(z), np.inf))
     # joint velocity and acceleration
     sel = sp.csr_matrix((np.ones(T * n_j), (np.arange(T * n_j),
@@ -463,6 +471,12 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
                      x_l=x_l.ravel(), x_u=x_u.ravel())
 
 
+def _clearance(plan: Plan, config: WholeBodyConfig) -> np.ndarray:
+    if plan.clearance is not None:
+        return plan.clearance
+    return np.full(plan.support.shape, config.clearance_m)
+
+
 def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig) -> float:
     """The exact-penalty merit of a trajectory: the QP's objective terms evaluated on the
     nonlinear trajectory (``1/2 sum w |r|^2``) plus the slack prices times the violations the
@@ -496,9 +510,10 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
         penalty += config.elastic_weight * np.sum(np.maximum(dp, dr))
     tt, kk = np.nonzero(~plan.support)
     if len(tt):
-        low = np.full(T, np.inf)
-        np.minimum.at(low, tt, lin.corners[tt, kk, :, 2].min(axis=1))
-        penalty += config.elastic_weight * np.sum(np.maximum(config.clearance_m - low, 0.0))
+        short = _clearance(plan, config)[tt, kk] - lin.corners[tt, kk, :, 2].min(axis=1)
+        worst = np.zeros(T)
+        np.maximum.at(worst, tt, short)
+        penalty += config.elastic_weight * np.sum(np.maximum(worst, 0.0))
     penalty += config.zmp_slack_weight * np.sum(np.maximum(
         (config.min_normal - 1.0) * GRAVITY - lin.com_acceleration[:, 2], 0.0))
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contacts import SIDES
+from ..contacts import SIDES, runs
 from ..errors import SolverError
 from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh
@@ -192,6 +192,18 @@ def keypoint_laplacians(marker_points: np.ndarray) -> np.ndarray:
     return out
 
 
+def swing_clearance(support: np.ndarray, base_m: float, lift_m: float) -> np.ndarray:
+    """(T, 2) [m] clearance of each foot's ground points: ``lift_m`` over the middle third of
+    every swing between two support phases of that foot, ``base_m`` elsewhere."""
+    out = np.full(support.shape, base_m, dtype=float)
+    for k in range(support.shape[1]):
+        for a, b in runs(~support[:, k]):
+            if a > 0 and b < len(support):
+                third = (b - a) // 3
+                out[a + third:b - third, k] = max(lift_m, base_m)
+    return out
+
+
 def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: CompiledTargets,
                     support: np.ndarray, fps: float, limits: tuple, config: WholeBodyConfig,
                     transition_s: float = 0.1, rest_frames: int = 3,
@@ -239,7 +251,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                 halfplanes=support_halfplanes(footprints, support),
                 desired_zmp=desired_zmp(tracks, support, transition_s), q_init=q_init,
                 lower=lower, upper=upper, v_max=vmax, a_max=amax, fps=fps,
-                rest_frames=rest_frames)
+                rest_frames=rest_frames,
+                clearance=swing_clearance(support, config.clearance_m, config.swing_lift_m))
     return plan, footprints
 
 
