@@ -209,6 +209,17 @@ def cmd_adapt(args) -> int:
     return 0
 
 
+def _arms_config(args):
+    """``--fit sqp``: the initial fit's arms by Kim's SQP (imesh/arms), else None."""
+    if getattr(args, "fit", "dls") != "sqp":
+        return None
+    import dataclasses
+
+    from .arms.solve import REFINE_CONFIG
+
+    return dataclasses.replace(REFINE_CONFIG, solver=args.solver)
+
+
 def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, support: bool = True,
               balance: str = "wholebody"):
     import dataclasses
@@ -222,7 +233,8 @@ def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, suppor
                             support=SupportConfig() if support else None, balance=balance,
                             fps=getattr(args, "fps", None) or base.fps,
                             allow_flight=getattr(args, "allow_flight", False),
-                            lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s)
+                            lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s,
+                            arms=_arms_config(args))
     bar, update = _progress(args, steps, f"morph for {robot.name}")
     try:
         return retarget(motion, robot, config=config, progress=update)
@@ -250,10 +262,6 @@ def cmd_retarget(args) -> int:
 
         report["balance_plots"] = plot_balance(result.balance, args.plots, robot.name)
     robot_motion = result.motion
-    if args.fit == "sqp":  # the arm joints re-solved by Kim's SQP (imesh/arms)
-        from .arms.cli import refine
-
-        robot_motion, report["fit_sqp"] = refine(args, robot, result)
     # verify before writing: the summary and the gates are the evaluator's report of the
     # motion as it will be written (the file holds exactly these float64 configurations)
     from .errors import VerificationError

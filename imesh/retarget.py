@@ -53,6 +53,9 @@ class RetargetConfig:
         contacts: ContactConfig of the support detection.
         support: SupportConfig; None disables the support-foot constraints of the morph.
         fit: an :class:`imesh.fit.FitConfig` of the initial fit (None: defaults).
+        arms: an :class:`imesh.arms.ArmsConfig`: the initial fit's arm joints re-solved with
+            the SQP of Kim, Kim & Oh 2005 (:func:`imesh.arms.solve.refine_arms`) before the
+            balance stage; None: the DLS fit's arms.
         balance: ``"wholebody"`` (default: the whole-body spacetime solve, :mod:`imesh.solve`),
             ``"nishiwaki"`` (the paper's loop: the Nishiwaki waist correction fed back into the
             morph, :func:`imesh.balance.balance_loop`) or ``"none"`` (the initial fit).
@@ -78,6 +81,7 @@ class RetargetConfig:
     contacts: ContactConfig = field(default_factory=ContactConfig)
     support: SupportConfig | None = field(default_factory=SupportConfig)
     fit: object | None = None
+    arms: object | None = None
     balance: str = "wholebody"
     wholebody: WholeBodyConfig = field(default_factory=WholeBodyConfig)
     nishiwaki: object | None = None
@@ -120,6 +124,7 @@ class RetargetResult:
         unconstrained_frames: flight frames left without support or ZMP constraint
             (``allow_flight``), as [start, stop) ranges of ``motion``'s frames.
         seconds: wall time per stage [s].
+        arms: the report of the arms' SQP in the initial fit (``config.arms``), or None.
     """
 
     motion: object
@@ -134,6 +139,7 @@ class RetargetResult:
     lead_frames: tuple[int, int]
     unconstrained_frames: list
     seconds: dict
+    arms: dict | None = None
 
     def report(self) -> dict:
         fit_report = self.fit.report() if hasattr(self.fit, "report") else {}
@@ -152,6 +158,7 @@ class RetargetResult:
             "fit": fit_report,
             "wholebody": self.wholebody.report() if self.wholebody is not None else None,
             "balance": self.balance.report() if self.balance is not None else None,
+            "fit_sqp": self.arms,
             "seconds": self.seconds,
         }
 
@@ -328,6 +335,14 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
 
     morph, adapted, fit_markers, fit, directions = morph_and_fit()
     q_out = fit.motion.q
+    arms_report = None
+    if config.arms is not None:  # Kim 2005 for the arms, as part of the initial fit
+        from .arms.solve import refine_arms
+
+        t2 = time.perf_counter()
+        refined, arms_report = refine_arms(robot, fit.motion, adapted, config.arms)
+        q_out = refined.q
+        seconds["fit"] += time.perf_counter() - t2
     balance = solution = None
     lead = (0, 0)
     unconstrained: list = []
@@ -389,4 +404,5 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     return RetargetResult(motion=motion_out, arrangement=arrangement, adapted=adapted,
                           contacts=contacts, support=support_out, morph=morph, fit=fit,
                           wholebody=solution, balance=balance, lead_frames=lead,
-                          unconstrained_frames=unconstrained, seconds=seconds)
+                          unconstrained_frames=unconstrained, seconds=seconds,
+                          arms=arms_report)

@@ -61,12 +61,3 @@ def run_arms(args, robot, motion) -> int:
     return 0
 
 
-def refine(args, robot, result) -> tuple[object, dict]:
-    """``--fit sqp``: the pipeline's motion with the arm joints re-solved against its adapted
-    markers; returns (motion, report)."""
-    import dataclasses
-
-    from .solve import REFINE_CONFIG, refine_arms
-
-    config = dataclasses.replace(REFINE_CONFIG, solver=args.solver)
-    return refine_arms(robot, result.motion, result.adapted, config)

@@ -13,7 +13,8 @@ Objective (weights in :class:`WholeBodyConfig`):
 * directions: ``w_d^2 |u_t - d_t - [u_t]x J_w dq_t|^2`` (the key directions of the fit);
 * smoothness: ``w_a |Delta^2 y|^2`` of the world-aligned coordinates ``y`` (base position, the
   base's accumulated rotation vector, joints), second differences at 30 fps;
-* ZMP: ``w_z |p_t - p*_t|^2`` towards the desired ZMP (sole centre, hull centre);
+* ZMP: ``w_z |b_t|^2`` on the ZMP's excess over a dead band around the desired ZMP (sole
+  centre, hull centre): ``|p_t - p*_t| <= band + b_t`` per axis;
 * ``w_r |dq|^2`` (step damping) and ``w_i |q_j + dq_j - q_init,j|^2`` (pull to the
   initializer, joints).
 
@@ -58,7 +59,10 @@ class WholeBodyConfig:
         direction_weight: multiplies the key directions' weights.
         accel_weight: w_a, weight of the squared second differences (at 30 fps) of the base and
             joint coordinates [per (m or rad)^2].
-        zmp_weight: w_z, weight of the squared distance to the desired ZMP [1/m^2].
+        zmp_weight: w_z, weight of the squared distance of the ZMP beyond ``zmp_band_m`` from
+            the desired ZMP (per axis) [1/m^2].
+        zmp_band_m: a dead band around the desired ZMP [m]: a ZMP already within it costs
+            nothing, so a balanced motion is left as it is.
         damping: w_r, weight of |dq|^2 in every iteration.
         init_weight: w_i, pull of the joints towards the initializer.
         zmp_margin_m: the support polygon is shrunk by this much [m].
@@ -68,6 +72,9 @@ class WholeBodyConfig:
         swing_lift_m: over the middle third of a swing between two support phases of a foot,
             its ground points stay this high [m]: a step is a step (the evaluator, like a
             controller, tells phases apart by the sole leaving the ground).
+        swing_edge_m: in every other frame of such a swing the ground points stay this high
+            [m]: the sole leaves and lands flat instead of rolling over its toe or heel (the
+            footprint model has no rolling contact).
         zmp_slack_weight: price of the ZMP constraints' slack per metre (an exact penalty:
             above the multipliers of a feasible problem the slack is 0 where it can be).
         elastic_weight: price per metre (or radian) of the slack of the sole and ground
@@ -85,12 +92,13 @@ class WholeBodyConfig:
         qp_tolerance: absolute tolerance of each QP solve.
     """
 
-    iterations: int = 8
+    iterations: int = 20
     step_tolerance: float = 1e-4
     mesh_weight: float = 1.0
     direction_weight: float = 1.0
     accel_weight: float = 1.0
-    zmp_weight: float = 0.002
+    zmp_weight: float = 10.0
+    zmp_band_m: float = 0.015
     damping: float = 1e-3
     init_weight: float = 1e-2
     zmp_margin_m: float = 0.01
@@ -98,6 +106,7 @@ class WholeBodyConfig:
     acceleration_margin: float = 1e-3
     clearance_m: float = 0.0
     swing_lift_m: float = 0.03
+    swing_edge_m: float = 0.02
     zmp_slack_weight: float = 1e3
     elastic_weight: float = 1e4
     min_normal: float = 0.3
@@ -115,8 +124,9 @@ class WholeBodyConfig:
                 raise OptionError(name, getattr(self, name), "a positive number")
         for name in ("mesh_weight", "direction_weight", "accel_weight", "zmp_weight", "damping",
                      "init_weight", "zmp_margin_m", "velocity_margin", "acceleration_margin",
-                     "clearance_m", "swing_lift_m", "zmp_slack_weight", "elastic_weight",
-                     "trust_region", "initial_lowpass_hz", "base_trust", "min_normal"):
+                     "clearance_m", "swing_lift_m", "swing_edge_m", "zmp_slack_weight",
+                     "elastic_weight", "zmp_band_m", "trust_region", "initial_lowpass_hz",
+                     "base_trust", "min_normal"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise OptionError(name, value, "a non-negative number")
@@ -272,13 +282,14 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     """
     T, K = lin.points.shape[:2]
     nv = lin.point_jacobians.shape[-1]
-    nx = nv + 10
+    nx = nv + 12
     n_j = nv - 6
     N = T * nx
     h = 1.0 / plan.fps
     # offsets in a frame's block: dc, dk, the ZMP slack, the two soles' slacks, the ground's
     # and the acceleration rows'
-    C0, K0, S0, F0, G0, A0 = nv, nv + 3, nv + 5, nv + 6, nv + 8, nv + 9
+    # and the acceleration rows', then the ZMP's excess over its dead band (x, y)
+    C0, K0, S0, F0, G0, A0, B0 = nv, nv + 3, nv + 5, nv + 6, nv + 8, nv + 9, nv + 10
 
     # --- per-frame blocks: key points + interaction mesh, directions, damping ------------------
     Jp = lin.point_jacobians.reshape(T, K, 3 * nv)
@@ -349,12 +360,18 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     Z = sp.vstack([Zx, Zy], format="csr")[order]  # rows x_0, y_0, x_1, y_1, ...
     p0 = lin.zmp_multibody
     sup = plan.support.any(axis=1)
+    band_rows = None
     if config.zmp_weight > 0 and sup.any():
+        # |p0 + Z x - p*| <= band + b (per axis), cost w_z b^2 on the excess b
         rows = np.flatnonzero(np.repeat(sup, 2))
-        Zs = Z[rows]
-        r_z = (p0 - plan.desired_zmp)[sup].ravel()
-        P = P + config.zmp_weight * (Zs.T @ Zs)
-        c = c + config.zmp_weight * (Zs.T @ r_z)
+        r_z = (p0 - plan.desired_zmp).ravel()[rows]
+        excess = sp.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)),
+                                                     (rows // 2) * nx + B0 + rows % 2)),
+                               shape=(len(rows), N))
+        band_rows = (Z[rows], excess, r_z)
+        diag = np.zeros(N)
+        diag[(np.flatnonzero(sup)[:, None] * nx + B0 + np.arange(2)).ravel()] = config.zmp_weight
+        P = P + sp.diags(diag)
 
     # --- equalities: CoM auxiliaries; support soles on their footprints -----------------------
     frames_all = np.arange(T)
@@ -447,6 +464,11 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         G_blocks.append(Nmat @ Z + slack)
         lo.append(hp_b + config.zmp_margin_m - np.sum(hp_n * p0[hp_frame], axis=1))
         hi.append(np.full(R, np.inf))
+    if band_rows is not None:
+        Zs, excess, r_z = band_rows
+        G_blocks += [Zs - excess, Zs + excess]
+        lo += [np.full(len(r_z), -np.inf), -config.zmp_band_m - r_z]
+        hi += [config.zmp_band_m - r_z, np.full(len(r_z), np.inf)]
     # the ground only pushes: normal force m (g + c_z'') >= min_normal m g (also keeps the
     # ZMP's denominator away from 0, where its linearization means nothing); elastic
     G_blocks.append(acc_z + pick(S0))
@@ -494,7 +516,8 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
         y = world_coordinates(q, lin.base_rotations)
         f += config.accel_weight * np.sum((np.diff(y, 2, axis=0) * (plan.fps / 30.0) ** 2) ** 2)
     sup = plan.support.any(axis=1)
-    f += config.zmp_weight * np.sum((lin.zmp_multibody - plan.desired_zmp)[sup] ** 2)
+    over = np.maximum(np.abs(lin.zmp_multibody - plan.desired_zmp)[sup] - config.zmp_band_m, 0)
+    f += config.zmp_weight * np.sum(over ** 2)
     penalty = 0.0
     hp_frame, hp_n, hp_b = plan.halfplanes
     if len(hp_frame):

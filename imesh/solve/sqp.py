@@ -192,14 +192,18 @@ def keypoint_laplacians(marker_points: np.ndarray) -> np.ndarray:
     return out
 
 
-def swing_clearance(support: np.ndarray, base_m: float, lift_m: float) -> np.ndarray:
-    """(T, 2) [m] clearance of each foot's ground points: ``lift_m`` over the middle third of
-    every swing between two support phases of that foot, ``base_m`` elsewhere."""
+def swing_clearance(support: np.ndarray, base_m: float, lift_m: float, edge_m: float
+                    ) -> np.ndarray:
+    """(T, 2) [m] clearance of each foot's ground points: in every swing between two support
+    phases of that foot ``edge_m`` (the foot leaves and lands flat: a sole is on the ground or
+    clearly off it, never rolling on an edge) and ``lift_m`` over its middle third; ``base_m``
+    elsewhere."""
     out = np.full(support.shape, base_m, dtype=float)
     for k in range(support.shape[1]):
         for a, b in runs(~support[:, k]):
             if a > 0 and b < len(support):
                 third = (b - a) // 3
+                out[a:b, k] = max(edge_m, base_m)
                 out[a + third:b - third, k] = max(lift_m, base_m)
     return out
 
@@ -252,7 +256,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                 desired_zmp=desired_zmp(tracks, support, transition_s), q_init=q_init,
                 lower=lower, upper=upper, v_max=vmax, a_max=amax, fps=fps,
                 rest_frames=rest_frames,
-                clearance=swing_clearance(support, config.clearance_m, config.swing_lift_m))
+                clearance=swing_clearance(support, config.clearance_m, config.swing_lift_m,
+                                          config.swing_edge_m))
     return plan, footprints
 
 
