@@ -4,6 +4,8 @@ extra bones, and tells its own length unit."""
 
 from __future__ import annotations
 
+import string
+
 import bvhtools as bt
 import numpy as np
 import pytest
@@ -11,7 +13,7 @@ import pytest
 import imesh.io as io
 from imesh import markerset
 from imesh.cli import main
-from imesh.human import UnitsError
+from imesh.human import RigRecognitionError, UnitsError, recognize
 from imesh.io.units import UNIT_SCALES_M
 
 #: skeleton clips of the shared data and their hand-written rig tables
@@ -46,6 +48,35 @@ def clips(mocap):
         motion = io.load_motion(mocap(name))
         out[name] = (motion, markerset.to_standard(motion), table_motion(motion, rig))
     return out
+
+
+# ---------------------------------------------------------------- acceptance 1: the tables
+@pytest.mark.parametrize("name", list(CLIPS))
+def test_recognition_gives_the_hand_written_markers(clips, name):
+    """Recognition (no rig table) puts every standard marker within 1 mm of the hand-written
+    table's, except the documented chest of 141_16."""
+    motion, rec, tab = clips[name]
+    assert rec.names == markerset.STANDARD_MARKERS and rec.meta["rig_table"] == "recognized"
+    assert tab.meta["rig_table"] == CLIPS[name]
+    diff_mm = 1e3 * np.linalg.norm(rec.positions_m - tab.positions_m, axis=-1).max(axis=0)
+    for marker, d in zip(markerset.STANDARD_MARKERS, diff_mm, strict=True):
+        lo, hi = KNOWN.get((name, marker), (0.0, 1.0))
+        assert lo <= d <= hi, (marker, d)
+    assert motion.meta["rig_confidence"] >= 0.75
+
+
+def test_recognized_mapping_names_the_table_joints(clips):
+    """Same joints as the tables (CC3's pelvis: CC_Base_Hip coincides with CC_Base_Pelvis)."""
+    motion = clips["cmu_02_10_wash_self_cc3rig.bvh"][0]
+    body = motion.meta["rig_recognition"]
+    table = markerset.load_rig("cc3").markers
+    mine = body.markers(motion.meta["unit_scale_m"])
+    differ = {m for m in table if dict(mine[m]) != dict(table[m])}
+    assert differ == {"pelvis"} and mine["pelvis"] == (("CC_Base_Hip", 1.0),)
+    assert mine["chest"] == (("CC_Base_Spine02", 0.5), ("CC_Base_NeckTwist01", 0.5))
+    assert body.ignored == 102  # fingers, toes, twist/share bones, face, breasts
+    react = clips["reactidle_003_acted_idle_long.bvh"][0].meta["rig_recognition"]
+    assert react.arms[0].hand is None and len(react.notes) == 2  # extrapolated hands
 
 
 # ---------------------------------------------------------------- acceptance 4: height, units
@@ -103,6 +134,21 @@ def test_same_height_in_any_unit(clips, walk, tmp_path, unit):
                                atol=1e-6)
 
 
+def test_cmu_clip_with_other_names_is_not_read_as_inches(clips, walk, tmp_path):
+    """The reported bug: CMU joints named LeftHip, lowerback, lhand ... (no table knows them)
+    were read as inches, a 0.61 m person. The height picks the CMU unit."""
+    names = {"Hips": "root", "LeftUpLeg": "LeftHip", "RightUpLeg": "RightHip",
+             "LowerBack": "lowerback", "LeftHand": "lhand", "RightHand": "rhand"}
+    bvh = walk()
+    bt.rename(bvh, lambda n: names.get(n, n + "_x"))
+    motion = io.load_motion(bt.write(bvh, tmp_path / "renamed.bvh"))
+    assert motion.meta["units"] == "cmu" and motion.meta["rig"] == "recognized"
+    assert motion.meta["standing_height_m"] == pytest.approx(1.451, abs=0.001)
+    assert 0.0254 * motion.meta["standing_height_m"] / UNIT_SCALES_M["cmu"] < 0.7  # as inches
+    np.testing.assert_allclose(markerset.to_standard(motion).positions_m,
+                               clips["cmu_02_01_walk.bvh"][1].positions_m, atol=1e-9)
+
+
 def test_ambiguous_unit_is_an_error_listing_each_choice(walk, tmp_path):
     """38 file units tall: a 0.97 m child in inches or a 2.14 m giant in CMU units. Neither is an
     adult; imesh asks for --units instead of guessing."""
@@ -141,3 +187,183 @@ def test_body_up_axis_beats_the_format_convention(walk, tmp_path):
     assert motion.meta["standing_height_m"] == pytest.approx(1.451, abs=0.001)
 
 
+# ---------------------------------------------------------------- acceptance 2: name-blind
+def random_names(seed: int):
+    rng = np.random.default_rng(seed)
+    used: set[str] = set()
+
+    def new(_old: str) -> str:
+        while True:
+            name = "".join(rng.choice(list(string.ascii_letters), 9))
+            if name not in used:
+                used.add(name)
+                return name
+
+    return new
+
+
+@pytest.mark.parametrize("name", BVH)
+def test_random_names_same_markers(clips, mocap, tmp_path, name):
+    """Every joint renamed to a random string: same units, up axis and standard markers."""
+    motion, rec, _ = clips[name]
+    bvh = bt.read(mocap(name))
+    mapping = bt.rename(bvh, random_names(len(name)))
+    other = io.load_motion(bt.write(bvh, tmp_path / "random.bvh"))
+    assert other.meta["rig"] == "recognized" and other.meta["units"] == motion.meta["units"]
+    assert other.meta["up_axis"] == motion.meta["up_axis"]
+    std = markerset.to_standard(other)
+    np.testing.assert_allclose(std.positions_m, rec.positions_m, atol=1e-9)
+    # the same joints, renamed
+    mine = other.meta["rig_recognition"].markers(other.meta["unit_scale_m"])
+    ref = motion.meta["rig_recognition"].markers(motion.meta["unit_scale_m"])
+    back = {v: k for k, v in mapping.items()}
+
+    def original(joint: str) -> str:
+        return back.get(joint) or back[joint[:-len("_end")]] + "_end"
+
+    assert {m: tuple((original(j), w) for j, w in c) for m, c in mine.items()} == ref
+
+
+def test_random_names_asf(clips, mocap, tmp_path):
+    """The ASF/AMC clip with every bone renamed (in both files): same markers."""
+    rng = random_names(7)
+    asf_text = mocap("cmu_07.asf").read_text()
+    bones = [ln.split()[1] for ln in asf_text.splitlines() if ln.strip().startswith("name ")]
+    mapping = {b: rng(b) for b in bones}
+
+    def sub(text: str, first_only: bool) -> str:
+        out = []
+        for line in text.splitlines():
+            words = line.split()
+            if first_only:
+                if words and words[0] in mapping:
+                    line = line.replace(words[0], mapping[words[0]], 1)
+            elif words and (words[0] == "name" or words[0] in mapping or words[0] == "root"):
+                line = " ".join(mapping.get(w, w) for w in words)
+            out.append(line)
+        return "\n".join(out) + "\n"
+
+    head, hier = asf_text.split(":hierarchy")
+    (tmp_path / "x.asf").write_text(sub(head, False) + ":hierarchy" + sub(hier, False))
+    (tmp_path / "x_05.amc").write_text(sub(mocap("cmu_07_05.amc").read_text(), True))
+    other = io.load_motion(tmp_path / "x_05.amc")
+    assert set(other.names) & set(bones) == set()
+    np.testing.assert_allclose(markerset.to_standard(other).positions_m,
+                               clips["cmu_07_05.amc"][1].positions_m, atol=1e-9)
+
+
+#: per rig: (shoulders, elbows, wrists, hand joints or None, hips, knees, head) of the tables
+PARTS = {
+    "cmu_02_01_walk.bvh": (("LeftArm", "RightArm"), ("LeftForeArm", "RightForeArm"),
+                           ("LeftHand", "RightHand"), ("LeftHandIndex1", "RightHandIndex1"),
+                           ("LeftUpLeg", "RightUpLeg"), ("LeftLeg", "RightLeg"), "Head"),
+    "cmu_02_10_wash_self_cc3rig.bvh": (
+        ("CC_Base_L_Upperarm", "CC_Base_R_Upperarm"), ("CC_Base_L_Forearm", "CC_Base_R_Forearm"),
+        ("CC_Base_L_Hand", "CC_Base_R_Hand"), ("CC_Base_L_Mid1", "CC_Base_R_Mid1"),
+        ("CC_Base_L_Thigh", "CC_Base_R_Thigh"), ("CC_Base_L_Calf", "CC_Base_R_Calf"),
+        "CC_Base_Head"),
+    "cmu_60_10_salsa_partnerA_sl_scaled.bvh": (
+        ("lShldr", "rShldr"), ("lForeArm", "rForeArm"), ("lHand", "rHand"), ("lMid1", "rMid1"),
+        ("lThigh", "rThigh"), ("lShin", "rShin"), "head"),
+    "reactidle_003_acted_idle_long.bvh": (
+        ("upper_arm.L", "upper_arm.R"), ("forearm.L", "forearm.R"), None, None,
+        ("thigh.L", "thigh.R"), ("shin.L", "shin.R"), "face"),
+}
+
+
+@pytest.mark.parametrize("name", list(PARTS))
+def test_extra_bones_same_markers(clips, mocap, tmp_path, name):
+    """Finger chains, twist bones (beside and inside the upper arms and thighs), face bones and a
+    3-forearm prop in the right hand, all with random names: the same standard markers."""
+    motion, rec, _ = clips[name]
+    shoulders, elbows, wrists, hands, hips, knees, head = PARTS[name]
+    bvh = bt.read(mocap(name))
+    rng = np.random.default_rng(3)
+    wrist = bvh.find(wrists[0]) if wrists else bvh.find(elbows[0]).children[0]  # End Site
+    fore = float(np.linalg.norm(wrist.offset))
+    for side in (0, 1):
+        if hands:  # three 3-bone fingers under the hand point
+            for f in range(3):
+                node = bvh.find(hands[side])
+                for k in range(3):
+                    node = bt.add_child(bvh, node, f"finger{side}{f}{k}",
+                                        rng.normal(0, 0.06 * fore, 3), 20.0, rng,
+                                        end=(0.0, 0.05 * fore, 0.0) if k == 2 else None)
+        for joint, nxt in ((shoulders[side], elbows[side]), (hips[side], knees[side])):
+            # a twist bone beside the limb bone, rotating, and one inside it (rigid split)
+            child = bvh.find(nxt)
+            bt.add_child(bvh, bvh.find(joint), f"twist{joint}", 0.5 * child.offset, 30.0, rng,
+                         end=tuple(0.3 * child.offset))
+            bt.split_bone(bvh, child, f"split{joint}")
+    if wrists:  # (ReActIdle has no hand joint to hold it)
+        bt.add_child(bvh, bvh.find(wrists[1]), "prop", (0.0, 0.0, 0.2 * fore),
+                     end=(0.0, 0.0, 3.0 * fore))
+    for k, offset in enumerate([(0.0, -0.3, 0.4), (0.2, 0.3, 0.5), (-0.2, 0.3, 0.5)]):
+        bt.add_child(bvh, bvh.find(head), f"face{k}", 0.3 * fore * np.array(offset), 10.0, rng,
+                     end=(0.0, 0.0, 0.05 * fore))
+    bt.rename(bvh, random_names(11))
+    path = bt.write(bvh, tmp_path / "extra.bvh")
+    other = io.load_motion(path, units=motion.meta["unit_scale_m"])
+    np.testing.assert_allclose(markerset.to_standard(other).positions_m, rec.positions_m,
+                               atol=1e-9)
+    assert other.meta["rig_recognition"].ignored > motion.meta["rig_recognition"].ignored + 10
+
+
+# ---------------------------------------------------------------- failures
+def test_missing_leg_names_the_part_and_prints_the_tree(walk, tmp_path):
+    bvh = walk()
+    bt.remove(bvh, bvh.find("RHipJoint"))
+    path = bt.write(bvh, tmp_path / "one_leg.bvh")
+    motion = io.load_motion(path, units="cmu")
+    assert "rig_recognition" not in motion.meta  # loads, but is no human
+    with pytest.raises(RigRecognitionError, match="Skeleton tree") as info:
+        markerset.to_standard(motion)
+    err = info.value
+    assert err.part == "second pair of limbs" and "LeftUpLeg" in err.tree
+    assert "\n          LeftArm  0.2023\n" in err.tree  # indented, bone lengths [m]
+
+
+def test_missing_toes_names_the_part(walk, tmp_path):
+    bvh = walk()
+    for side in ("Left", "Right"):
+        bt.remove(bvh, bvh.find(f"{side}ToeBase"))
+    motion = io.load_motion(bt.write(bvh, tmp_path / "no_toes.bvh"), units="cmu")
+    with pytest.raises(RigRecognitionError) as info:
+        markerset.to_standard(motion)
+    assert info.value.part == "toe" and "LeftFoot" in str(info.value)
+
+
+def test_rig_table_still_overrides(clips):
+    """An explicit table (--rig) is used as written, for a skeleton too."""
+    motion, _, tab = clips["cmu_141_16_wave_hello.bvh"]
+    std = markerset.to_standard(motion, rig="cmu_cgspeed")
+    np.testing.assert_array_equal(std.positions_m, tab.positions_m)
+    assert std.meta["rig_table"] == "cmu_cgspeed"
+
+
+def test_recognize_needs_no_loader(clips):
+    """recognize() on plain arrays (metres, Z up) gives the same body as the loader did."""
+    motion = clips["cmu_60_10_salsa_partnerA_sl_scaled.bvh"][0]
+    body = recognize(motion.names, motion.bones, motion.positions_m, source="arrays")
+    ref = motion.meta["rig_recognition"]
+    assert body.markers() == ref.markers(motion.meta["unit_scale_m"])
+    assert body.up_axis == "+Z" and ref.up_axis == "+Y"
+    assert body.height == pytest.approx(motion.meta["standing_height_m"], rel=1e-9)
+
+
+
+
+def test_rig_toml_round_trips_every_builtin_table(tmp_path):
+    """The writer's format is the rig files' format: each built-in table written and read back
+    gives the same weights (lists for equal weights, inline tables otherwise)."""
+    for name, table in markerset.builtin_rigs().items():
+        path = tmp_path / f"{name}.toml"
+        path.write_text(markerset.rig_toml(table, ["a comment", ""]))
+        back = markerset.load_rig(path)
+        assert back.name == name and back.detect == table.detect
+        assert back.markers.keys() == table.markers.keys()
+        for marker, combo in table.markers.items():
+            assert dict(back.markers[marker]) == pytest.approx(dict(combo), abs=1e-6)
+    text = markerset.rig_toml(markerset.load_rig("reactidle"))
+    assert 'chest = { "spine.001" = 0.3, "neck" = 0.7 }' in text
+    assert 'spine = ["spine.001"]' in text
