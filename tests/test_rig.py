@@ -351,8 +351,6 @@ def test_recognize_needs_no_loader(clips):
     assert body.height == pytest.approx(motion.meta["standing_height_m"], rel=1e-9)
 
 
-
-
 def test_rig_toml_round_trips_every_builtin_table(tmp_path):
     """The writer's format is the rig files' format: each built-in table written and read back
     gives the same weights (lists for equal weights, inline tables otherwise)."""
@@ -367,3 +365,49 @@ def test_rig_toml_round_trips_every_builtin_table(tmp_path):
     text = markerset.rig_toml(markerset.load_rig("reactidle"))
     assert 'chest = { "spine.001" = 0.3, "neck" = 0.7 }' in text
     assert 'spine = ["spine.001"]' in text
+
+# ---------------------------------------------------------------- command line
+def test_inspect_prints_the_mapping(mocap, capsys):
+    assert main(["inspect", str(mocap("cmu_07_05.amc"))]) == 0
+    out = capsys.readouterr().out
+    assert "recognized from the skeleton (confidence 0.78)" in out
+    assert "spine = 0.5 lowerback + 0.5 upperback" in out and "hand_l = lwrist" in out
+
+
+def test_inspect_json_and_rig_override(mocap, capsys):
+    import json
+
+    assert main(["inspect", str(mocap("cmu_02_01_walk.bvh")), "--json"]) == 0
+    rig = json.loads(capsys.readouterr().out)["rig"]
+    assert rig["table"] == "recognized" and rig["markers"]["knee_l"] == [["LeftLeg", 1.0]]
+    assert rig["standing_height_m"] == pytest.approx(1.451, abs=0.001)
+    assert main(["inspect", str(mocap("cmu_02_01_walk.bvh")), "--json", "--rig",
+                 "cmu_cgspeed"]) == 0
+    assert json.loads(capsys.readouterr().out)["rig"]["table"] == "cmu_cgspeed"
+
+
+def test_rig_command_writes_a_reusable_table(clips, mocap, tmp_path, capsys):
+    """`imesh rig` writes the recognized mapping as a rig table; --rig reads it back."""
+    name = "cmu_02_10_wash_self_cc3rig.bvh"
+    out = tmp_path / "cc3_mine.toml"
+    assert main(["rig", str(mocap(name)), "-o", str(out)]) == 0
+    assert "wrote rig table 'cc3_mine'" in capsys.readouterr().out
+    table = markerset.load_rig(out)
+    motion, rec, _ = clips[name]
+    assert table.name == "cc3_mine" and table.markers == \
+        motion.meta["rig_recognition"].markers(motion.meta["unit_scale_m"])
+    text = out.read_text()
+    assert 'chest = ["CC_Base_Spine02", "CC_Base_NeckTwist01"]' in text
+    assert "# Recognized from the skeleton, confidence 0.88" in text
+    np.testing.assert_array_equal(markerset.to_standard(motion, rig=out).positions_m,
+                                  rec.positions_m)
+
+
+def test_rig_command_fails_with_the_tree(walk, tmp_path, capsys):
+    bvh = walk()
+    bt.remove(bvh, bvh.find("LHipJoint"))
+    path = bt.write(bvh, tmp_path / "one_leg.bvh")
+    assert main(["rig", str(path), "--units", "cmu", "-o", str(tmp_path / "r.toml")]) == 2
+    err = capsys.readouterr().err
+    assert "no second pair of limbs" in err and "Skeleton tree" in err and "RightUpLeg" in err
+    assert not (tmp_path / "r.toml").exists()
