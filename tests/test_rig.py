@@ -76,7 +76,9 @@ def test_recognized_mapping_names_the_table_joints(clips):
     assert mine["chest"] == (("CC_Base_Spine02", 0.5), ("CC_Base_NeckTwist01", 0.5))
     assert body.ignored == 102  # fingers, toes, twist/share bones, face, breasts
     react = clips["reactidle_003_acted_idle_long.bvh"][0].meta["rig_recognition"]
-    assert react.arms[0].hand is None and len(react.notes) == 2  # extrapolated hands
+    left_arm = react.arms[0]  # no hand joint: extrapolated 0.35 forearms beyond the wrist
+    assert left_arm.hand == ((left_arm.wrist, 1.35), (left_arm.elbow, -0.35))
+    assert len(react.notes) == 2 and "extrapolated" in react.notes[0]
 
 
 # ---------------------------------------------------------------- acceptance 4: height, units

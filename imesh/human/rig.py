@@ -7,16 +7,19 @@ body by its structure and geometry.
    joints that coincide with their parent (zero offsets, End Sites on their joint) merge into it.
    Each joint's *main chain* continues through the child with the longest reach.
 2. **Limb pairs.** Left and right limbs are mirror twins: two child branches of one joint whose
-   first bones have the same lengths (within 15 %). The two strongest twin pairs are the legs and
-   the arms; the legs branch from the joint nearer the root (the pelvis), the arms from a joint of
-   the spine above it. Fingers, toes, eyes and breast bones are twins too, but short ones.
+   first bones have the same lengths (within 15 %). The two twin pairs reaching furthest are the
+   legs and the arms; the legs branch from the joint nearer the root (the pelvis), the arms from a
+   joint of the spine above it (when neither is above the other, the legs are the pair whose ends
+   lie further from the other pair's joint). Fingers, toes, eyes, face and breast bones are twins
+   too, but short ones.
 3. **Limb joints.** In a limb's main chain the two consecutive bones that look most like
    thigh + shin (length ratio ~1) or upper arm + forearm (~1.2), followed by something short, give
    hip/knee/ankle or shoulder/elbow/wrist. Chain points that never bend and split a bone into
    comparable parts (twist joints inside a bone) are skipped. The toe is the first point after
    the ankle; the hand the first point after the wrist on the longest finger-like branch (props
-   reaching beyond 1.3 forearms are ignored), extrapolated 0.35 forearms beyond the wrist when
-   nothing follows it.
+   reaching beyond 1.3 forearms are ignored; carpal joints nearer than 0.1 forearms skipped; a
+   fingertip beyond 0.6 forearms replaced by the point 0.45 forearms towards it), extrapolated
+   0.35 forearms beyond the wrist when nothing follows it.
 4. **Spine and head.** The neck is the first spine point above the joint the arms branch from;
    the head joint is where the chain above the neck branches (eyes, jaw) or ends in a leaf (skull
    top, End Site). The spine marker is the joint or bone midpoint nearest 40 % of the way from the
@@ -64,6 +67,10 @@ SPINE_FRACTION = 0.4
 CHEST_BELOW_SHOULDERS_M = 0.065
 #: Hand marker of a rig without hand joints: wrist + this x (wrist - elbow).
 HAND_EXTRAPOLATION = 0.35
+#: Hand marker: the first point beyond the wrist at least HAND_NEAR forearms away (closer ones
+#: are carpal joints); when it lies beyond HAND_FAR forearms (a fingertip), the point HAND_AT
+#: forearms along the way to it (weights rounded to 0.1).
+HAND_NEAR, HAND_FAR, HAND_AT = 0.1, 0.6, 0.45
 #: A branch of the wrist reaching further than this x the forearm is a prop, not a hand.
 PROP_REACH = 1.3
 #: Interior chain points that never bend more than this [deg], between two bones of comparable
@@ -90,14 +97,15 @@ class Leg:
 
 @dataclass(frozen=True)
 class Arm:
-    """Joint indices of one arm; ``hand`` is None when it is extrapolated from the forearm."""
+    """Joint indices of one arm; ``hand`` is the hand marker as (joint, weight) pairs (one joint,
+    a point towards a fingertip, or extrapolated from the forearm)."""
 
     side: str
     clavicle: int | None
     shoulder: int
     elbow: int
     wrist: int
-    hand: int | None
+    hand: tuple[tuple[int, float], ...]
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,11 +190,7 @@ class Recognition:
             out[f"shoulder_{s}"] = ((n[arm.shoulder], 1.0),)
             out[f"elbow_{s}"] = ((n[arm.elbow], 1.0),)
             out[f"wrist_{s}"] = ((n[arm.wrist], 1.0),)
-            if arm.hand is None:
-                out[f"hand_{s}"] = ((n[arm.wrist], 1.0 + HAND_EXTRAPOLATION),
-                                    (n[arm.elbow], -HAND_EXTRAPOLATION))
-            else:
-                out[f"hand_{s}"] = ((n[arm.hand], 1.0),)
+            out[f"hand_{s}"] = tuple((n[j], w) for j, w in arm.hand)
         return {m: out[m] for m in STANDARD_MARKERS}
 
     def table(self, unit_scale_m: float = 1.0, name: str = RECOGNIZED) -> RigTable:
@@ -315,7 +319,8 @@ def skeleton_tree(names: Sequence[str], parents: Sequence[int],
 
 # ---------------------------------------------------------------------------- helpers
 def _twins(tree: _Tree) -> list[tuple[float, int, int, int, float]]:
-    """Twin child pairs: (size, joint, child a, child b, mean |log| bone difference)."""
+    """Twin child pairs, largest first: (reach of the shorter twin, joint, child a, child b,
+    mean |log| difference of their first three bones)."""
     out = []
     for j in tree.order:
         kids = tree.kids[j] if tree.rep[j] == j else []
@@ -330,7 +335,8 @@ def _twins(tree: _Tree) -> list[tuple[float, int, int, int, float]]:
                     continue
                 d = float(np.mean(np.abs(np.log(sa[:m] / sb[:m]))))
                 if d < TWIN_TOLERANCE:
-                    out.append((float(min(sa.sum(), sb.sum())), j, a, b, d))
+                    size = min(tree.length[a] + tree.reach[a], tree.length[b] + tree.reach[b])
+                    out.append((float(size), j, a, b, d))
     return sorted(out, key=lambda t: -t[0])
 
 
@@ -478,13 +484,19 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
         raise tree.error("second pair of limbs",
                          f"only {names[first[1]]} has two long mirror-image chains ("
                          f"{names[first[2]]}, {names[first[3]]}); legs and arms make two pairs")
-    anc_first, anc_second = tree.ancestors(first[1]), tree.ancestors(second[1])
-    if first[1] in anc_second:
+    if first[1] in tree.ancestors(second[1]):
         legs_t, arms_t = first, second
-    elif second[1] in anc_first:
+    elif second[1] in tree.ancestors(first[1]):
         legs_t, arms_t = second, first
-    else:  # legs and spine hang from a common root: the longer pair is the legs
-        legs_t, arms_t = first, second
+    else:  # legs and spine hang from a common root: the feet are far from the arms' joint,
+        # the hands near the pelvis (median over frames)
+        def spread(pair: tuple, other: tuple) -> float:
+            ends = [tree.chain(pair[1], c)[-1] for c in pair[2:4]]
+            return float(np.nanmedian(np.linalg.norm(pos[:, ends] - pos[:, [other[1]]],
+                                                     axis=-1)))
+
+        legs_t, arms_t = ((first, second) if spread(first, second) >= spread(second, first)
+                          else (second, first))
     pelvis, chest = legs_t[1], arms_t[1]
     confidence["twins"] = float(1.0 - (max(legs_t[4], arms_t[4]) / TWIN_TOLERANCE) ** 2)
 
@@ -553,10 +565,9 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
     arms = []
     for chain, k, left in zip(arm_chains, arm_k, (arm_a_left, not arm_a_left), strict=True):
         wrist, elbow = chain[k + 2], chain[k + 1]
-        hand = _hand(tree, wrist, elbow)
-        if hand is None:
-            notes.append(f"hand_{'l' if left else 'r'}: nothing follows the wrist "
-                         f"{names[wrist]}: extrapolated {HAND_EXTRAPOLATION} forearms beyond it")
+        hand, note = _hand(tree, wrist, elbow)
+        if note:
+            notes.append(f"hand_{'l' if left else 'r'}: {note}")
         arms.append(Arm("l" if left else "r", chain[1] if k > 1 else None, chain[k],
                         elbow, wrist, hand))
     legs.sort(key=lambda leg: leg.side)
@@ -605,7 +616,7 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
     for g in legs:
         used |= {g.hip, g.knee, g.ankle, g.toe}
     for a in arms:
-        used |= {a.shoulder, a.elbow, a.wrist} | ({a.hand} if a.hand is not None else set())
+        used |= {a.shoulder, a.elbow, a.wrist} | {j for j, _ in a.hand}
     used_reps = {int(tree.rep[j]) for j in used}
     ignored = int(sum(tree.rep[j] not in used_reps for j in range(n_joints)))
     result = Recognition(
@@ -621,23 +632,40 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
     return result
 
 
-def _hand(tree: _Tree, wrist: int, elbow: int) -> int | None:
-    """First point after the wrist on its longest finger-like branch (the middle finger), the
-    best aligned with the forearm among equals; None when nothing follows the wrist."""
+def _hand(tree: _Tree, wrist: int, elbow: int) -> tuple[tuple[tuple[int, float], ...], str]:
+    """The hand marker as (joint, weight) pairs, and a note when it is not a joint.
+
+    On the wrist's longest finger-like branch (the middle finger; the best aligned with the
+    forearm among equals; props are not finger-like): the first point at least HAND_NEAR
+    forearms from the wrist, or HAND_AT forearms towards it when it lies beyond HAND_FAR (a
+    fingertip). Nothing beyond the wrist: extrapolated along the forearm.
+    """
+    names = tree.names
     forearm = tree.dist(elbow, wrist)
     options = [c for c in tree.kids[tree.rep[wrist]]
                if tree.length[c] + tree.reach[c] <= PROP_REACH * forearm]
     if not options:
-        return None
+        return (((wrist, 1.0 + HAND_EXTRAPOLATION), (elbow, -HAND_EXTRAPOLATION)),
+                f"nothing follows the wrist {names[wrist]}: extrapolated "
+                f"{HAND_EXTRAPOLATION} forearms beyond it")
     reach = np.array([tree.length[c] + tree.reach[c] for c in options])
     close = [c for c, r in zip(options, reach, strict=True) if r >= reach.max() * (1 - 1e-9)]
     if len(close) == 1:  # the longest finger: the middle one
-        return int(close[0])
-    direction = _unit(tree.pos[:, wrist] - tree.pos[:, elbow])
-    align = [float(np.nanmedian(np.sum(_unit(tree.pos[:, c] - tree.pos[:, wrist]) * direction,
-                                       axis=-1))) for c in close]
-    return int(close[int(np.argmax(align))])
-
+        branch = int(close[0])
+    else:
+        direction = _unit(tree.pos[:, wrist] - tree.pos[:, elbow])
+        align = [float(np.nanmedian(np.sum(_unit(tree.pos[:, c] - tree.pos[:, wrist]) *
+                                           direction, axis=-1))) for c in close]
+        branch = int(close[int(np.argmax(align))])
+    chain = tree.chain(wrist, branch)[1:]
+    point = next((j for j in chain if tree.dist(wrist, j) >= HAND_NEAR * forearm), chain[-1])
+    far = tree.dist(wrist, point) / forearm
+    if far <= HAND_FAR:
+        return ((point, 1.0),), ""
+    t = round(HAND_AT / far, 1)
+    return (((wrist, round(1.0 - t, 1)), (point, t)),
+            f"the first point beyond the wrist, {names[point]}, is {far:.2f} forearms away (a "
+            f"fingertip): the hand is {t:g} of the way to it")
 
 
 def recognize_motion(motion) -> tuple[Recognition, float]:
