@@ -311,6 +311,68 @@ def test_extra_bones_same_markers(clips, mocap, tmp_path, name):
     assert other.meta["rig_recognition"].ignored > motion.meta["rig_recognition"].ignored + 10
 
 
+# ---------------------------------------------------------------- acceptance 3: public rigs
+#: Public skeletons imesh had no table for, staged for the shared data (docs/rigs.md lists their
+#: sources and licences): name -> (units, up axis, standing height [m], some recognized joints).
+PUBLIC = {
+    "makehuman_game_walk1.bvh": ("dm", "+Z", 1.491, {
+        "pelvis": "Hips", "knee_l": "LoLeg_L", "toe_r": "Toe_R", "chest": "Spine3",
+        "shoulder_l": "UpArm_L", "wrist_r": "Hand_R", "head": "Head"}),
+    "makehuman_game_zombie_walk1.bvh": ("dm", "+Z", 1.451, {
+        "pelvis": "Hips", "hip_l": "UpLeg_L", "elbow_r": "LoArm_R", "neck": "Neck"}),
+    "pybvh_test2_chest4_rig.bvh": ("cm", "+Y", 1.591, {
+        "hip_l": "LeftHip", "knee_r": "RightKnee", "ankle_l": "LeftAnkle", "toe_l": "LeftToe",
+        "spine": "Chest2", "chest": "Chest4", "shoulder_r": "RightShoulder",
+        "wrist_l": "LeftWrist"}),
+    "pybvh_test3_neuron_rig.bvh": ("in", "+Z", 1.484, {
+        "knee_l": "LeftLeg", "toe_l": "LeftForeFoot", "chest": "Spine3", "head": "Head",
+        "elbow_l": "LeftForeArm", "hand_l": "LeftHandIndex1", "hand_r": "RightHandIndex1"}),
+    "pybvh_example_spine3_rig.bvh": ("in", "+Z", 1.541, {
+        "knee_r": "RightLeg", "spine": "Spine1", "neck": "Neck", "wrist_l": "LeftHand",
+        "hand_l": "LeftHand_end"}),
+}
+
+
+def public_clip(name: str):
+    from conftest import data_root
+
+    path = data_root() / "mocap" / name
+    if not path.is_file():
+        pytest.skip(f"{name} is not in the shared data yet (docs/rigs.md, 'Public rigs')")
+    return path
+
+
+@pytest.mark.parametrize("name", list(PUBLIC))
+def test_public_rigs_are_recognized(name, tmp_path):
+    """Skeletons no table knows: units, up axis, a human body, and `imesh adapt` runs."""
+    units, up, height, joints = PUBLIC[name]
+    motion = io.load_motion(public_clip(name))
+    assert motion.meta["rig"] == "recognized"
+    assert (motion.meta["units"], motion.meta["up_axis"]) == (units, up)
+    assert motion.meta["standing_height_m"] == pytest.approx(height, abs=0.002)
+    mapping = motion.meta["rig_recognition"].markers(motion.meta["unit_scale_m"])
+    assert {m: mapping[m][0][0] for m in joints} == joints
+    std = markerset.to_standard(motion)
+    p = std.positions_m
+
+    def length(a, b):
+        return np.median(np.linalg.norm(p[:, std.index(a)] - p[:, std.index(b)], axis=-1))
+
+    for side in "lr":
+        assert 0.3 <= length(f"hip_{side}", f"knee_{side}") <= 0.5
+        assert 0.3 <= length(f"knee_{side}", f"ankle_{side}") <= 0.5
+        assert 0.18 <= length(f"shoulder_{side}", f"elbow_{side}") <= 0.35
+        assert 0.18 <= length(f"elbow_{side}", f"wrist_{side}") <= 0.3
+        assert 0.08 <= length(f"wrist_{side}", f"hand_{side}") <= 0.13
+    z = np.median(p[..., 2], axis=0)
+    order = [std.index(n) for n in ("pelvis", "spine", "chest", "neck", "head")]
+    assert np.all(np.diff(z[order]) > 0.02), z[order]
+    out = tmp_path / "adapted.npz"
+    assert main(["-q", "adapt", str(public_clip(name)), "--scale", "arms=1.1", "-o",
+                 str(out)]) == 0
+    assert out.is_file()
+
+
 # ---------------------------------------------------------------- failures
 def test_missing_leg_names_the_part_and_prints_the_tree(walk, tmp_path):
     bvh = walk()
