@@ -280,10 +280,14 @@ def cmd_adapt(args) -> int:
     motion = _load(args)
     people = None
     if args.people:
-        people = load_motion(args.people, units=args.units, up_axis=args.up_axis,
+        people = load_motion(args.people, units=_units(args.units), up_axis=args.up_axis,
                              fps=args.source_fps)
         if args.fps:
             people = people.resample(args.fps)
+        if args.rig:
+            from .markerset import to_standard
+
+            people = to_standard(people, rig=args.rig)
     result = _run_adapt(args, motion, people)
     report = result.report()
     save_marker_motion(args.output, result.adapted)

@@ -49,8 +49,7 @@ from .errors import RigRecognitionError
 log = logging.getLogger(__name__)
 
 __all__ = ["RECOGNIZED", "Leg", "Arm", "Recognition", "recognize", "recognize_motion",
-           "skeleton_tree",
-           "CHEST_BELOW_SHOULDERS_M", "HAND_EXTRAPOLATION", "SPINE_FRACTION"]
+           "skeleton_tree", "CHEST_BELOW_SHOULDERS_M", "HAND_EXTRAPOLATION", "SPINE_FRACTION"]
 
 #: Name of the rig table a recognition gives.
 RECOGNIZED = "recognized"
@@ -441,6 +440,86 @@ def _up_axis(up: np.ndarray) -> str | None:
     return f"{'+' if up[k] > 0 else '-'}{'XYZ'[k]}"
 
 
+def _limb_pairs(tree: _Tree) -> tuple[tuple, tuple]:
+    """The legs' and the arms' twin pairs (size, joint, child a, child b, difference)."""
+    names, pos = tree.names, tree.pos
+    twins = _twins(tree)
+    if not twins:
+        raise tree.error("legs", "no joint has two mirror-image (left/right) chains")
+    first = twins[0]
+    second = next((t for t in twins[1:] if t[1] != first[1] and t[0] >= 0.3 * first[0]), None)
+    if second is None:
+        raise tree.error("second pair of limbs",
+                         f"only {names[first[1]]} has two long mirror-image chains ("
+                         f"{names[first[2]]}, {names[first[3]]}); legs and arms make two pairs")
+    if first[1] in tree.ancestors(second[1]):
+        return first, second
+    if second[1] in tree.ancestors(first[1]):
+        return second, first
+
+    # legs and spine hang side by side from a common root: the feet are far from the arms'
+    # joint, the hands near the pelvis (median over frames)
+    def spread(pair: tuple, other: tuple) -> float:
+        ends = [tree.chain(pair[1], c)[-1] for c in pair[2:4]]
+        return float(np.nanmedian(np.linalg.norm(pos[:, ends] - pos[:, [other[1]]], axis=-1)))
+
+    return (first, second) if spread(first, second) >= spread(second, first) else (second, first)
+
+
+def _neck_and_head(tree: _Tree, chest: int, arms: Sequence[int]) -> tuple[int, int]:
+    """The neck (first point of the arms' joint's longest other branch) and the head joint
+    (where that chain branches, or the last joint before a leaf)."""
+    others = [c for c in tree.kids[chest] if c not in arms]
+    if not others:
+        raise tree.error("neck", f"the arms' joint {tree.names[chest]} has no other branch")
+    cur = neck = max(others, key=lambda c: tree.length[c] + tree.reach[c])
+    while len(tree.kids[cur]) == 1 and not tree.leaf(tree.kids[cur][0]):
+        cur = tree.kids[cur][0]
+    if cur == neck and len(tree.kids[neck]) == 1:  # neck -> head leaf: the leaf is the head
+        return neck, tree.kids[neck][0]
+    return neck, cur
+
+
+def _spine_marker(tree: _Tree, pelvis: int, chest: int, neck: int
+                  ) -> tuple[tuple[int, float], ...]:
+    """The joint or bone midpoint of the pelvis -> arm branch -> neck path nearest
+    SPINE_FRACTION of its length, not above the arm branch."""
+    up_chest = tree.ancestors(chest)
+    if pelvis in up_chest:
+        path = up_chest[:up_chest.index(pelvis) + 1][::-1]
+    else:  # pelvis beside the spine: skip the common root below them
+        common = next(a for a in tree.ancestors(pelvis) if a in up_chest)
+        path = [pelvis] + up_chest[:up_chest.index(common)][::-1]
+    path = path + [neck]
+    seg = np.array([tree.dist(path[k], path[k + 1]) for k in range(len(path) - 1)])
+    keep = np.concatenate([[True], seg > 1e-4 * tree.scale])
+    keep[-1] = True
+    path = [p for p, kk in zip(path, keep, strict=True) if kk]
+    if len(path) < 3:
+        raise tree.error("spine", "the pelvis, the arms' joint and the neck do not make a chain")
+    seg = np.array([tree.dist(path[k], path[k + 1]) for k in range(len(path) - 1)])
+    f = np.concatenate([[0.0], np.cumsum(seg)]) / seg.sum()
+    f_chest = f[path.index(chest)] if chest in path else f[-2]
+    candidates = [(abs(f[k] - SPINE_FRACTION), ((path[k], 1.0),))
+                  for k in range(1, len(path) - 1) if f[k] <= f_chest + 1e-9]
+    candidates += [(abs(0.5 * (f[k] + f[k + 1]) - SPINE_FRACTION),
+                    ((path[k], 0.5), (path[k + 1], 0.5)))
+                   for k in range(len(path) - 2) if f[k + 1] <= f_chest + 1e-9]
+    return min(candidates, key=lambda c: c[0])[1]
+
+
+def _standing_height(tree: _Tree, legs: Sequence[Leg], head: int, up: np.ndarray) -> float:
+    """Head joint above the floor when standing: the head above the hip joints in upright
+    frames (90th percentile along up) + straight legs + the ankles above the toes (median)."""
+    pos = tree.pos
+    mid_hip = 0.5 * (pos[:, legs[0].hip] + pos[:, legs[1].hip])
+    trunk = float(np.nanpercentile(np.sum((pos[:, head] - mid_hip) * up, axis=-1), 90))
+    legs_len = np.mean([tree.dist(g.hip, g.knee) + tree.dist(g.knee, g.ankle) for g in legs])
+    ankle = float(np.nanmedian(np.concatenate(
+        [np.sum((pos[:, g.ankle] - pos[:, g.toe]) * up, axis=-1) for g in legs])))
+    return trunk + float(legs_len) + max(ankle, 0.0)
+
+
 # ---------------------------------------------------------------------------- recognition
 def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
               source: str = "") -> Recognition:
@@ -473,30 +552,7 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
     notes: list[str] = []
     confidence: dict[str, float] = {}
 
-    # ---- the two limb pairs
-    twins = _twins(tree)
-    if not twins:
-        raise tree.error("legs", "no joint has two mirror-image (left/right) chains")
-    first = twins[0]
-    second = next((t for t in twins[1:] if t[1] != first[1]
-                   and t[0] >= 0.3 * first[0]), None)
-    if second is None:
-        raise tree.error("second pair of limbs",
-                         f"only {names[first[1]]} has two long mirror-image chains ("
-                         f"{names[first[2]]}, {names[first[3]]}); legs and arms make two pairs")
-    if first[1] in tree.ancestors(second[1]):
-        legs_t, arms_t = first, second
-    elif second[1] in tree.ancestors(first[1]):
-        legs_t, arms_t = second, first
-    else:  # legs and spine hang from a common root: the feet are far from the arms' joint,
-        # the hands near the pelvis (median over frames)
-        def spread(pair: tuple, other: tuple) -> float:
-            ends = [tree.chain(pair[1], c)[-1] for c in pair[2:4]]
-            return float(np.nanmedian(np.linalg.norm(pos[:, ends] - pos[:, [other[1]]],
-                                                     axis=-1)))
-
-        legs_t, arms_t = ((first, second) if spread(first, second) >= spread(second, first)
-                          else (second, first))
+    legs_t, arms_t = _limb_pairs(tree)
     pelvis, chest = legs_t[1], arms_t[1]
     confidence["twins"] = float(1.0 - (max(legs_t[4], arms_t[4]) / TWIN_TOLERANCE) ** 2)
 
@@ -530,16 +586,7 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
     hips = [at(ch, k) for ch, k in zip(leg_chains, leg_k, strict=True)]
     shoulders = [at(ch, k) for ch, k in zip(arm_chains, arm_k, strict=True)]
 
-    # ---- neck and head: the chest's longest branch that is not an arm
-    others = [c for c in tree.kids[chest] if c not in arms_t[2:4]]
-    if not others:
-        raise tree.error("neck", f"the arms' joint {names[chest]} has no other branch")
-    cur = neck = max(others, key=lambda c: tree.length[c] + tree.reach[c])
-    while len(tree.kids[cur]) == 1 and not tree.leaf(tree.kids[cur][0]):
-        cur = tree.kids[cur][0]
-    head = cur
-    if head == neck and len(tree.kids[neck]) == 1:  # neck -> head leaf: the leaf is the head
-        head = tree.kids[neck][0]
+    neck, head = _neck_and_head(tree, chest, arms_t[2:4])
 
     # ---- up, forward, sides
     up_t = _unit(pos[:, neck] - 0.5 * (ankles[0] + ankles[1]))
@@ -573,29 +620,7 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
     legs.sort(key=lambda leg: leg.side)
     arms.sort(key=lambda arm: arm.side)
 
-    # ---- spine path: pelvis -> (below the common ancestor) -> arm branch -> neck
-    up_chest = tree.ancestors(chest)
-    if pelvis in up_chest:
-        path = up_chest[:up_chest.index(pelvis) + 1][::-1]
-    else:
-        common = next(a for a in tree.ancestors(pelvis) if a in up_chest)
-        path = [pelvis] + up_chest[:up_chest.index(common)][::-1]
-    path = path + [neck]
-    seg = np.array([tree.dist(path[k], path[k + 1]) for k in range(len(path) - 1)])
-    keep = np.concatenate([[True], seg > 1e-4 * tree.scale])
-    keep[-1] = True
-    path = [p for p, kk in zip(path, keep, strict=True) if kk]
-    seg = np.array([tree.dist(path[k], path[k + 1]) for k in range(len(path) - 1)])
-    if len(path) < 3:
-        raise tree.error("spine", "the pelvis, the arms' joint and the neck do not make a chain")
-    f = np.concatenate([[0.0], np.cumsum(seg)]) / seg.sum()
-    f_chest = f[path.index(chest)] if chest in path else f[-2]
-    candidates = [(abs(f[k] - SPINE_FRACTION), ((path[k], 1.0),))
-                  for k in range(1, len(path) - 1) if f[k] <= f_chest + 1e-9]
-    candidates += [(abs(0.5 * (f[k] + f[k + 1]) - SPINE_FRACTION),
-                    ((path[k], 0.5), (path[k + 1], 0.5)))
-                   for k in range(len(path) - 2) if f[k + 1] <= f_chest + 1e-9]
-    spine = min(candidates, key=lambda c: c[0])[1]
+    spine = _spine_marker(tree, pelvis, chest, neck)
 
     # ---- chest geometry: shoulder line and neck above the arm branch, along the trunk
     trunk_axis = _unit(pos[:, chest] - pos[:, pelvis])
@@ -603,14 +628,7 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
     shoulder_h = float(np.nanmedian(np.sum((mid_sh - pos[:, chest]) * trunk_axis, axis=-1)))
     neck_h = float(np.nanmedian(np.sum((pos[:, neck] - pos[:, chest]) * trunk_axis, axis=-1)))
 
-    # ---- standing height: head above the hips (upright frames) + straight legs + ankle
-    left, right = legs
-    mid_hip = 0.5 * (pos[:, left.hip] + pos[:, right.hip])
-    trunk = float(np.nanpercentile(np.sum((pos[:, head] - mid_hip) * up, axis=-1), 90))
-    legs_len = np.mean([tree.dist(g.hip, g.knee) + tree.dist(g.knee, g.ankle) for g in legs])
-    ankle_h = float(np.nanmedian(np.concatenate(
-        [np.sum((pos[:, g.ankle] - pos[:, g.toe]) * up, axis=-1) for g in legs])))
-    height = trunk + float(legs_len) + max(ankle_h, 0.0)
+    height = _standing_height(tree, legs, head, up)
 
     used = {pelvis, chest, neck, head, *(j for j, _ in spine)}
     for g in legs:
