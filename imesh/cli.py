@@ -1,4 +1,4 @@
-"""The ``imesh`` command line: inspect, adapt, retarget and demo.
+"""The ``imesh`` command line: inspect, rig, adapt, retarget and demo.
 
 ``main(argv)`` returns the exit status, so it can be tested in-process. Any ImeshError is printed
 as one line (``imesh: error: ...``) with exit status 2; no traceback. Every output path is checked
@@ -31,14 +31,18 @@ def _scale(text: str) -> tuple[str, float]:
                                          ) from None
 
 
-def _add_load_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--units", help="override the detected unit (m, cm, mm, in, cmu)")
+def _add_load_options(p: argparse.ArgumentParser, resample: bool = True) -> None:
+    p.add_argument("--units",
+                   help="override the detected unit (m, dm, cm, mm, in, cmu, or metres per unit)")
     p.add_argument("--up-axis", help="override the detected up axis (+X -X +Y -Y +Z -Z)")
-    p.add_argument("--fps", type=float, help="resample to this frame rate")
+    if resample:
+        p.add_argument("--fps", type=float, help="resample to this frame rate")
     p.add_argument("--source-fps", type=float,
                    help="frame rate of formats that store none (AMC; default 120)")
     p.add_argument("--asf", help="skeleton (.asf) of an .amc clip (default: the .asf beside it "
                    "whose name starts the .amc name)")
+    p.add_argument("--rig", help="rig table mapping the file to the standard markers: a .toml "
+                   "(see `imesh rig`) or a built-in name; default: recognized from the skeleton")
 
 
 def _add_morph_options(p: argparse.ArgumentParser) -> None:
@@ -60,10 +64,17 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("inspect", help="summarize a motion file")
+    p = sub.add_parser("inspect", help="summarize a motion file and its rig mapping")
     p.add_argument("clip")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     _add_load_options(p)
+
+    p = sub.add_parser("rig", help="recognize the human rig of a skeleton and write it as a rig "
+                       "table (TOML) to edit and pass back with --rig")
+    p.add_argument("clip")
+    p.add_argument("-o", "--output", required=True, help="rig table to write (.toml)")
+    p.add_argument("--name", help="rig name in the table (default: the output file's stem)")
+    _add_load_options(p, resample=False)
 
     p = sub.add_parser("adapt", help="adapt human markers to new body proportions")
     p.add_argument("clip")
@@ -123,18 +134,60 @@ def build_parser() -> argparse.ArgumentParser:
 PIPELINE_MIN_FRAMES = 16
 
 
-def _load(args) -> object:
+def _load(args, *, apply_rig: bool = True) -> object:
     from .io import load_motion
     from .motion import require_frames
 
-    motion = load_motion(args.clip, units=args.units, up_axis=args.up_axis, fps=args.source_fps,
-                         asf=getattr(args, "asf", None))
-    if args.fps:
+    motion = load_motion(args.clip, units=_units(args.units), up_axis=args.up_axis,
+                         fps=args.source_fps, asf=getattr(args, "asf", None))
+    if getattr(args, "fps", None):
         motion = motion.resample(args.fps)
+    if apply_rig and getattr(args, "rig", None):
+        from .markerset import to_standard
+
+        motion = to_standard(motion, rig=args.rig)
     if args.command in ("adapt", "retarget"):
         require_frames(motion, PIPELINE_MIN_FRAMES, f"imesh {args.command} (its low-pass filter, "
                        "contact and acceleration terms)")
     return motion
+
+
+def _units(text: str | None) -> str | float | None:
+    """A unit name, or metres per file unit given as a number."""
+    if text is None:
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _rig_mapping(motion, rig: str | None) -> dict:
+    """What maps the motion to the standard markers (``imesh inspect``): a table given with
+    --rig, the recognized skeleton, or a marker-set table found by name; ``error`` otherwise."""
+    from .errors import MarkerMappingError
+    from .markerset import detect_rig, load_rig
+
+    def combos(markers: dict) -> dict:
+        return {m: [[n, w] for n, w in c] for m, c in markers.items()}
+
+    try:
+        if rig:
+            table = load_rig(rig)
+            return {"table": table.name, "source": table.path, "markers": combos(table.markers)}
+        if len(motion.bones):
+            from .human.rig import recognize_motion
+
+            body, scale = recognize_motion(motion)
+            return {"table": "recognized", "confidence": body.overall_confidence,
+                    "confidence_by_part": dict(body.confidence),
+                    "standing_height_m": body.height * scale,
+                    "markers": combos(body.markers(scale)), "notes": list(body.notes),
+                    "lines": body.describe(scale)}
+        table = detect_rig(motion)
+        return {"table": table.name, "source": table.path, "markers": combos(table.markers)}
+    except MarkerMappingError as exc:
+        return {"table": None, "error": str(exc)}
 
 
 def _progress(args, total: int, desc: str):
@@ -174,15 +227,63 @@ def _run_adapt(args, motion, people=None):
 
 
 def cmd_inspect(args) -> int:
-    motion = _load(args)
+    motion = _load(args, apply_rig=False)
     summary = motion.summary()
+    rig = _rig_mapping(motion, args.rig)
     if args.json:
+        summary["rig"] = {k: v for k, v in rig.items() if k != "lines"}
         print(json.dumps(summary))
+        return 0
+    for key, value in summary.items():
+        if key == "markers":
+            value = f"{len(value)}: " + ", ".join(value)
+        print(f"{key:>17}: {value}")
+    if rig.get("error"):
+        print(f"{'rig':>17}: not recognized: {rig['error']}")
+        return 0
+    if "lines" in rig:
+        print(f"{'rig':>17}: recognized from the skeleton (confidence "
+              f"{rig['confidence']:.2f}), standing height {rig['standing_height_m']:.3f} m")
+        lines = rig["lines"]
     else:
-        for key, value in summary.items():
-            if key == "markers":
-                value = f"{len(value)}: " + ", ".join(value)
-            print(f"{key:>17}: {value}")
+        print(f"{'rig':>17}: table {rig['table']} ({rig['source']})")
+        lines = [f"{m:>10} = " + " + ".join(f"{w:g} {n}" if len(c) > 1 else n for n, w in c)
+                 for m, c in rig["markers"].items()]
+    for line in lines:
+        print(f"{'':>19}{line}")
+    return 0
+
+
+def cmd_rig(args) -> int:
+    from .export import atomic_path
+    from .markerset import detect_rig, rig_toml
+
+    motion = _load(args, apply_rig=False)
+    name = args.name or Path(args.output).stem
+    head = [f"Rig table for {Path(args.clip).name}, written by `imesh rig` (units "
+            f"{motion.meta.get('units', 'm')}, up axis {motion.meta.get('up_axis', '+Z')}).",
+            "Each standard marker = a joint, a list (equal-weight mean) or name = weight pairs",
+            "(summing to 1). Edit it and pass it back with --rig FILE."]
+    if len(motion.bones):
+        from .human.rig import recognize_motion
+
+        body, scale = recognize_motion(motion)
+        table = body.table(scale, name=name)
+        head.append(f"Recognized from the skeleton, confidence {body.overall_confidence:.2f} ("
+                    + ", ".join(f"{k} {v:.2f}" for k, v in body.confidence.items()) + ").")
+        head += [f"Note: {note}" for note in body.notes]
+        lines = body.describe(scale)
+    else:  # a marker set: its table found by the marker names, as a starting point
+        found = detect_rig(motion)
+        table = type(found)(name=name, description=found.description, detect=found.detect,
+                            markers=found.markers, path=args.output)
+        head.append(f"Marker set: copied from the built-in table {found.name!r}.")
+        lines = []
+    with atomic_path(args.output) as tmp:
+        tmp.write_text(rig_toml(table, [*head, ""]))
+    for line in lines:
+        print(line)
+    print(f"wrote rig table {name!r} -> {args.output}")
     return 0
 
 
@@ -193,10 +294,14 @@ def cmd_adapt(args) -> int:
     motion = _load(args)
     people = None
     if args.people:
-        people = load_motion(args.people, units=args.units, up_axis=args.up_axis,
+        people = load_motion(args.people, units=_units(args.units), up_axis=args.up_axis,
                              fps=args.source_fps)
         if args.fps:
             people = people.resample(args.fps)
+        if args.rig:
+            from .markerset import to_standard
+
+            people = to_standard(people, rig=args.rig)
     result = _run_adapt(args, motion, people)
     report = result.report()
     save_marker_motion(args.output, result.adapted)
@@ -350,7 +455,7 @@ def cmd_reduce(args) -> int:
     return run(args)
 
 
-COMMANDS = {"inspect": cmd_inspect, "adapt": cmd_adapt, "retarget": cmd_retarget,
+COMMANDS = {"inspect": cmd_inspect, "rig": cmd_rig, "adapt": cmd_adapt, "retarget": cmd_retarget,
             "robots": cmd_robots, "demo": cmd_demo, "evaluate": cmd_evaluate,
             "reduce": cmd_reduce}
 
@@ -369,6 +474,7 @@ OUTPUTS: dict[str, tuple[tuple[str, str, tuple[str, ...] | None], ...]] = {
     "reduce": (("output", "-o", (".npz",)), ("report", "--json", _JSON),
                ("plots", "--plots", _FOLDER)),
     "demo": (("output", "-o", _FOLDER),),
+    "rig": (("output", "-o", (".toml",)),),
 }
 
 #: Exit statuses: 0 success, 2 bad input or usage, 3 reserved for an output that was written but

@@ -1,13 +1,17 @@
 """The standard human marker set and the rig tables that map file rigs onto it.
 
-Every rig (a skeleton naming convention or a marker protocol) has a TOML table in
-``imesh/data/rigs/``: each standard marker is an affine combination of the rig's markers
-(a list = equal-weight mean; an inline table = explicit weights summing to 1). Users can pass
-their own table file.
+A skeleton (BVH, ASF/AMC) is mapped by recognizing the human body in its tree
+(:mod:`imesh.human.rig`), whatever its joint names. A marker set (C3D, TRC) has no tree: its
+protocol is found by name in the TOML tables of ``imesh/data/rigs/``. In a table each standard
+marker is an affine combination of the rig's markers (a list = equal-weight mean; an inline
+table = explicit weights summing to 1). A table given explicitly (a built-in name or a .toml
+file, ``--rig``) overrides the recognition; ``imesh rig`` writes the recognized mapping in the
+same format, to edit and reuse.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import tomllib
@@ -128,6 +132,28 @@ def load_rig(rig: str | os.PathLike) -> RigTable:
     return rigs[rig]
 
 
+def rig_toml(table: RigTable, comments: list[str] | tuple[str, ...] = ()) -> str:
+    """A rig table as TOML text in the format of ``imesh/data/rigs/*.toml`` (readable by
+    :func:`load_rig`), with ``comments`` as a header."""
+    def key(name: str) -> str:
+        return json.dumps(name)  # a TOML basic string: quotes names with dots, spaces ...
+
+    lines = [f"# {c}" if c else "#" for c in comments]
+    lines += [f"name = {key(table.name)}", f"description = {key(table.description)}",
+              f"detect = [{', '.join(key(d) for d in table.detect)}]", "", "[markers]"]
+    for marker in STANDARD_MARKERS:
+        combo = table.markers.get(marker)
+        if combo is None:
+            continue
+        weights = [w for _, w in combo]
+        if np.allclose(weights, 1.0 / len(combo)):
+            lines.append(f"{marker} = [{', '.join(key(n) for n, _ in combo)}]")
+        else:
+            pairs = ", ".join(f"{key(n)} = {w:.6g}" for n, w in combo)
+            lines.append(f"{marker} = {{ {pairs} }}")
+    return "\n".join(lines) + "\n"
+
+
 def detect_rig(motion: MarkerMotion) -> RigTable:
     """The rig named by the reader (``motion.meta['rig']``) or the first whose ``detect`` names
     are all present; MarkerMappingError when none fits."""
@@ -153,19 +179,31 @@ def to_standard(motion: MarkerMotion, rig: str | os.PathLike | None = None) -> M
 
     Args:
         motion: any loaded motion.
-        rig: built-in rig name or a .toml table; detected when None.
+        rig: built-in rig name or a .toml table (overrides the recognition). When None, a
+            skeleton is recognized from its tree and motion, and a marker set's table is found
+            by its marker names.
 
     Returns:
-        MarkerMotion with ``names == STANDARD_MARKERS`` and ``bones == STANDARD_BONES``.
+        MarkerMotion with ``names == STANDARD_MARKERS`` and ``bones == STANDARD_BONES``;
+        ``meta['rig_table']`` names the mapping used ("recognized" or the table).
 
     Raises:
+        RigRecognitionError: a skeleton whose body parts cannot all be found (the message
+            names the part and prints the tree).
         MarkerMappingError: the table lacks standard markers, or names source markers the motion
             does not have (listing the available ones).
         MissingMarkerError: a needed source marker is missing in every frame.
     """
     if tuple(motion.names) == STANDARD_MARKERS:
         return motion
-    table = detect_rig(motion) if rig is None else load_rig(rig)
+    recognized = rig is None and len(motion.bones) > 0
+    if recognized:
+        from .human.rig import recognize_motion
+
+        body, unit_scale_m = recognize_motion(motion)
+        table = body.table(unit_scale_m)
+    else:
+        table = detect_rig(motion) if rig is None else load_rig(rig)
     lacking = [m for m in STANDARD_MARKERS if m not in table.markers]
     if lacking:
         raise MarkerMappingError(
@@ -200,7 +238,8 @@ def to_standard(motion: MarkerMotion, rig: str | os.PathLike | None = None) -> M
     pos = np.einsum("km,tmc->tkc", weights, filled)
     pos[~valid] = np.nan
     meta = dict(motion.meta)
-    meta["rig"] = table.name
+    meta["rig"] = (motion.meta.get("rig") or table.name) if recognized else table.name
+    meta["rig_table"] = table.name
     log.info("%s: mapped %d markers of rig %s to the standard set (%.1f %% samples valid)",
              motion.source, motion.n_markers, table.name, 100 * valid.mean())
     return MarkerMotion(positions_m=pos, fps=motion.fps, names=STANDARD_MARKERS, valid=valid,

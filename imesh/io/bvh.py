@@ -359,7 +359,7 @@ def read_bvh(path: str | Path) -> RawMotion:
     bones = np.array([(n.parent, j) for j, n in enumerate(nodes) if n.parent >= 0],
                      dtype=np.int64).reshape(-1, 2)
     rig = detect_rig(names)
-    hint = _unit_hint(rig, nodes)
+    hint = _unit_hint(nodes)
     n_end = sum(n.end_site for n in nodes)
     fps = 1.0 / frame_time
     if replaced:
@@ -377,15 +377,15 @@ def read_bvh(path: str | Path) -> RawMotion:
     )
 
 
-def _unit_hint(rig: str, nodes: list[_Node]) -> dict:
+def _unit_hint(nodes: list[_Node]) -> dict:
     """``unit_hint_m`` / ``unit_hint_reason`` for rescaled Second Life files, else {}.
 
-    A Second Life skeleton whose non-zero OFFSET components mostly (>= 25 %; finger offsets are
-    off-grid) sit on the 0.001905 grid was scaled from inches by 0.01905: 4/3 m per file unit.
-    The hint is informative only: unit detection (imesh.io.units) decides.
+    A skeleton whose non-zero OFFSET components mostly (>= 25 %; finger offsets are off-grid)
+    sit on the 0.001905 grid was scaled from one-decimal inches (the Second Life skeleton) by
+    0.01905: 4/3 m per file unit. The test looks at the numbers only, not at the joint names,
+    so a renamed skeleton gets the same hint. The hint is informative only: unit detection
+    (imesh.io.units) decides.
     """
-    if rig != "second_life":
-        return {}
     vals = np.concatenate([n.offset for n in nodes])
     vals = vals[np.abs(vals) > 1e-9]
     q = vals / SL_SCALED_GRID

@@ -1,4 +1,12 @@
-"""Units, up axis and floor: detection with logged decisions, and the conversion to MarkerMotion."""
+"""Units, up axis and floor: detection with logged decisions, and the conversion to MarkerMotion.
+
+For a skeleton (BVH, ASF/AMC) the human body is recognized first (:mod:`imesh.human.rig`): its
+up axis is the direction from the ankles to the neck, and its standing height (head joint above
+the floor, from bone lengths and upright frames) picks the length unit. For marker sets the up
+axis is the axis of largest extent and the height the median vertical extent. A unit is chosen
+only when exactly one candidate puts the height in the human range; otherwise a
+:class:`~imesh.human.errors.UnitsError` says what each unit would give and asks for ``--units``.
+"""
 
 from __future__ import annotations
 
@@ -7,23 +15,28 @@ import logging
 import numpy as np
 
 from ..errors import ImplausibleMotionError, OptionError
+from ..human.errors import RigRecognitionError, UnitsError
+from ..human.rig import RECOGNIZED, Recognition, recognize
 from ..motion import MarkerMotion, check_plausible
 from .raw import RawMotion
 
 log = logging.getLogger(__name__)
 
-#: Metres per unit for the unit names imesh understands.
+#: Metres per unit for the unit names imesh understands (the candidates of unit detection).
 UNIT_SCALES_M: dict[str, float] = {
     "m": 1.0,
+    "dm": 0.1,  # MakeHuman's internal unit
     "cm": 0.01,
     "mm": 0.001,
     "in": 0.0254,
     "cmu": 0.0254 / 0.45,  # CMU ASF/BVH length unit: 1/0.45 inch = 0.05644 m
 }
 UP_AXES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
-#: Plausible joint-extent heights of an adult performer [m] (joint rigs understate stature).
-PLAUSIBLE_HEIGHT_M = (1.0, 2.1)
-TYPICAL_HEIGHT_M = 1.55
+#: Possible heights of a performer [m]: a joint rig's standing height (head joint above the
+#: floor, ~0.88 x stature) or a marker set's extent, from small children to very tall adults.
+PLAUSIBLE_HEIGHT_M = (0.8, 2.3)
+#: Heights of adults [m]; a unit giving one is preferred over units giving a merely possible one.
+ADULT_HEIGHT_M = (1.2, 2.0)
 
 
 def rotation_to_z_up(up_axis: str) -> np.ndarray:
@@ -70,12 +83,63 @@ def detect_up_axis(raw: RawMotion) -> tuple[str, str]:
     return f"{sign}{'XYZ'[axis]}", why
 
 
-def detect_units(raw: RawMotion, height_file_units: float) -> tuple[str, float, str]:
-    """Unit name, metres per unit, and the reason.
+def choose_units(height_units: float, path: str = "", what: str = "height"
+                 ) -> tuple[str, float, str]:
+    """The length unit that makes a performer of this height human.
 
-    Declared units win. Otherwise the candidate whose height lands in the plausible range
-    closest to a typical height is chosen; CMU rigs prefer the CMU unit when it is plausible.
+    A unit whose height is adult (:data:`ADULT_HEIGHT_M`) wins when it is the only one; else a
+    unit whose height is possible (:data:`PLAUSIBLE_HEIGHT_M`, children included) when it is the
+    only one. The candidate ratios keep adult ranges apart (inch and CMU unit differ by 2.2x),
+    so ambiguity only arises between child-sized and giant readings.
+
+    Args:
+        height_units: the height in file units.
+        path: the file, for messages.
+        what: what the height is ("standing height" or "height"), for messages.
+
+    Returns:
+        (unit name, metres per unit, reason).
+
+    Raises:
+        UnitsError: no unit, or several, give a possible height; lists what each would give.
     """
+    heights = {u: height_units * scale for u, scale in UNIT_SCALES_M.items()}
+    if not np.isfinite(height_units) or height_units <= 0:
+        raise UnitsError(path, height_units, heights, [], list(UNIT_SCALES_M), what=what,
+                         limits_m=PLAUSIBLE_HEIGHT_M)
+    for (lo, hi), kind in ((ADULT_HEIGHT_M, "adult"), (PLAUSIBLE_HEIGHT_M, "possible")):
+        fits = [u for u, h in heights.items() if lo <= h <= hi]
+        if len(fits) == 1:
+            unit = fits[0]
+            others = ", ".join(f"{u} {h:.3g} m" for u, h in heights.items() if u != unit)
+            why = (f"{what} {height_units:.4g} units = {heights[unit]:.3f} m is the only {kind} "
+                   f"one ({lo:g}-{hi:g} m; {others})")
+            if kind != "adult":
+                log.warning("%s: %s", path, why)
+            return unit, UNIT_SCALES_M[unit], why
+        if len(fits) > 1:
+            break
+    plausible = [u for u, h in heights.items()
+                 if PLAUSIBLE_HEIGHT_M[0] <= h <= PLAUSIBLE_HEIGHT_M[1]]
+    raise UnitsError(path, height_units, heights, plausible, list(UNIT_SCALES_M), what=what,
+                     limits_m=PLAUSIBLE_HEIGHT_M)
+
+
+def recognize_body(raw: RawMotion) -> Recognition | None:
+    """The human body of a skeleton file, or None (marker set, or not a recognizable human:
+    the reason is logged, and mapping to the standard markers will raise it)."""
+    if raw.format not in ("bvh", "asf/amc") or not len(raw.bones):
+        return None
+    try:
+        return recognize(raw.names, raw.bones, raw.positions, source=raw.path)
+    except RigRecognitionError as exc:
+        log.info("%s: skeleton not recognized as a human (%s: %s)", raw.path, exc.part,
+                 exc.reason)
+        return None
+
+
+def _file_units(raw: RawMotion, height_units: float, what: str) -> tuple[str, float, str]:
+    """Declared units win, then a reader's hint, then the height's plausibility."""
     if raw.declared_scale_m is not None:
         name = raw.declared_units or f"{raw.declared_scale_m:.6g} m"
         return name, float(raw.declared_scale_m), "declared by the file"
@@ -88,23 +152,7 @@ def detect_units(raw: RawMotion, height_file_units: float) -> tuple[str, float, 
     if hint is not None:
         return (f"{float(hint):.6g} m", float(hint),
                 str(raw.meta.get("unit_hint_reason", "reader hint")))
-    lo, hi = PLAUSIBLE_HEIGHT_M
-    if raw.rig.startswith("cmu"):
-        h = height_file_units * UNIT_SCALES_M["cmu"]
-        if lo <= h <= hi:
-            return "cmu", UNIT_SCALES_M["cmu"], f"CMU rig and height {h:.3f} m is plausible"
-    best = None
-    for name, scale in UNIT_SCALES_M.items():
-        if name == "cmu":
-            continue
-        h = height_file_units * scale
-        score = abs(np.log(h / TYPICAL_HEIGHT_M)) if h > 0 else np.inf
-        plausible = lo <= h <= hi
-        key = (not plausible, score)
-        if best is None or key < best[0]:
-            best = (key, name, scale, h)
-    _, name, scale, h = best
-    return name, scale, f"height {height_file_units:.4g} units -> {h:.3f} m is the most plausible"
+    return choose_units(height_units, raw.path, what)
 
 
 def _check_raw(raw: RawMotion) -> None:
@@ -133,9 +181,12 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
              ground: str | float = "auto", check: bool = True) -> MarkerMotion:
     """Convert a RawMotion to a MarkerMotion in metres, Z up, floor at z = 0.
 
+    A skeleton is recognized as a human body first; ``meta`` then holds the recognition
+    (``rig_recognition``), its ``rig_confidence`` and the ``standing_height_m``.
+
     Args:
         raw: the parsed file.
-        units: override: a unit name (m, cm, mm, in, cmu) or metres per file unit.
+        units: override: a unit name (m, dm, cm, mm, in, cmu) or metres per file unit.
         up_axis: override: "+X", "-X", "+Y", "-Y", "+Z" or "-Z".
         ground: "auto" shifts the motion vertically so the floor (the 2nd percentile of the
             per-frame lowest marker) is at z = 0 when it is more than 3 cm away; "none" keeps the
@@ -146,23 +197,38 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
     Raises:
         ImplausibleMotionError: every marker missing, positions that overflow when converted to
             metres, or (``check``) a failed plausibility check.
+        UnitsError: no unit given or declared, and the height does not tell it.
         OptionError: an invalid override.
     """
     _check_raw(raw)
+    body = recognize_body(raw)
     if up_axis is not None:
         up, up_why = up_axis, "given by the user"
         if up not in UP_AXES:
             raise OptionError("up axis", up, UP_AXES)
+    elif body is not None and body.up_axis is not None:
+        up = body.up_axis
+        up_why = (f"the body: ankles -> neck (agreement {body.confidence['up']:.2f} over "
+                  "frames)")
+        if raw.declared_up is not None and raw.declared_up != up:
+            log.warning("%s: the body stands along %s, not along the format's %s", raw.path, up,
+                        raw.declared_up)
+            up_why += f"; the format's convention {raw.declared_up} disagrees"
     else:
         up, up_why = detect_up_axis(raw)
     rot = rotation_to_z_up(up)
     with np.errstate(over="ignore", invalid="ignore"):
         pos = raw.positions @ rot.T
-    ext = _frame_extents(pos, raw.valid)
-    height_units = float(np.nanmedian(ext[:, 2])) if np.isfinite(ext[:, 2]).any() else float("nan")
+    if body is not None:
+        height_units, what = body.height, "standing height"
+    else:
+        ext = _frame_extents(pos, raw.valid)
+        height_units = (float(np.nanmedian(ext[:, 2])) if np.isfinite(ext[:, 2]).any()
+                        else float("nan"))
+        what = "height"
 
     if units is None:
-        unit_name, scale, unit_why = detect_units(raw, height_units)
+        unit_name, scale, unit_why = _file_units(raw, height_units, what)
     elif isinstance(units, str):
         if units.lower() not in UNIT_SCALES_M:
             raise OptionError("units", units, list(UNIT_SCALES_M))
@@ -208,9 +274,13 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
              scale, unit_why, up, up_why, ground_why)
     meta = dict(raw.meta)
     meta.update(
-        format=raw.format, rig=raw.rig, units=unit_name, unit_scale_m=scale, units_reason=unit_why,
+        format=raw.format, rig=raw.rig or (RECOGNIZED if body is not None else ""),
+        units=unit_name, unit_scale_m=scale, units_reason=unit_why,
         up_axis=up, up_axis_reason=up_why, floor_offset_m=floor, floor_reason=ground_why,
     )
+    if body is not None:
+        meta.update(rig_recognition=body, standing_height_m=body.height * scale,
+                    rig_confidence=body.overall_confidence)
     motion = MarkerMotion(positions_m=pos, fps=raw.fps, names=raw.names, valid=raw.valid,
                           bones=raw.bones, source=raw.path, meta=meta)
     if check:
