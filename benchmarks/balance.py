@@ -67,7 +67,7 @@ def main() -> None:
         for name in args.robots:
             robot = load(name)
             for balanced in (False, True):
-                config = RetargetConfig() if balanced else RetargetConfig(balance=None)
+                config = RetargetConfig(balance="nishiwaki" if balanced else "none")
                 t0 = time.perf_counter()
                 try:
                     result = retarget(motion, robot, config=config)

@@ -5,11 +5,11 @@ Two kinds of rows, printed by the same table (:func:`fit_table`):
 - FK round trip: a smooth random within-limit joint trajectory with a walking, turning base;
   key points and direction markers by forward kinematics; fitted back with the default
   FitConfig (the exact answer is known, so RMS measures the solver).
-- real clips: the full pipeline (``imesh.retarget.retarget``: arrangement, contacts, morph,
-  fit, planted feet; no balance loop) on clips of ``IMESH_DATA/mocap``; the fitting stage's
-  numbers are reported, then for the output motion (after the planted-feet stage): key-point
-  RMS against the adapted markers, the largest |v|/v_max and |a|/a_max, the sole height in
-  the planned support frames and the slip.
+- real clips: the pipeline up to the initial fit (``imesh.retarget.retarget`` with
+  ``balance="none"``: arrangement, contacts, morph, fit) on clips of ``IMESH_DATA/mocap``; the
+  fitting stage's numbers are reported, then for the output motion: key-point RMS against the
+  adapted markers, the largest |v|/v_max and |a|/a_max, the sole height in the planned support
+  frames and the slip. The whole-body solve that follows by default: benchmarks/wholebody.py.
 
     python benchmarks/fitting.py                           # FK rows, 600 frames, 3 robots
     python benchmarks/fitting.py --frames 2000 --robots jvrc1
@@ -79,7 +79,7 @@ def clip_rows(clips, robots=ROBOTS, fit_config=None) -> list[dict]:
     import imesh
     from imesh.retarget import RetargetConfig, retarget
 
-    config = RetargetConfig(fit=fit_config, balance=None)  # the fitting stage alone
+    config = RetargetConfig(fit=fit_config, balance="none")  # the fitting stage alone
 
     rows = []
     for clip in clips:

@@ -54,7 +54,10 @@ class WholeBodyConfig:
 
     Attributes:
         iterations: largest number of SQP iterations.
-        step_tolerance: stop when no coordinate of the update exceeds this [m or rad].
+        step_tolerance: stop when no coordinate of the update exceeds this [m or rad] ...
+        merit_tolerance: ... or when the constraints hold (soles within 1 mm, ZMP and swing
+            feet within 1 mm of their bounds) and an iteration lowered the merit by less than
+            this fraction.
         mesh_weight: w_L, weight of the interaction-mesh (Laplacian) energy of the key points.
         direction_weight: multiplies the key directions' weights.
         accel_weight: w_a, weight of the squared second differences (at 30 fps) of the base and
@@ -94,6 +97,7 @@ class WholeBodyConfig:
 
     iterations: int = 20
     step_tolerance: float = 1e-4
+    merit_tolerance: float = 3e-2
     mesh_weight: float = 1.0
     direction_weight: float = 1.0
     accel_weight: float = 1.0
@@ -119,7 +123,7 @@ class WholeBodyConfig:
     def __post_init__(self) -> None:
         if not (isinstance(self.iterations, int) and self.iterations >= 1):
             raise OptionError("iterations", self.iterations, "an integer >= 1")
-        for name in ("step_tolerance", "qp_tolerance"):
+        for name in ("step_tolerance", "qp_tolerance", "merit_tolerance"):
             if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise OptionError(name, getattr(self, name), "a positive number")
         for name in ("mesh_weight", "direction_weight", "accel_weight", "zmp_weight", "damping",

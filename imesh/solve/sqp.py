@@ -344,6 +344,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             continue
         if alpha == 1.0:
             trust = min(2.0 * trust, config.trust_region)
+        gain = phi - phi_new
         q, lin, phi = q_new, lin_new, phi_new
         history.append(_report(lin, plan, q, step, sol.seconds, sol.iterations,
                                config.zmp_margin_m))
@@ -354,7 +355,9 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                  1e3 * r.sole_error_m, np.degrees(r.sole_error_rad), 1e3 * r.lowest_swing_m,
                  1e3 * r.zmp_outside_m, r.velocity_ratio, r.acceleration_ratio,
                  1e3 * r.keypoint_rms_m, sol.seconds, sol.iterations)
-        if step < config.step_tolerance:
+        feasible = (r.sole_error_m < 1e-3 and r.zmp_outside_m < 1e-3
+                    and r.lowest_swing_m > config.clearance_m - 1e-3)
+        if step < config.step_tolerance or (feasible and gain < config.merit_tolerance * phi):
             converged = True
             break
     seconds["total"] = time.perf_counter() - t_all
