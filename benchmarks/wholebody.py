@@ -1,7 +1,7 @@
 """Whole-body solve on real clips: the issue's acceptance table, scored by the evaluator.
 
     python benchmarks/wholebody.py [--robots jvrc1 g1 hrp4c] [--clips ...] [--physics]
-                                   [--out DIR] [--solver piqp]
+                                   [--out DIR] [--solver piqp] [--plots DIR]
 
 For every clip x robot: ``imesh.retarget`` with default settings, the motion and the adapted
 markers written to ``--out``, then the written file read back and scored by
@@ -31,6 +31,7 @@ def main(argv=None) -> int:
     ap.add_argument("--physics", action="store_true", help="also run the DART check")
     ap.add_argument("--out", default="out/wholebody", help="folder of the written motions")
     ap.add_argument("--solver", default="piqp", help="QP solver of the whole-body solve")
+    ap.add_argument("--plots", help="write the balance figure of each run here (PNG)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
@@ -71,6 +72,11 @@ def main(argv=None) -> int:
             m = metric_values(evaluate_motion(robot, written, adapted=str(markers),
                                               physics=args.physics))
             wb = res.wholebody.report() if res.wholebody is not None else {}
+            if args.plots:
+                from imesh.plots import plot_wholebody
+
+                plot_wholebody(robot, written, Path(args.plots) / f"{stem}.png",
+                               title=f"{clip} on {name} (written output)")
 
             def f(key, fmt, m=m):
                 v = m.get(key)

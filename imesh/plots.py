@@ -58,3 +58,69 @@ def plot_adaptation(result, path: str | os.PathLike) -> None:
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=100)
     plt.close(fig)
+
+
+def plot_wholebody(robot, motion, path: str | os.PathLike, title: str = "") -> None:
+    """The balance evidence of a written robot motion, as the evaluator sees it: the multibody
+    ZMP against the support polygon's extent (x and y over time), the lowest point of each sole
+    (support frames shaded), and the largest joint torque of each frame against the effort
+    limits (inverse dynamics, sole wrenches least-norm).
+
+    Args:
+        robot: the robot; motion: its RobotMotion (e.g. read back from the written file).
+        path: PNG file to write (atomically).
+        title: figure title.
+    """
+    from .contacts import SIDES
+    from .metrics.dynamics import reference_dynamics
+    from .metrics.kinematics import (
+        desired_zmp,
+        detect_support,
+        motion_derivatives,
+        sole_tracks,
+        support_polygons,
+        zmp_trajectory,
+    )
+
+    plt = _pyplot()
+    q, fps = motion.q, motion.fps
+    t = np.arange(len(q)) / fps
+    soles = sole_tracks(robot, q, fps)
+    support = detect_support(soles).support
+    v, a = motion_derivatives(q, fps)
+    zmp = zmp_trajectory(robot, q, v, a)
+    want = desired_zmp(soles, support)
+    polys = support_polygons(soles, support)
+    lo = np.array([p.min(axis=0) if p is not None else [np.nan, np.nan] for p in polys])
+    hi = np.array([p.max(axis=0) if p is not None else [np.nan, np.nan] for p in polys])
+    dyn = reference_dynamics(robot, q, v, a, support)
+    fig, axes = plt.subplots(4, 1, figsize=(10, 11), sharex=True)
+    for k, axis in enumerate("xy"):
+        ax = axes[k]
+        ax.fill_between(t, lo[:, k], hi[:, k], color="0.85", label="support polygon extent")
+        ax.plot(t, want[:, k], "g--", lw=1, label="desired ZMP")
+        ax.plot(t, zmp[:, k], "b", lw=1.2, label="multibody ZMP")
+        ax.set_ylabel(f"{axis} [m]")
+        ax.legend(loc="upper right", fontsize=8)
+    ax = axes[2]
+    for k, side in enumerate(SIDES):
+        low = 1e3 * soles.lowest(side)
+        ax.plot(t, low, label=f"{side} sole lowest corner")
+        ax.fill_between(t, 0, np.where(support[:, k], low.max(), np.nan), alpha=0.1)
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_ylabel("height [mm]")
+    ax.legend(loc="upper right", fontsize=8)
+    ax = axes[3]
+    ax.plot(t, dyn.torque_ratios, "r", label="max |torque| / effort limit")
+    ax.axhline(1.0, color="k", ls="--", lw=0.8, label="effort limit")
+    ax.set_ylabel("torque ratio")
+    ax.set_xlabel("time [s]")
+    ax.legend(loc="upper right", fontsize=8)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=90, format="png")
+    plt.close(fig)
+    if not os.path.getsize(path):
+        raise ImeshError(f"plot {path} is empty")

@@ -385,8 +385,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         limits = joint_limits(robot, fit_config)
         plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
                                            source.fps, limits, config.wholebody,
-                                           rest_frames=3 if n_lead >= 3 else 0,
-                                           pose_frames=ext.pose_frames)
+                                           rest_frames=3 if n_lead >= 3 else 0)
         seconds["plan"] = time.perf_counter() - t3
         t4 = time.perf_counter()
         solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody)

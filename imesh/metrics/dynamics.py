@@ -20,7 +20,7 @@ from ..contacts import SIDES
 MU = 0.7
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ReferenceDynamics:
     """Torque and friction demands of a reference motion.
 
@@ -30,6 +30,8 @@ class ReferenceDynamics:
         friction_ratio: largest tangential / (mu x normal) sole force ratio over the support
             frames (inf when a sole must pull).
         friction_frame: the frame of that ratio (-1 without support).
+        torque_ratios: (T,) largest |joint torque| / effort limit of each frame.
+        friction_ratios: (T,) largest friction ratio of each frame (0 without support).
     """
 
     torque_ratio: float
@@ -37,6 +39,8 @@ class ReferenceDynamics:
     torque_frame: int
     friction_ratio: float
     friction_frame: int
+    torque_ratios: np.ndarray
+    friction_ratios: np.ndarray
 
 
 def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
@@ -74,4 +78,5 @@ def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
     return ReferenceDynamics(torque_ratio=float(ratio[t, j]), torque_joint=robot.joint_names[j],
                              torque_frame=int(t),
                              friction_ratio=float(friction[ft]) if ft >= 0 else float("nan"),
-                             friction_frame=ft)
+                             friction_frame=ft, torque_ratios=ratio.max(axis=1),
+                             friction_ratios=friction)

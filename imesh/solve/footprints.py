@@ -29,6 +29,9 @@ class Footprint:
             on z = 0, level).
         center_m: (3,) float [m] world sole centre (z = 0).
         corners_m: (4, 3) float [m] world sole corners (z = 0).
+        polygon_m: (4, 3) float [m] world corners of the part of the sole the ZMP may use: the
+            sole rectangle clipped to where the ankle can hold the whole weight (see
+            :func:`ankle_reach`).
     """
 
     side: str
@@ -37,6 +40,7 @@ class Footprint:
     frame_pose: np.ndarray
     center_m: np.ndarray
     corners_m: np.ndarray
+    polygon_m: np.ndarray
 
 
 def _yaw(rot: np.ndarray) -> np.ndarray:
@@ -91,6 +95,15 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
     return out
 
 
+def ankle_reach(robot, side: str) -> float:
+    """[m] how far from the ankle (the sole frame's origin) the centre of pressure may go with
+    the whole weight on one foot: the weaker of the two ankle joints' effort limit over m g.
+    G1's 35 Nm ankles hold its 33 kg 0.107 m from the ankle; its sole reaches 0.12 m ahead, so a
+    ZMP at the toe asks 1.1-1.6x the ankle's limit (measured on the G1 walk before this bound)."""
+    joints = robot.supporting_joints(robot.soles[side].frame)[-2:]
+    return float(np.min(robot.effort_max[joints]) / (robot.mass * 9.81))
+
+
 def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray
                     ) -> list[Footprint]:
     """One level footprint on z = 0 per support phase of each foot.
@@ -111,6 +124,9 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         sole = robot.soles[side]
         rot_level = level[k]
         poses = sole_poses[side]
+        reach = ankle_reach(robot, side)
+        local = sole.corners().copy()  # in the sole frame; the ankle is its origin
+        local[:, :2] = np.clip(local[:, :2], -reach, reach)
         for start, stop in runs(support[:, k]):
             a, b = middle_half(start, stop)
             sel = poses[a:b]
@@ -125,7 +141,8 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
             pose[:3, 3] = c - R @ sole.center
             corners = sole.corners() @ R.T + pose[:3, 3]
             out.append(Footprint(side=side, start=start, stop=stop, frame_pose=pose,
-                                 center_m=c, corners_m=corners))
+                                 center_m=c, corners_m=corners,
+                                 polygon_m=local @ R.T + pose[:3, 3]))
     return out
 
 
@@ -142,7 +159,8 @@ def footprint_tracks(footprints: list[Footprint], n_frames: int, fps: float) -> 
 
 def support_halfplanes(footprints: list[Footprint], support: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The support polygon of every supported frame as half-planes ``n . p >= b``.
+    """The support polygon of every supported frame as half-planes ``n . p >= b``: the convex
+    hull of the supporting footprints' usable parts (``Footprint.polygon_m``).
 
     Args:
         footprints: the planned footprints.
@@ -161,7 +179,7 @@ def support_halfplanes(footprints: list[Footprint], support: np.ndarray
     for t in np.flatnonzero(support.any(axis=1)):
         key = (int(phase_of["left"][t]), int(phase_of["right"][t]))
         if key not in cache:  # the polygon only changes with the phases: one hull per pair
-            pts = np.concatenate([footprints[i].corners_m[:, :2] for i in key if i >= 0])
+            pts = np.concatenate([footprints[i].polygon_m[:, :2] for i in key if i >= 0])
             hull = convex_hull_2d(pts)  # counter-clockwise
             edge = np.roll(hull, -1, axis=0) - hull
             n = np.stack([-edge[:, 1], edge[:, 0]], axis=1)  # inward for counter-clockwise

@@ -4,8 +4,9 @@ A controller has to start from rest and stop at rest, but mocap clips start and 
 (the CMU walk starts in single support with the CoM outside the stance sole). The whole-body
 solve therefore gets ``n_in`` frames before the clip and ``n_out`` after it in which both feet
 are in support: a foot in support at the clip's first (last) frame keeps that phase's footprint,
-a foot in the air is put down under where it is. The initializer and the marker targets hold
-the first (last) frame; the jump from rest into the clip's velocity is covered by the elastic
+a foot in the air is put down under where it is (level, same heading) and swings over the
+lead's last (first) ``step_frames`` into (out of) the clip. The initializer and the marker
+targets hold the first (last) frame; the jump from rest into the clip's velocity is covered by the elastic
 acceleration rows of the solve, which then moves the CoM over the support and the swing foot
 into its first step with the ZMP inside the support polygon.
 """
@@ -25,17 +26,12 @@ class Lead:
         q: (n_in + T + n_out, nq) initializer.
         markers: (n_in + T + n_out, M, 3) marker targets [m].
         support: (n_in + T + n_out, 2) bool support, both feet in the added frames.
-        pose_frames: (n_in + T + n_out, 2) int, per foot the frame whose sole pose places the
-            footprint of that frame's phase: itself, except in the lead of a foot that is in
-            the air at the clip's end: there the footprint of its nearest support phase of
-            the clip (where it lands next, or where it left last).
         n_in, n_out: added frames before and after the clip.
     """
 
     q: np.ndarray
     markers: np.ndarray
     support: np.ndarray
-    pose_frames: np.ndarray
     n_in: int
     n_out: int
 
@@ -65,21 +61,9 @@ def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
     sup[:n_in] = True
     sup[len(sup) - n_out:] = True
     T = len(support)
-    pose = np.repeat(np.arange(len(sup))[:, None], sup.shape[1], axis=1)
     for k in range(sup.shape[1]):
-        on = np.flatnonzero(support[:, k])
         if n_in and not support[0, k]:
             sup[n_in - min(step_frames, n_in // 2):n_in, k] = False
-            if len(on):  # stand where the foot lands first
-                first = on[0] + np.argmax(~support[on[0]:, k]) if not support[on[0]:, k].all() \
-                    else T
-                pose[:n_in, k] = n_in + (on[0] + first) // 2
         if n_out and not support[-1, k]:
             sup[n_in + T:n_in + T + min(step_frames, n_out // 2), k] = False
-            if len(on):  # stand where the foot left last
-                start = on[-1]
-                while start > 0 and support[start - 1, k]:
-                    start -= 1
-                pose[n_in + T:, k] = n_in + (start + on[-1]) // 2
-    return Lead(q=pad(q), markers=pad(markers), support=sup, pose_frames=pose, n_in=n_in,
-                n_out=n_out)
+    return Lead(q=pad(q), markers=pad(markers), support=sup, n_in=n_in, n_out=n_out)

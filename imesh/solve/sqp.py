@@ -210,8 +210,8 @@ def swing_clearance(support: np.ndarray, base_m: float, lift_m: float, edge_m: f
 
 def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: CompiledTargets,
                     support: np.ndarray, fps: float, limits: tuple, config: WholeBodyConfig,
-                    transition_s: float = 0.1, rest_frames: int = 3,
-                    pose_frames: np.ndarray | None = None) -> tuple[Plan, list[Footprint]]:
+                    transition_s: float = 0.1, rest_frames: int = 3
+                    ) -> tuple[Plan, list[Footprint]]:
     """Fix the targets, mesh, support, footprints and limits of a whole-body solve.
 
     Args:
@@ -226,15 +226,11 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
         transition_s: blending of the desired ZMP between phases (as the evaluator's).
         rest_frames: the first and last this many frames are held identical (start and end
             at rest); 0: free.
-        pose_frames: (T, 2) int, per foot the frame whose initial sole pose places the
-            footprint (:attr:`imesh.solve.lead.Lead.pose_frames`); None: each frame its own.
     """
     T = len(q_init)
     frames = _Frames(robot, targets)
     kin = robot.trajectory_kinematics(q_init, [frames.ids[i] for i in frames.soles])
-    if pose_frames is None:
-        pose_frames = np.repeat(np.arange(T)[:, None], 2, axis=1)
-    poses = {s: kin.placements[pose_frames[:, k], k] for k, s in enumerate(SIDES)}
+    poses = {s: kin.placements[:, k] for k, s in enumerate(SIDES)}
     support = split_pivots(robot, poses, support, fps)
     footprints = plan_footprints(robot, poses, support)
     sole_targets = np.full((T, 2, 4, 4), np.nan)

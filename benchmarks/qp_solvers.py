@@ -1,0 +1,126 @@
+"""QP solvers on the real whole-body problem: the first SQP step of a retarget, every solver.
+
+    python benchmarks/qp_solvers.py [--clip cmu_02_01_walk.bvh] [--robot g1] [--fps 30]
+                                    [--tol 1e-7] [--repeat 3]
+
+Builds the first QP of the whole-body solve of the clip (``imesh.retarget`` up to the first
+``solve_qp`` call) and solves it with PIQP (its two sparse KKT back ends), Clarabel, OSQP and
+ProxSuite (the last two from ``pip install -e .[bench]``), each directly (no qpsolvers layer).
+Prints wall time (best of ``--repeat``), iterations, the largest constraint violation and the
+objective; the solver the solve uses by default (``WholeBodyConfig.solver``) is chosen from
+this table (docs/wholebody.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+
+import numpy as np
+import scipy.sparse as sp
+from _data import data_root, load
+
+
+class _Captured(Exception):
+    pass
+
+
+def first_qp(clip: str, robot_name: str, fps: float):
+    """The QpProblem of the first whole-body SQP iteration of ``clip`` on ``robot_name``."""
+    import imesh.solve.sqp as sqp
+    from imesh.io import load_motion
+    from imesh.retarget import RetargetConfig, retarget
+
+    box = {}
+
+    def capture(qp, solver, tol):
+        box["qp"] = qp
+        raise _Captured
+
+    real = sqp.solve_qp
+    sqp.solve_qp = capture
+    try:
+        retarget(load_motion(data_root() / "mocap" / clip), load(robot_name),
+                 config=dataclasses.replace(RetargetConfig(), fps=fps))
+    except _Captured:
+        pass
+    finally:
+        sqp.solve_qp = real
+    return box["qp"]
+
+
+def _piqp(qp, tol, kkt):
+    import piqp
+
+    s = piqp.SparseSolver()
+    s.settings.eps_abs, s.settings.eps_rel = tol, 0.0
+    s.settings.kkt_solver = getattr(piqp.KKTSolver, kkt)
+    s.setup(qp.P, qp.c, qp.A, qp.b, qp.G, np.maximum(qp.l, -1e30), np.minimum(qp.u, 1e30),
+            qp.x_l, qp.x_u)
+    status = s.solve()
+    return np.asarray(s.result.x), str(status).split(".")[-1], int(s.result.info.iter)
+
+
+def _proxsuite(qp, tol):
+    import proxsuite
+
+    eye = sp.identity(qp.n, format="csc")
+    C = sp.vstack([qp.G, eye], format="csc")
+    lo = np.maximum(np.concatenate([qp.l, qp.x_l]), -1e20)
+    hi = np.minimum(np.concatenate([qp.u, qp.x_u]), 1e20)
+    s = proxsuite.proxqp.sparse.QP(qp.n, qp.A.shape[0], C.shape[0])
+    s.settings.eps_abs, s.settings.eps_rel = tol, 0.0
+    s.settings.max_iter = 10000
+    s.init(sp.triu(qp.P, format="csc"), qp.c, qp.A, qp.b, C, lo, hi)
+    s.solve()
+    return np.asarray(s.results.x), str(s.results.info.status).split(".")[-1], \
+        int(s.results.info.iter)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--clip", default="cmu_02_01_walk.bvh")
+    ap.add_argument("--robot", default="g1")
+    ap.add_argument("--fps", type=float, default=30.0)
+    ap.add_argument("--tol", type=float, default=1e-7)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args(argv)
+
+    from imesh.solve.qp import solve_qp
+
+    qp = first_qp(args.clip, args.robot, args.fps)
+    print(f"{args.clip} on {args.robot} at {args.fps:g} fps: {qp.n} variables, "
+          f"{qp.A.shape[0]} equalities, {qp.G.shape[0]} inequality rows, nnz P {qp.P.nnz}")
+    runs = {
+        "piqp sparse_ldlt": lambda: _piqp(qp, args.tol, "sparse_ldlt"),
+        "piqp sparse_multistage": lambda: _piqp(qp, args.tol, "sparse_multistage"),
+    }
+    for name in ("clarabel", "osqp"):
+        def run(name=name):
+            sol = solve_qp(qp, name, args.tol)
+            return sol.x, sol.status, sol.iterations
+        runs[name] = run
+    runs["proxsuite sparse"] = lambda: _proxsuite(qp, args.tol)
+    print(f"{'solver':<24} {'seconds':>8} {'status':>22} {'iter':>6} {'violation':>10} "
+          f"{'objective':>14}")
+    for name, run in runs.items():
+        best = np.inf
+        try:
+            for _ in range(args.repeat):
+                t0 = time.perf_counter()
+                x, status, it = run()
+                best = min(best, time.perf_counter() - t0)
+        except Exception as exc:  # a row per solver, whatever fails
+            print(f"{name:<24} failed: {str(exc)[:80]}")
+            continue
+        viol = max(qp.residuals(x).values())
+        obj = 0.5 * x @ (qp.P @ x) + qp.c @ x
+        print(f"{name:<24} {best:8.3f} {status:>22} {it:6d} {viol:10.1e} {obj:14.6f}")
+        sys.stdout.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
