@@ -6,9 +6,9 @@ solve therefore gets ``n_in`` frames before the clip and ``n_out`` after it in w
 are in support: a foot in support at the clip's first (last) frame keeps that phase's footprint,
 a foot in the air is put down under where it is (level, same heading) and swings over the
 lead's last (first) ``step_frames`` into (out of) the clip. The initializer and the marker
-targets hold the first (last) frame; the jump from rest into the clip's velocity is covered by the elastic
-acceleration rows of the solve, which then moves the CoM over the support and the swing foot
-into its first step with the ZMP inside the support polygon.
+targets hold the first (last) frame; the jump from rest into the clip's velocity is covered by
+the elastic acceleration rows of the solve, which then moves the CoM over the support and the
+swing foot into its first step with the ZMP inside the support polygon.
 """
 
 from __future__ import annotations
