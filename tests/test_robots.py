@@ -102,6 +102,38 @@ def test_lint_loaded(robot):
     assert robot.mass > 20
 
 
+def standing_torques(robot, sides: tuple[str, ...]) -> np.ndarray:
+    """(dof,) float [Nm] joint torques that hold the nominal pose still on the given soles:
+    gravity torques less those of the sole-corner forces that balance the base (least-norm
+    solution of inverse dynamics' 6 base rows)."""
+    q = robot.q_nominal
+    zero = np.zeros(robot.nv)
+    gravity = robot.inverse_dynamics(q, zero, zero)
+    frames = [robot.soles[s].frame for s in sides for _ in range(4)]
+    corners = np.vstack([robot.soles[s].corners() for s in sides])
+    J = robot.point_jacobians(q, frames, corners).reshape(-1, robot.nv)
+    forces = np.linalg.lstsq(J[:, :6].T, gravity[:6], rcond=None)[0]
+    return gravity[6:] - J[:, 6:].T @ forces
+
+
+def test_effort_limits_well_above_standing_torques(robot):
+    """Every torque limit is at least twice what standing still on both feet in the nominal
+    pose takes (a limit that low is not a robot's real one: it could not walk)."""
+    both = np.abs(standing_torques(robot, ("left", "right")))
+    assert both.max() > 5.0  # the knees carry the bent-knee stance
+    assert np.all(robot.effort_max >= 2 * both)
+
+
+def test_uniform_effort_limits_are_declared_placeholders(robot):
+    """One effort limit for every joint is a URDF placeholder, not motor data: robot.toml's
+    limits.source and the README must say so (the README also says what was searched)."""
+    if np.ptp(robot.effort_max) > 0:
+        return
+    assert "placeholder" in robot.config.limits.source
+    readme = (ROBOTS_DIR / robot.name / "README.md").read_text(encoding="utf-8").lower()
+    assert "placeholder" in readme and "searched" in readme
+
+
 def test_keypoints_form_a_skeleton(robot):
     """Keypoints joined by a surviving standard bone are apart; directions match keypoints."""
     names, frames, offsets = keypoint_arrays(robot)
