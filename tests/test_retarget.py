@@ -72,3 +72,39 @@ def test_cli_retarget_without_urdf_for_a_user_model_fails_cleanly(mocap, tmp_pat
                  "-o", str(out)]) == 2
     assert "--urdf" in capsys.readouterr().err
     assert not out.exists()
+
+
+def _bvh_excerpt(src, dst, frames: int) -> None:
+    """The first ``frames`` frames of a BVH file (text: header, 'Frames:' line, one line per
+    frame)."""
+    head, motion = src.read_text().split("MOTION", 1)
+    lines = motion.strip().splitlines()
+    body = [ln for ln in lines[2:] if ln.strip()][:frames]
+    dst.write_text(head + "MOTION\n" + f"Frames: {len(body)}\n" + lines[1] + "\n"
+                   + "\n".join(body) + "\n")
+
+
+def test_flight_option_lists_unconstrained_frames_and_is_verified(mocap, tmp_path):
+    """The leap of the pirouette/jete dance with --allow-flight: the run finishes, the report
+    lists the flight frames left without support and ZMP constraints, and the written file is
+    judged by the gates: without --force a failed verification exits 3 and writes nothing."""
+    import json
+
+    from imesh.verify import failed_gates
+
+    clip = tmp_path / "leap.bvh"
+    _bvh_excerpt(mocap("cmu_05_06_dance_pirouettes_jete.bvh"), clip, 240)  # 2 s, one leap
+    out, rep = tmp_path / "leap.npz", tmp_path / "leap.json"
+    code = main(["-q", "retarget", str(clip), "--robot", "jvrc1", "--allow-flight", "--force",
+                 "-o", str(out), "--json", str(rep)])
+    assert code == 0 and out.is_file()
+    report = json.loads(rep.read_text())
+    flights = report["unconstrained_frames"]
+    assert flights and all(30 <= a < b <= report["frames"] - 30 for a, b in flights)
+    failed = failed_gates(report["metrics"])
+    assert report["verification"]["passed"] == (not failed)
+    out2 = tmp_path / "again.npz"
+    code = main(["-q", "retarget", str(clip), "--robot", "jvrc1", "--allow-flight",
+                 "-o", str(out2)])
+    assert code == (3 if failed else 0)
+    assert out2.is_file() == (not failed)

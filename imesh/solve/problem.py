@@ -26,7 +26,7 @@ Constraints:
   solvable; the slack vanishes where the constraints can be met);
 * joints: position bounds; ``|Delta q| <= v_max dt``; ``|Delta^2 q| <= a_max dt^2`` (elastic,
   one slack per frame);
-* normal force: ``g + c_z'' >= min_normal g`` (elastic);
+* normal force: ``g + c_z'' >= min_normal g`` (elastic); in flight frames ``c_z'' = -g``;
 * ZMP (cart-table with the evaluator's difference operator ``D`` = gradient of gradient):
   ``p_t = c_xy,t - (c_z,t / g) (D c)_xy,t + delta_t`` inside the support polygon shrunk by
   ``zmp_margin_m``, where ``delta_t`` is the multibody ZMP minus the cart-table ZMP at the
@@ -474,10 +474,18 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         lo += [np.full(len(r_z), -np.inf), -config.zmp_band_m - r_z]
         hi += [config.zmp_band_m - r_z, np.full(len(r_z), np.inf)]
     # the ground only pushes: normal force m (g + c_z'') >= min_normal m g (also keeps the
-    # ZMP's denominator away from 0, where its linearization means nothing); elastic
-    G_blocks.append(acc_z + pick(S0))
-    lo.append((config.min_normal - 1.0) * GRAVITY - acc[:, 2])
-    hi.append(np.full(T, np.inf))
+    # ZMP's denominator away from 0, where its linearization means nothing); in flight there is
+    # no ground: the CoM falls, c_z'' = -g. Both elastic.
+    vert = (acc_z + pick(S0)).tocsr()
+    flight = ~sup
+    G_blocks.append(vert[sup])
+    lo.append(((config.min_normal - 1.0) * GRAVITY - acc[:, 2])[sup])
+    hi.append(np.full(int(sup.sum()), np.inf))
+    if flight.any():
+        down = (acc_z - pick(S0)).tocsr()[flight]
+        G_blocks += [vert[flight], down]
+        lo += [(-GRAVITY - acc[:, 2])[flight], np.full(int(flight.sum()), -np.inf)]
+        hi += [np.full(int(flight.sum()), np.inf), (-GRAVITY - acc[:, 2])[flight]]
     G = sp.vstack(G_blocks, format="csc") if G_blocks else sp.csc_matrix((0, N))
     # bounds: joint positions, a trust region on the update, slack >= 0
     x_l = np.full((T, nx), -np.inf)
@@ -541,8 +549,10 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
         worst = np.zeros(T)
         np.maximum.at(worst, tt, short)
         penalty += config.elastic_weight * np.sum(np.maximum(worst, 0.0))
-    penalty += config.zmp_slack_weight * np.sum(np.maximum(
-        (config.min_normal - 1.0) * GRAVITY - lin.com_acceleration[:, 2], 0.0))
+    az = lin.com_acceleration[:, 2]
+    penalty += config.zmp_slack_weight * (
+        np.sum(np.maximum((config.min_normal - 1.0) * GRAVITY - az[sup], 0.0))
+        + np.sum(np.abs(az[~sup] + GRAVITY)))
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
         1 - config.acceleration_margin)
     penalty += config.elastic_weight * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
