@@ -388,3 +388,19 @@ def test_corrupt_npz_members_are_motion_file_errors(tmp_path):
         zf.writestr("fps.npy", npy)
     with pytest.raises(MotionFileError, match="declares shape"):
         load_robot_motion(path)
+
+
+@pytest.mark.parametrize("options", [["--balance", "none"], ["--allow-flight"]])
+def test_noise_clip_is_never_a_success(capsys, mocap, tmp_path, options):
+    """The walk's skeleton with every channel replaced by noise (issue 17: reported as success
+    with 30 m marker RMS, or a LinAlgError with the flight option): refused when loaded (2) or
+    by the output gates (3), one line, no file."""
+    head, rows = bvh_rows(mocap)
+    rng = np.random.default_rng(5)
+    noise = [" ".join(f"{v:.4f}" for v in rng.uniform(-40, 40, len(r.split())))
+             for r in rows[:120]]
+    clip = write_bvh(tmp_path / "noise.bvh", head, noise)
+    out = tmp_path / "noise.npz"
+    status, line = run(capsys, "-q", "retarget", clip, "--robot", "jvrc1", "-o", out, *options)
+    assert status in (2, 3), line
+    assert not out.exists()
