@@ -100,7 +100,7 @@ class WholeBodyConfig:
     merit_tolerance: float = 3e-2
     mesh_weight: float = 1.0
     direction_weight: float = 1.0
-    accel_weight: float = 1.0
+    accel_weight: float = 3.0
     zmp_weight: float = 10.0
     zmp_band_m: float = 0.015
     damping: float = 1e-3
