@@ -263,6 +263,16 @@ def _log3(R: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(R).as_rotvec()
 
 
+def world_map(rotations: np.ndarray, nv: int) -> np.ndarray:
+    """(T, nv, nv) maps of a tangent update (base twist in the base frame, joints) to the change
+    of :func:`world_coordinates`: ``blockdiag(R_t, R_t, I)``."""
+    out = np.zeros((len(rotations), nv, nv))
+    out[:, :3, :3] = rotations
+    out[:, 3:6, 3:6] = rotations
+    out[:, np.arange(6, nv), np.arange(6, nv)] = 1.0
+    return out
+
+
 def world_coordinates(q: np.ndarray, rotations: np.ndarray) -> np.ndarray:
     """(T, nv) coordinates whose second differences measure accelerations: base position,
     the base's accumulated world rotation vector, joints."""
@@ -327,9 +337,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     if T >= 3 and config.accel_weight > 0:
         Rb = lin.base_rotations
         S = np.zeros((T, nv, nx))
-        S[:, :3, :3] = Rb
-        S[:, 3:6, 3:6] = Rb
-        S[:, np.arange(6, nv), np.arange(6, nv)] = 1.0
+        S[:, :, :nv] = world_map(Rb, nv)
         scale = (plan.fps / 30.0) ** 2
         D2 = sp.kron(difference_operator(T, 2), sp.identity(nv), format="csr") * scale
         A_s = D2 @ block_diagonal(S)
@@ -393,10 +401,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     # rest at both ends: world coordinates of frames t and t+1 equal (first and last frames)
     if plan.rest_frames > 1 and T >= 2 * plan.rest_frames:
         Rb = lin.base_rotations
-        Sb = np.zeros((T, nv, nv))
-        Sb[:, :3, :3] = Rb
-        Sb[:, 3:6, 3:6] = Rb
-        Sb[:, np.arange(6, nv), np.arange(6, nv)] = 1.0
+        Sb = world_map(Rb, nv)
         y = world_coordinates(q, Rb)
         k = plan.rest_frames - 1
         for t in [*range(k), *range(T - 1 - k, T - 1)]:
