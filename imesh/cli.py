@@ -382,7 +382,7 @@ def cmd_retarget(args) -> int:
                                          for k, v in failed.items()}}
     if failed and not args.force:
         raise VerificationError(f"retargeted motion of {args.clip} for {robot.name}", failed)
-    save_robot_motion(args.output, robot_motion)
+    save_robot_motion(args.output, robot_motion, markers=result.adapted)
     if args.markers:
         save_marker_motion(args.markers, result.adapted)
     if args.report:

@@ -23,6 +23,7 @@ The command line (``imesh evaluate``) is :func:`add_parser` + :func:`run`.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import os
@@ -107,16 +108,37 @@ def load_motion_file(path: str | os.PathLike, robot, fps: float | None = None) -
             names (listing the valid ones), non-finite values, a motion of another robot.
     """
     path = Path(path)
+    adapted = None
     if path.suffix.lower() == ".npz" and path.is_file():
         arrays = load_npz(path, "robot motion")
         if not set(NPZ_KEYS) <= set(arrays):
             return _load_plain_npz(path, arrays, robot, fps)
+        adapted = _stored_markers(path, arrays)
     motion = load_robot_motion(path, robot)
+    if adapted is not None:
+        if adapted.n_frames != motion.n_frames:
+            raise MotionFileError(str(path), f"adapted_positions_m has {adapted.n_frames} "
+                                  f"frames, the motion {motion.n_frames}")
+        motion = dataclasses.replace(motion, meta={**motion.meta, "adapted_markers": adapted})
     if fps is not None and abs(fps - motion.fps) > 1e-6 * motion.fps:
         log.warning("%s: the file says %g fps; using %g fps as asked", path, motion.fps, fps)
         motion = RobotMotion(q=motion.q, fps=fps, robot=motion.robot,
                              joint_names=motion.joint_names, meta=motion.meta)
     return motion
+
+
+def _stored_markers(path: Path, arrays: Mapping[str, np.ndarray]) -> MarkerMotion | None:
+    """The adapted markers an imesh motion file carries (``save_robot_motion(markers=)``)."""
+    if "adapted_positions_m" not in arrays:
+        return None
+    try:
+        pos = np.asarray(arrays["adapted_positions_m"], dtype=np.float64)
+        names = tuple(str(n) for n in np.asarray(arrays["adapted_marker_names"]).reshape(-1))
+        return MarkerMotion(positions_m=pos, fps=float(arrays["fps"]), names=names,
+                            valid=np.isfinite(pos).all(axis=-1) if pos.ndim == 3 else pos,
+                            source=f"{path}:adapted_positions_m")
+    except (KeyError, TypeError, ValueError, ImeshError) as exc:
+        raise MotionFileError(str(path), f"unreadable adapted markers ({exc})") from None
 
 
 def _load_plain_npz(path: Path, data: Mapping[str, np.ndarray], robot, fps: float | None
@@ -316,6 +338,8 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
     if source is not None:
         src = arranged_source(source, robot)
     ref_markers, ref_kind = None, ""
+    if adapted is None and motion.meta.get("adapted_markers") is not None:
+        adapted = motion.meta["adapted_markers"]  # stored in the motion file by retarget
     if adapted is not None:
         ref_markers, ref_kind = _markers(adapted, "adapted markers"), "adapted markers"
     elif src is not None:

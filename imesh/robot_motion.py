@@ -198,12 +198,16 @@ class RobotMotion:
 
 
 # ---------------------------------------------------------------------------------------- files
-def save_robot_motion(path: str | os.PathLike, motion: RobotMotion) -> None:
+def save_robot_motion(path: str | os.PathLike, motion: RobotMotion, markers=None) -> None:
     """Write a robot motion as .npz or .csv (see the module docstring), atomically.
 
     Args:
         path: output file; the suffix (.npz or .csv) chooses the format.
         motion: the motion to write.
+        markers: the adapted markers the motion was fitted to (a MarkerMotion with the same
+            frames), stored in a .npz as ``adapted_positions_m`` (T, M, 3) [m] and
+            ``adapted_marker_names`` (M,), so ``imesh evaluate`` measures ``marker_rms_mm``
+            against them; not written to a .csv.
 
     Raises:
         OptionError: unknown suffix (lists the valid ones).
@@ -211,12 +215,19 @@ def save_robot_motion(path: str | os.PathLike, motion: RobotMotion) -> None:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".npz":
+        extra = {}
+        if markers is not None:
+            if markers.n_frames != motion.n_frames:
+                raise InvalidMotionError(f"{path}: {markers.n_frames} frames of adapted markers "
+                                         f"for a motion of {motion.n_frames} frames")
+            extra = {"adapted_positions_m": markers.positions_m,
+                     "adapted_marker_names": np.array(markers.names, dtype=np.str_)}
         with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             np.savez_compressed(
                 fh, fps=np.float64(motion.fps), robot=np.str_(motion.robot),
                 joint_names=np.array(motion.joint_names, dtype=np.str_).reshape(-1),
                 base_position=motion.base_position, base_quat_xyzw=motion.base_quat_xyzw,
-                joint_positions=motion.joint_positions,
+                joint_positions=motion.joint_positions, **extra,
             )
     elif suffix == ".csv":
         bad = [n for n in motion.joint_names if not n or any(c in n for c in ',"\n\r')]

@@ -58,7 +58,8 @@ def test_cli_retarget_writes_the_contract(mocap, tmp_path):
     assert code == 0
     with np.load(out) as data:
         assert set(data.files) == {"fps", "robot", "joint_names", "base_position",
-                                   "base_quat_xyzw", "joint_positions"}
+                                   "base_quat_xyzw", "joint_positions", "adapted_positions_m",
+                                   "adapted_marker_names"}
         assert str(data["robot"]) == "hrp4c"
         t = data["joint_positions"].shape[0]
         assert data["base_position"].shape == (t, 3) and data["base_quat_xyzw"].shape == (t, 4)
@@ -108,3 +109,22 @@ def test_flight_option_lists_unconstrained_frames_and_is_verified(mocap, tmp_pat
                  "-o", str(out2)])
     assert code == (3 if failed else 0)
     assert out2.is_file() == (not failed)
+
+
+def test_evaluate_reads_the_adapted_markers_from_the_motion_file(mocap, tmp_path, capsys):
+    """retarget stores the adapted markers in its .npz: imesh evaluate measures marker_rms_mm
+    against them (the same number as with --adapted), not against the arranged source."""
+    import json
+
+    out, markers = tmp_path / "walk.npz", tmp_path / "walk_markers.npz"
+    assert main(["-q", "retarget", str(mocap("cmu_02_01_walk.bvh")), "--robot", "jvrc1", "-o",
+                 str(out), "--markers", str(markers)]) == 0
+    reports = []
+    for extra in ([], ["--adapted", str(markers)]):
+        rep = tmp_path / f"rep{len(reports)}.json"
+        assert main(["evaluate", str(out), "--robot", "jvrc1", "--json", str(rep), *extra]) == 0
+        reports.append(json.loads(rep.read_text())["marker_rms_mm"])
+    capsys.readouterr()
+    assert reports[0]["reference"] == reports[1]["reference"] == "adapted markers"
+    assert reports[0]["value"] == pytest.approx(reports[1]["value"], abs=1e-9)
+    assert reports[0]["value"] < 60.0
