@@ -283,8 +283,9 @@ def test_cli_fit_sqp_re_solves_the_pipeline_arms(mocap, tmp_path, capsys):
     code = main(["-q", "retarget", str(mocap(WAVE)), "--robot", "jvrc1", "--fit", "sqp",
                  "-o", str(out), "--json", str(rep)])
     assert code == 0
-    with np.load(out) as data:
-        assert sorted(data.files) == sorted(NPZ_KEYS)
+    with np.load(out) as data:  # the motion, and the adapted markers it was fitted to
+        assert sorted(data.files) == sorted(
+            (*NPZ_KEYS, "adapted_positions_m", "adapted_marker_names"))
     sqp = json.loads(rep.read_text())["fit_sqp"]
     assert sqp["mode"] == "refine"
     assert sqp["frames_outside"] == {"position": 0, "velocity": 0, "acceleration": 0}
