@@ -54,7 +54,8 @@ def _moved(robot, q, dq):
 
 
 def test_linearization_matches_finite_differences(robot):
-    """Key points, sole poses, ground points and CoM move as their Jacobians predict: the
+    """Key points, sole poses, ground points (feet and other leg proxies) and CoM move as their
+    Jacobians predict: the
     first-order error of a 1e-6 step is below 1e-9 m (second order), not 1e-6."""
     q = _sway(robot, T=12)
     plan, _, targets = _plan(robot, q)
@@ -70,6 +71,9 @@ def test_linearization_matches_finite_differences(robot):
     assert np.abs(pred_soles - lin2.soles[..., :3, 3]).max() < 1e-10
     pred_z = lin.corners[..., 2] + np.einsum("tspn,tn->tsp", lin.corner_jacobians_z, dq)
     assert np.abs(pred_z - lin2.corners[..., 2]).max() < 1e-10
+    assert lin.body_z.shape[1] > 0  # JVRC-1's shins and knees
+    pred_b = lin.body_z + np.einsum("tqn,tn->tq", lin.body_jacobians_z, dq)
+    assert np.abs(pred_b - lin2.body_z).max() < 1e-10
     pred_com = lin.com + np.einsum("tan,tn->ta", lin.com_jacobians, dq)
     assert np.abs(pred_com - lin2.com).max() < 1e-10
     # sole rotation: R' = exp([J_w dq]) R

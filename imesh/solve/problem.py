@@ -149,6 +149,8 @@ class Linearization:
         soles: (T, 2, 4, 4) sole frame poses [left, right]; sole_jacobians: (T, 2, 6, nv).
         corners: (T, 2, P, 3) [m] the feet's ground points (sole corners and the bottom of
             their collision proxies); corner_jacobians_z: (T, 2, P, nv) rows of their heights.
+        body_z: (T, Q) [m] heights of the other leg proxies' points (shins, knees, ankle
+            links); body_jacobians_z: (T, Q, nv) rows of their heights.
         com: (T, 3) [m]; com_jacobians: (T, 3, nv).
         com_acceleration: (T, 3) [m/s^2] and angular_momentum_rate: (T, 3) [Nm] from
             pinocchio with the evaluator's finite-difference velocities and accelerations.
@@ -166,6 +168,8 @@ class Linearization:
     sole_jacobians: np.ndarray
     corners: np.ndarray
     corner_jacobians_z: np.ndarray
+    body_z: np.ndarray
+    body_jacobians_z: np.ndarray
     com: np.ndarray
     com_jacobians: np.ndarray
     com_acceleration: np.ndarray
@@ -439,6 +443,14 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
                         + _rows_at(np.repeat(tt, n_pts), np.ones((len(z), 1)), nx, T, G0))
         lo.append(np.repeat(clear, n_pts) - z)
         hi.append(np.full(len(z), np.inf))
+    # the other leg proxies' points near the ground stay above it (elastic, the ground slack)
+    tb, qb = np.nonzero(lin.body_z < 0.05)
+    if len(tb):
+        rows = lin.body_jacobians_z[tb, qb]
+        G_blocks.append(_rows_at(tb, rows, nx, T)
+                        + _rows_at(tb, np.ones((len(tb), 1)), nx, T, G0))
+        lo.append(-lin.body_z[tb, qb])
+        hi.append(np.full(len(tb), np.inf))
     # joint velocity and acceleration
     sel = sp.csr_matrix((np.ones(T * n_j), (np.arange(T * n_j),
                                              (np.arange(T)[:, None] * nx + 6
@@ -554,6 +566,8 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
         worst = np.zeros(T)
         np.maximum.at(worst, tt, short)
         penalty += config.elastic_weight * np.sum(np.maximum(worst, 0.0))
+    if lin.body_z.shape[1]:
+        penalty += config.elastic_weight * np.sum(np.maximum(-lin.body_z.min(axis=1), 0.0))
     az = lin.com_acceleration[:, 2]
     penalty += config.zmp_slack_weight * (
         np.sum(np.maximum((config.min_normal - 1.0) * GRAVITY - az[sup], 0.0))

@@ -113,6 +113,33 @@ class _Frames:
         self.kp_offsets = targets.kp_offsets
         self.dir_axes = targets.dir_axes
         self.sole_corners = foot_ground_points(robot)  # (2, P, 3)
+        frames, points = leg_ground_points(robot)
+        for f in dict.fromkeys(frames):
+            if f not in ids:
+                ids.append(f)
+        self.ids = ids
+        self.body = np.array([ids.index(f) for f in frames], dtype=int)
+        self.body_points = points
+
+
+def leg_ground_points(robot, below: float = 0.4) -> tuple[list[int], np.ndarray]:
+    """Points of the collision proxies that can reach the ground other than the soles' own:
+    every support point (in its frame) of the proxies on frames other than the sole frames
+    whose lowest point in the nominal pose is below ``below`` times the base height (shins,
+    knees, ankle links). Returns (frame index per point, (Q, 3) points in their frames)."""
+    soles = {robot.soles[s].frame for s in SIDES}
+    q0 = robot.q_nominal
+    frames, points = [], []
+    for shape in robot.collision_shapes:
+        if shape.frame in soles:
+            continue
+        pts = shape.support_points(n_circle=8)
+        M = robot.frame_placements(q0, [shape.frame])[0]
+        if (pts @ M[:3, :3].T + M[:3, 3])[:, 2].min() > below * q0[2]:
+            continue
+        frames += [robot.frame_id(shape.frame)] * len(pts)
+        points.append(pts)
+    return frames, (np.concatenate(points) if points else np.zeros((0, 3)))
 
 
 def foot_ground_points(robot, band_m: float = 0.005) -> np.ndarray:
@@ -158,6 +185,11 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float) -> Linearizatio
     # height rows of the corner Jacobians: J_o,z + (J_omega x r)_z
     jw = js[:, :, None, 3:]  # (T, 2, 1, 3, nv)
     cz = js[:, :, None, 2] + (jw[..., 0, :] * lever_c[..., 1:2] - jw[..., 1, :] * lever_c[..., 0:1])
+    # other leg proxies' points: heights and their Jacobian rows
+    lever_b = np.einsum("tqij,qj->tqi", R[:, frames.body], frames.body_points)
+    body_z = p[:, frames.body, 2] + lever_b[..., 2]
+    jb = J[:, frames.body]
+    body_jz = jb[:, :, 2] + (jb[:, :, 3] * lever_b[..., 1:2] - jb[:, :, 4] * lever_b[..., 0:1])
     v, a = motion_derivatives(q, fps)
     com, dh, ag = robot.centroidal_trajectory(q, v, a)
     m = robot.mass
@@ -168,7 +200,8 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float) -> Linearizatio
     rot = _base_rotations(q)
     return Linearization(points=points, point_jacobians=point_j, axes=axes,
                          axis_jacobians=J[:, frames.dirs, 3:], soles=soles, sole_jacobians=js,
-                         corners=corners, corner_jacobians_z=cz, com=kin.com,
+                         corners=corners, corner_jacobians_z=cz, body_z=body_z,
+                         body_jacobians_z=body_jz, com=kin.com,
                          com_jacobians=kin.com_jacobians, com_acceleration=acc,
                          angular_momentum_rate=ld, centroidal_angular=ag[:, 3:5], mass=m,
                          zmp_multibody=zmp,
