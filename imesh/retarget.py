@@ -62,8 +62,6 @@ class RetargetConfig:
         wholebody: WholeBodyConfig of the whole-body solve.
         nishiwaki: BalanceConfig of the Nishiwaki loop (``balance="nishiwaki"``).
         lead_s: standing lead-in and lead-out of the whole-body solve [s] (0: none).
-        plan_contacts: plan the robot's support on the whole human contact phases instead of
-            their flat part (heel strike and toe-off then happen flat-footed).
         allow_flight: accept flight phases (both feet up): those frames get no support and no
             ZMP constraint, and the result lists them. False: refuse them with FlightPhaseError
             before any work.
@@ -86,7 +84,6 @@ class RetargetConfig:
     wholebody: WholeBodyConfig = field(default_factory=WholeBodyConfig)
     nishiwaki: object | None = None
     lead_s: float = 1.0
-    plan_contacts: bool = False
     allow_flight: bool = False
     lowpass_hz: float | None = 8.0
     foot_weight: float = 10.0
@@ -376,9 +373,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     elif config.balance == "wholebody":
         t3 = time.perf_counter()
         n_lead = int(round(config.lead_s * source.fps))
-        planned = contacts.support if config.plan_contacts else flat.support
         q_init = smooth_initializer(robot, q_out, source.fps, config.wholebody.initial_lowpass_hz)
-        ext = add_lead(q_init, fit_markers.positions_m, planned, n_lead, n_lead,
+        ext = add_lead(q_init, fit_markers.positions_m, flat.support, n_lead, n_lead,
                        step_frames=int(round(0.5 * source.fps)))
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")

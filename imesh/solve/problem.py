@@ -41,7 +41,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..contacts import SIDES
 from ..errors import OptionError
 from .qp import SOLVERS, QpProblem
 
@@ -419,16 +418,13 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     # --- inequalities --------------------------------------------------------------------------
     G_blocks, lo, hi = [], [], []
     # support soles on their footprints, elastic: |J_f dq_t - e_t| <= s_f,t (each of 6 rows)
-    for k in range(len(SIDES)):
-        ts = np.flatnonzero(plan.support[:, k])
-        if not len(ts):
-            continue
-        cur, tgt = lin.soles[ts, k], plan.sole_targets[ts, k]
-        dp = tgt[:, :3, 3] - cur[:, :3, 3]
-        dr = _log3(tgt[:, :3, :3] @ np.transpose(cur[:, :3, :3], (0, 2, 1)))
-        e = np.concatenate([dp, dr], axis=1).ravel()
-        rows = _rows_at(np.repeat(ts, 6), lin.sole_jacobians[ts, k].reshape(-1, nv), nx, T)
-        slack = _rows_at(np.repeat(ts, 6), np.ones((6 * len(ts), 1)), nx, T, F0 + k)
+    ts, ks, err = sole_errors(lin, plan)
+    if len(ts):
+        e = err.ravel()
+        rows = _rows_at(np.repeat(ts, 6), lin.sole_jacobians[ts, ks].reshape(-1, nv), nx, T)
+        slack = sp.csr_matrix((np.ones(len(e)), (np.arange(len(e)),
+                                                 np.repeat(ts * nx + F0 + ks, 6))),
+                              shape=(len(e), N))
         G_blocks += [rows - slack, rows + slack]
         lo += [np.full(len(e), -np.inf), e]
         hi += [e, np.full(len(e), np.inf)]
@@ -522,6 +518,22 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
                      x_l=x_l.ravel(), x_u=x_u.ravel())
 
 
+def sole_errors(lin: Linearization, plan: Plan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each support sole is off its footprint.
+
+    Returns:
+        (frames (N,), feet (N,), errors (N, 6)) over the support samples: ``[p_F - p_f,
+        log(R_F R_f^T)]``, the world translation [m] and rotation vector [rad] that would put
+        the sole frame on its footprint (the right-hand side of the sole rows).
+    """
+    tt, kk = np.nonzero(plan.support)
+    cur, tgt = lin.soles[tt, kk], plan.sole_targets[tt, kk]
+    dp = tgt[:, :3, 3] - cur[:, :3, 3]
+    dr = _log3(tgt[:, :3, :3] @ np.transpose(cur[:, :3, :3], (0, 2, 1))) if len(tt) \
+        else np.zeros((0, 3))
+    return tt, kk, np.concatenate([dp, dr], axis=1)
+
+
 def _clearance(plan: Plan, config: WholeBodyConfig) -> np.ndarray:
     if plan.clearance is not None:
         return plan.clearance
@@ -554,12 +566,8 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
         worst = np.zeros(T)
         np.maximum.at(worst, hp_frame, out)
         penalty += config.zmp_slack_weight * np.sum(np.maximum(worst, 0.0))
-    tt, kk = np.nonzero(plan.support)
-    if len(tt):
-        cur, tgt = lin.soles[tt, kk], plan.sole_targets[tt, kk]
-        dp = np.abs(tgt[:, :3, 3] - cur[:, :3, 3]).max(axis=1)
-        dr = np.abs(_log3(tgt[:, :3, :3] @ np.transpose(cur[:, :3, :3], (0, 2, 1)))).max(axis=1)
-        penalty += config.elastic_weight * np.sum(np.maximum(dp, dr))
+    _, _, err = sole_errors(lin, plan)
+    penalty += config.elastic_weight * np.sum(np.abs(err).max(axis=1, initial=0.0))
     tt, kk = np.nonzero(~plan.support)
     if len(tt):
         short = _clearance(plan, config)[tt, kk] - lin.corners[tt, kk, :, 2].min(axis=1)

@@ -30,7 +30,15 @@ from .footprints import (
     split_pivots,
     support_halfplanes,
 )
-from .problem import GRAVITY, Linearization, Plan, WholeBodyConfig, build_qp, merit
+from .problem import (
+    GRAVITY,
+    Linearization,
+    Plan,
+    WholeBodyConfig,
+    build_qp,
+    merit,
+    sole_errors,
+)
 from .qp import solve_qp
 
 log = logging.getLogger(__name__)
@@ -293,11 +301,9 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
 def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_seconds: float,
             qp_iterations: int, margin: float) -> IterationReport:
     sup = plan.support
-    tt, kk = np.nonzero(sup)
-    cur, tgt = lin.soles[tt, kk], plan.sole_targets[tt, kk]
-    pos_err = np.linalg.norm(cur[:, :3, 3] - tgt[:, :3, 3], axis=1).max(initial=0.0)
-    rel = np.einsum("nji,njk->nik", tgt[:, :3, :3], cur[:, :3, :3])
-    ang = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1)).max(initial=0.0)
+    _, _, err = sole_errors(lin, plan)
+    pos_err = np.linalg.norm(err[:, :3], axis=1).max(initial=0.0)
+    ang = np.linalg.norm(err[:, 3:], axis=1).max(initial=0.0)  # |log R| is the angle
     sw_t, sw_k = np.nonzero(~sup)
     lowest = lin.corners[sw_t, sw_k, :, 2].min(initial=np.inf)
     hp_frame, hp_n, hp_b = plan.halfplanes
