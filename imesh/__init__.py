@@ -5,7 +5,6 @@ Data flow: ``load_motion`` (BVH, ASF/AMC, C3D, TRC) -> ``to_standard`` (standard
 fitting, balance and physics (later stages). ``adapt_motion`` runs the marker-level pipeline.
 """
 
-from .adapt import AdaptResult, adapt_motion
 from .errors import (
     ConstraintError,
     ImeshError,
@@ -17,13 +16,24 @@ from .errors import (
     SolverError,
     UnsupportedFormatError,
 )
-from .gaps import fill_gaps
-from .io import load_motion
-from .markerset import STANDARD_BONES, STANDARD_MARKERS, to_standard
-from .mesh.interaction import InteractionMesh, build_interaction_mesh
-from .morph.problem import MorphConfig, MorphProblem, build_morph_problem
-from .morph.solver import MorphResult, solve_morph
-from .motion import MarkerMotion
+from .lazy import lazy_exports
+
+#: Public names defined in submodules, imported on first use (PEP 562) so that ``import imesh``
+#: and ``imesh --help`` do not pay for scipy, pinocchio and the solvers.
+_LAZY = {
+    "AdaptResult": ".adapt", "adapt_motion": ".adapt",
+    "fill_gaps": ".gaps",
+    "load_motion": ".io",
+    "STANDARD_BONES": ".markerset", "STANDARD_MARKERS": ".markerset", "to_standard": ".markerset",
+    "InteractionMesh": ".mesh.interaction", "build_interaction_mesh": ".mesh.interaction",
+    "MorphConfig": ".morph.problem", "MorphProblem": ".morph.problem",
+    "build_morph_problem": ".morph.problem",
+    "MorphResult": ".morph.solver", "solve_morph": ".morph.solver",
+    "MarkerMotion": ".motion",
+}
+
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 
 __version__ = "0.1.0"
 

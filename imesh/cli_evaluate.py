@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from .evaluate import evaluate_motion, format_table, load_motion_file
-
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``evaluate`` command to an argparse subparsers object."""
@@ -38,6 +36,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """Run ``imesh evaluate`` with parsed arguments; returns the exit status."""
+    from .evaluate import evaluate_motion, format_table, load_motion_file
     from .export import write_json
     from .robot import load_robot
 

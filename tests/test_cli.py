@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import pytest
 
@@ -91,3 +93,29 @@ def test_demo_runs_on_the_builtin_clip(tmp_path):
     assert report["bone_residual_m"] <= 1e-6
     assert (tmp_path / "adapted_markers.npz").is_file()
     assert (tmp_path / "adaptation.png").stat().st_size > 10_000
+
+
+def test_help_imports_no_heavy_module():
+    """``imesh --help`` builds every sub-command's parser without importing scipy, pinocchio or
+    the solvers (the package's public names are lazy), so it starts in a fraction of a second."""
+    code = ("import sys; from imesh.cli import main\n"
+            "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "heavy = sorted(m for m in ('scipy', 'pinocchio', 'dartpy', 'imesh.solve', "
+            "'imesh.fit', 'imesh.evaluate') if m in sys.modules)\n"
+            "print('HEAVY', heavy)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert "HEAVY []" in out
+
+
+def test_lazy_public_names():
+    import imesh
+    import imesh.arms
+    import imesh.reduction
+
+    assert imesh.adapt_motion.__module__ == "imesh.adapt"
+    assert imesh.arms.imitate_arms.__module__ == "imesh.arms.solve"
+    assert imesh.reduction.reduce_motion.__module__ == "imesh.reduction.pipeline"
+    assert set(imesh.__all__) <= set(dir(imesh))
+    with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
+        _ = imesh.nonsense

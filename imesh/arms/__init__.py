@@ -15,21 +15,20 @@ Example:
     >>> result.report()           # hand-point RMS, upper-arm error, frames outside the limits
 """
 
-from .bounds import JointLimits, Violations, check_limits, frame_box
-from .config import SOLVERS, ArmsConfig
-from .errors import ArmsError
-from .geometry import ArmModel, arm_model, derived_arm_joints, suggest_hand_points
-from .problem import FrameObjective
-from .solve import (
-    REFINE_CONFIG,
-    ArmResult,
-    ArmsResult,
-    human_arm_markers,
-    imitate_arms,
-    refine_arms,
-    solve_arms,
-)
-from .targets import ArmScaling, ArmTargets, arm_targets
+from ..lazy import lazy_exports
+
+_LAZY = {
+    **dict.fromkeys(("JointLimits", "Violations", "check_limits", "frame_box"), ".bounds"),
+    **dict.fromkeys(("SOLVERS", "ArmsConfig"), ".config"),
+    "ArmsError": ".errors",
+    **dict.fromkeys(("ArmModel", "arm_model", "derived_arm_joints", "suggest_hand_points"),
+                    ".geometry"),
+    "FrameObjective": ".problem",
+    **dict.fromkeys(("REFINE_CONFIG", "ArmResult", "ArmsResult", "human_arm_markers",
+                     "imitate_arms", "refine_arms", "solve_arms"), ".solve"),
+    **dict.fromkeys(("ArmScaling", "ArmTargets", "arm_targets"), ".targets"),
+}
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 
 __all__ = [
     "REFINE_CONFIG", "SOLVERS", "ArmModel", "ArmResult", "ArmScaling", "ArmTargets",

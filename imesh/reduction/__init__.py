@@ -19,14 +19,20 @@ Pipeline (each step is a public function):
 :mod:`imesh.reduction.dynamics`; DART only in :mod:`imesh.reduction.dart_run`; both lazily.
 """
 
-from .capture import SagittalCapture, sagittal_capture
-from .chain import JOINTS, LINKS, ChainError, PlanarChain
-from .contact import ContactSchedule, contact_schedule
-from .cyclic import CyclicMotion, make_cyclic
-from .diff import derivative_matrices
-from .optimize import MotionOptimizer, OptimizationResult, ReductionConfig
-from .pca import PCABasis, pca_basis
-from .pipeline import CycleConfig, ReductionResult, reduce_motion, save_reduction
+from ..lazy import lazy_exports
+
+_LAZY = {
+    **dict.fromkeys(("SagittalCapture", "sagittal_capture"), ".capture"),
+    **dict.fromkeys(("JOINTS", "LINKS", "ChainError", "PlanarChain"), ".chain"),
+    **dict.fromkeys(("ContactSchedule", "contact_schedule"), ".contact"),
+    **dict.fromkeys(("CyclicMotion", "make_cyclic"), ".cyclic"),
+    "derivative_matrices": ".diff",
+    **dict.fromkeys(("MotionOptimizer", "OptimizationResult", "ReductionConfig"), ".optimize"),
+    **dict.fromkeys(("PCABasis", "pca_basis"), ".pca"),
+    **dict.fromkeys(("CycleConfig", "ReductionResult", "reduce_motion", "save_reduction"),
+                    ".pipeline"),
+}
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 
 __all__ = [
     "JOINTS", "LINKS", "ChainError", "ContactSchedule", "CycleConfig", "CyclicMotion",
