@@ -106,8 +106,10 @@ def test_zmp_linearization_predicts_the_multibody_zmp(robot):
     x[:, nv + 3:nv + 5] = -(A[3 * T:5 * T] @ x.ravel()).reshape(T, 2)  # rows dk - M_k dq
     hp_frame, hp_n, hp_b = plan.halfplanes
     R = len(hp_frame)
-    n_band = 4 * int(plan.support.any(axis=1).sum())  # then the band rows, normal-force rows
-    G = qp.G.tocsr()[-R - n_band - T:-n_band - T]  # the ZMP polygon rows
+    n_sup = int(plan.support.any(axis=1).sum())
+    # after the polygon rows: the band rows, the normal-force rows and the friction rows
+    after = 4 * n_sup + 2 * n_sup + 4 * n_sup
+    G = qp.G.tocsr()[-R - after:-after]  # the ZMP polygon rows
     predicted = G @ x.ravel()
     actual = np.sum(hp_n * (lin2.zmp_multibody - lin.zmp_multibody)[hp_frame], axis=1)
     assert np.abs(actual).max() > 1e-4  # the step does move the ZMP
@@ -192,3 +194,6 @@ def test_default_pipeline_walk(robot, mocap):
     assert m["foot_skid_mm_per_frame"] <= 0.5
     assert m["zmp_inside_fraction"] >= 0.99
     assert m["marker_rms_mm"] <= 60.0
+    # the normal force stays within [0.7, 1.3] m g, so the sole forces the motion needs stay
+    # inside the friction cone (mu = 0.7; 1.2-1.3 on this walk with a lower bound of 0.3 m g)
+    assert m["friction_ratio_max"] <= 1.0

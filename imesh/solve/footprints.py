@@ -30,7 +30,7 @@ class Footprint:
         center_m: (3,) float [m] world sole centre (z = 0).
         corners_m: (4, 3) float [m] world sole corners (z = 0).
         polygon_m: (4, 3) float [m] world corners of the part of the sole the ZMP may use: the
-            sole rectangle clipped to where the ankle can hold the whole weight (see
+            sole rectangle clipped to where the ankle can hold the largest planned load (see
             :func:`ankle_reach`).
     """
 
@@ -95,17 +95,18 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
     return out
 
 
-def ankle_reach(robot, side: str) -> float:
+def ankle_reach(robot, side: str, load: float = 1.0) -> float:
     """[m] how far from the ankle (the sole frame's origin) the centre of pressure may go with
-    the whole weight on one foot: the weaker of the two ankle joints' effort limit over m g.
-    G1's 35 Nm ankles hold its 33 kg 0.107 m from the ankle; its sole reaches 0.12 m ahead, so a
-    ZMP at the toe asks 1.1-1.6x the ankle's limit (measured on the G1 walk before this bound)."""
+    ``load`` times the whole weight on one foot: the weaker of the two ankle joints' effort
+    limit over ``load m g``. G1's 35 Nm ankles hold its 33 kg 0.107 m from the ankle (0.082 m
+    at the solve's largest normal force, 1.3 m g); its sole reaches 0.12 m ahead, so a ZMP at
+    the toe asks 1.1-1.6x the ankle's limit (measured on the G1 walk before this bound)."""
     joints = robot.supporting_joints(robot.soles[side].frame)[-2:]
-    return float(np.min(robot.effort_max[joints]) / (robot.mass * 9.81))
+    return float(np.min(robot.effort_max[joints]) / (load * robot.mass * 9.81))
 
 
-def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray
-                    ) -> list[Footprint]:
+def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray,
+                    load: float = 1.0) -> list[Footprint]:
     """One level footprint on z = 0 per support phase of each foot.
 
     Args:
@@ -113,6 +114,8 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         sole_poses: side -> (T, 4, 4) float world poses of the sole frames along the initial
             trajectory.
         support: (T, 2) bool [left, right] planned support.
+        load: the largest normal force on one foot, times the weight (the polygon is clipped
+            to :func:`ankle_reach` at this load).
 
     Returns:
         Footprints of both feet, in order of side then time.
@@ -124,7 +127,7 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         sole = robot.soles[side]
         rot_level = level[k]
         poses = sole_poses[side]
-        reach = ankle_reach(robot, side)
+        reach = ankle_reach(robot, side, load)
         local = sole.corners().copy()  # in the sole frame; the ankle is its origin
         local[:, :2] = np.clip(local[:, :2], -reach, reach)
         for start, stop in runs(support[:, k]):

@@ -26,7 +26,10 @@ Constraints:
   solvable; the slack vanishes where the constraints can be met);
 * joints: position bounds; ``|Delta q| <= v_max dt``; ``|Delta^2 q| <= a_max dt^2`` (elastic,
   one slack per frame);
-* normal force: ``g + c_z'' >= min_normal g`` (elastic); in flight frames ``c_z'' = -g``;
+* normal force: ``min_normal g <= g + c_z'' <= max_normal g`` (elastic); in flight frames
+  ``c_z'' = -g``;
+* friction: ``|c_a''| <= (mu / sqrt 2) (g + c_z'')`` for a = x, y in support frames (elastic):
+  the ground's total force ``m (c'' - g)`` in the friction pyramid;
 * ZMP (cart-table with the evaluator's difference operator ``D`` = gradient of gradient):
   ``p_t = c_xy,t - (c_z,t / g) (D c)_xy,t + delta_t`` inside the support polygon shrunk by
   ``zmp_margin_m``, where ``delta_t`` is the multibody ZMP minus the cart-table ZMP at the
@@ -84,7 +87,13 @@ class WholeBodyConfig:
             footprint at once (the initializer far from it) still has a solution that moves
             towards it; at a feasible point the slack is 0.
         min_normal: the total normal force stays above this fraction of the weight
-            (``g + c_z'' >= min_normal g``): the ground cannot pull.
+            (``g + c_z'' >= min_normal g``): the ground cannot pull, and a tracking controller
+            whose feet carry less than this at a push-off leaves the ground.
+        max_normal: ... and below this fraction (``g + c_z'' <= max_normal g``): the support
+            joints carry at most this times the weight (a human walk stays within about 0.7
+            and 1.3).
+        friction: mu of the friction cone the ground's total horizontal force stays in (the
+            evaluator's ``friction_ratio_max`` uses the same mu); 0: no friction rows.
         trust_region: largest change of any base or joint coordinate in one iteration [m or
             rad], so the linearization stays valid.
         base_trust: the base translation's region is this fraction of ``trust_region`` [m].
@@ -112,7 +121,9 @@ class WholeBodyConfig:
     swing_edge_m: float = 0.02
     zmp_slack_weight: float = 1e3
     elastic_weight: float = 1e4
-    min_normal: float = 0.3
+    min_normal: float = 0.7
+    max_normal: float = 1.3
+    friction: float = 0.7
     trust_region: float = 0.3
     base_trust: float = 0.2
     initial_lowpass_hz: float = 4.0
@@ -129,10 +140,13 @@ class WholeBodyConfig:
                      "init_weight", "zmp_margin_m", "velocity_margin", "acceleration_margin",
                      "clearance_m", "swing_lift_m", "swing_edge_m", "zmp_slack_weight",
                      "elastic_weight", "zmp_band_m", "trust_region", "initial_lowpass_hz",
-                     "base_trust", "min_normal"):
+                     "base_trust", "min_normal", "max_normal", "friction"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise OptionError(name, value, "a non-negative number")
+        if self.max_normal < self.min_normal:
+            raise OptionError("max_normal", self.max_normal,
+                              f"a number >= min_normal ({self.min_normal})")
         if self.solver not in SOLVERS:
             raise OptionError("solver", self.solver, SOLVERS)
 
@@ -491,9 +505,23 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     # no ground: the CoM falls, c_z'' = -g. Both elastic.
     vert = (acc_z + pick(S0)).tocsr()
     flight = ~sup
-    G_blocks.append(vert[sup])
-    lo.append(((config.min_normal - 1.0) * GRAVITY - acc[:, 2])[sup])
-    hi.append(np.full(int(sup.sum()), np.inf))
+    G_blocks += [vert[sup], (acc_z - pick(S0)).tocsr()[sup]]
+    lo += [((config.min_normal - 1.0) * GRAVITY - acc[:, 2])[sup],
+           np.full(int(sup.sum()), -np.inf)]
+    hi += [np.full(int(sup.sum()), np.inf),
+           ((config.max_normal - 1.0) * GRAVITY - acc[:, 2])[sup]]
+    # friction: the ground's horizontal force m c_xy'' within the cone of its normal force,
+    # |c_a''| <= mu' (g + c_z'') per horizontal axis (mu' = mu / sqrt 2, the pyramid inside the
+    # cone); exact for the total force, so for the sole's force in single support (elastic)
+    if config.friction > 0 and sup.any():
+        mu = config.friction / np.sqrt(2.0)
+        n_sup = int(sup.sum())
+        for axis, aux in ((0, cx), (1, cy)):
+            acc_a = Dacc @ aux
+            for sign in (1.0, -1.0):
+                G_blocks.append((sign * acc_a - mu * acc_z - pick(S0)).tocsr()[sup])
+                lo.append(np.full(n_sup, -np.inf))
+                hi.append((mu * (GRAVITY + acc[:, 2]) - sign * acc[:, axis])[sup])
     if flight.any():
         down = (acc_z - pick(S0)).tocsr()[flight]
         G_blocks += [vert[flight], down]
@@ -579,6 +607,10 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     az = lin.com_acceleration[:, 2]
     penalty += config.zmp_slack_weight * (
         np.sum(np.maximum((config.min_normal - 1.0) * GRAVITY - az[sup], 0.0))
+        + np.sum(np.maximum(az[sup] - (config.max_normal - 1.0) * GRAVITY, 0.0))
+        + (np.sum(np.maximum(np.abs(lin.com_acceleration[sup, :2]).max(axis=1)
+                             - config.friction / np.sqrt(2.0) * (GRAVITY + az[sup]), 0.0))
+           if config.friction > 0 else 0.0)
         + np.sum(np.abs(az[~sup] + GRAVITY)))
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
         1 - config.acceleration_margin)

@@ -273,7 +273,7 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     kin = robot.trajectory_kinematics(q_init, [frames.ids[i] for i in frames.soles])
     poses = {s: kin.placements[:, k] for k, s in enumerate(SIDES)}
     support = split_pivots(robot, poses, support, fps)
-    footprints = plan_footprints(robot, poses, support)
+    footprints = plan_footprints(robot, poses, support, load=config.max_normal)
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
         sole_targets[f.start:f.stop, SIDES.index(f.side)] = f.frame_pose
