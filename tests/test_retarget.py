@@ -47,7 +47,8 @@ def test_wholebody_solves_the_wave(wave):
     m = metric_values(evaluate_motion(robot, res.motion, adapted=res.adapted))
     assert m["limit_violation_frames"] == 0
     assert m["zmp_inside_fraction"] >= 0.95  # issue 14 asks 0.99: docs/wholebody.md
-    assert m["marker_rms_mm"] <= 90.0
+    # 81 mm before the normal-force bound clipped the ankle polygons at 1.3 m g (docs/wholebody.md)
+    assert m["marker_rms_mm"] <= 95.0
     assert res.wholebody.history[-1].sole_error_m <= 2e-3
 
 

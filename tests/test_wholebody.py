@@ -93,7 +93,8 @@ def test_zmp_linearization_predicts_the_multibody_zmp(robot):
     lin = linearize(robot, q, frames, FPS)
     qp = build_qp(lin, plan, q, WholeBodyConfig())
     rng = np.random.default_rng(1)
-    nv, nx = robot.nv, robot.nv + 12
+    nv = robot.nv
+    nx = qp.P.shape[0] // len(q)  # dq, the auxiliaries and the slacks of a frame
     dq = np.zeros((len(q), nv))
     dq[:, 6:] = rng.normal(size=(len(q), nv - 6)) * 2e-4
     lin2 = linearize(robot, _moved(robot, q, dq), frames, FPS)
@@ -197,3 +198,73 @@ def test_default_pipeline_walk(robot, mocap):
     # the normal force stays within [0.7, 1.3] m g, so the sole forces the motion needs stay
     # inside the friction cone (mu = 0.7; 1.2-1.3 on this walk with a lower bound of 0.3 m g)
     assert m["friction_ratio_max"] <= 1.0
+
+
+@pytest.mark.parametrize("supported", [False, True])
+def test_torque_rows_match_finite_differences(robot, supported):
+    """The torque rows predict the evaluator's net joint torques after a step to first order,
+    without support and with both feet down (the split between the soles moves with the legs:
+    without its derivative the error was 17 % of the change at the ankles): the error of a 1e-4
+    step is below 0.2 % of the change (second order), not a fraction of it."""
+    from scipy.spatial.transform import Rotation
+
+    from imesh.metrics.dynamics import reference_dynamics
+    from imesh.metrics.kinematics import motion_derivatives
+    from imesh.solve.torque import _linearize_split
+
+    q = _sway(robot, T=12, amplitude=0.6)
+    plan, _, targets = _plan(robot, q)
+    frames = _Frames(robot, targets)
+    support = np.full((len(q), 2), supported)
+    # the base walks (0.6 m/s) and turns (1.5 rad/s), so its differences are not those of joints
+    q[:, 0] += 0.02 * np.arange(len(q))
+    q[:, 3:7] = (Rotation.from_rotvec(np.outer(0.05 * np.arange(len(q)), [0.1, 0.2, 1.0]))
+                 * Rotation.from_quat(q[:, 3:7])).as_quat()
+
+    def split(q):  # every row active
+        lin = linearize(robot, q, frames, FPS)
+        v, a = motion_derivatives(q, FPS)
+        tau, _ = robot.inverse_dynamics_trajectory(q, v, a)
+        return _linearize_split(robot, q, v, a, FPS, support, lin.sole_jacobians, 1e-9, tau)
+
+    trq = split(q)
+    assert len(trq.frames) >= len(q) * robot.dof // 2  # all but the unloaded joints
+    rng = np.random.default_rng(1)
+    dq = rng.normal(size=(len(q), robot.nv)) * 1e-4
+    q2 = _moved(robot, q, dq)
+    pred = trq.values + np.einsum("rwn,rwn->r", trq.coefficients, dq[trq.columns])
+    actual = split(q2).ratio[trq.frames, trq.joints]
+    change = np.abs(actual - trq.values).max()
+    assert change > 1e-4  # the step moves the torques
+    error = np.abs(pred - actual).max()
+    assert error < 2e-3 * change
+    # the ratios are the evaluator's (reference_dynamics, same finite differences)
+    v, a = motion_derivatives(q2, FPS)
+    ref = reference_dynamics(robot, q2, v, a, support)
+    assert np.isclose(np.abs(split(q2).ratio).max(), ref.torque_ratio, rtol=1e-9)
+
+
+def test_torques_also_hold_with_the_evaluators_support(robot, mocap):
+    """The solve's support detection is the evaluator's (same soles, same thresholds), and
+    where it counts fewer feet than the plan the torques are held with both splits."""
+    from imesh.metrics.dynamics import reference_dynamics
+    from imesh.metrics.kinematics import detect_support, motion_derivatives, sole_tracks
+    from imesh.solve.torque import evaluator_support
+
+    q = _sway(robot, T=20, amplitude=0.6)
+    q[10:, 7 + robot.joint_index("R_HIP_P")] -= 0.3  # the right foot lifts and swings ahead
+    q[10:, 7 + robot.joint_index("R_KNEE")] += 0.5
+    plan, _, targets = _plan(robot, q)
+    frames = _Frames(robot, targets)
+    lin = linearize(robot, q, frames, FPS)
+    detected = detect_support(sole_tracks(robot, q, FPS)).support
+    np.testing.assert_array_equal(evaluator_support(robot, lin.soles, FPS), detected)
+    assert not detected[12:, 1].any() and detected[:, 0].all()
+    planned = np.ones((len(q), 2), bool)  # the plan keeps the right foot down throughout
+    lin = linearize(robot, q, frames, FPS, planned, torque_limit=1.0)
+    v, a = motion_derivatives(q, FPS)
+    both = [reference_dynamics(robot, q, v, a, s).torque_ratios
+            for s in (planned, planned & detected)]
+    assert not np.allclose(*both)
+    np.testing.assert_allclose(np.abs(lin.torques.ratio).max(axis=1), np.maximum(*both),
+                               rtol=1e-9)

@@ -43,6 +43,33 @@ class ReferenceDynamics:
     friction_ratios: np.ndarray
 
 
+def sole_wrench_map(J: np.ndarray) -> np.ndarray:
+    """(..., 6k, 6) map from the base wrench ``tau_b`` to the least-norm sole wrenches ``f``
+    with ``J_b^T f = tau_b``: ``pinv(J_b^T)``.
+
+    Args:
+        J: (..., 6k, nv) world-aligned Jacobians of the k support sole frames, stacked.
+    """
+    return np.linalg.pinv(np.swapaxes(J[..., :6], -1, -2))
+
+
+def net_torque_map(J: np.ndarray) -> np.ndarray:
+    """(..., nv - 6, nv) map ``P`` from the inverse-dynamics forces ``tau`` (base wrench, joint
+    torques) to the joint torques with the ground carrying the base wrench through the support
+    soles: ``P tau = tau_j - J_j^T pinv(J_b^T) tau_b`` (without support, ``P tau = tau_j``).
+
+    Args:
+        J: (..., 6k, nv) world-aligned Jacobians of the k >= 0 support sole frames, stacked
+            (a stack of frames with the same k is mapped at once).
+    """
+    nv = J.shape[-1]
+    P = np.zeros((*J.shape[:-2], nv - 6, nv))
+    P[..., 6:] = np.eye(nv - 6)
+    if J.shape[-2]:
+        P[..., :6] = -np.swapaxes(J[..., 6:], -1, -2) @ sole_wrench_map(J)
+    return P
+
+
 def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                        support: np.ndarray, mu: float = MU) -> ReferenceDynamics:
     """Joint torques and sole forces the motion needs (see the module docstring).
@@ -58,20 +85,19 @@ def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
     kin = robot.trajectory_kinematics(q, frames)
     ratio = np.zeros((T, robot.dof))
     friction = np.zeros(T)
-    for t in range(T):  # one RNEA and one small least-squares problem per frame
-        tau = robot.inverse_dynamics(q[t], v[t], a[t])
+    tau_all, _ = robot.inverse_dynamics_trajectory(q, v, a)
+    for t in range(T):  # one small least-squares problem per frame
         feet = np.flatnonzero(support[t])
+        J = kin.jacobians[t, feet].reshape(-1, robot.nv)  # (6k, nv)
+        tau = net_torque_map(J) @ tau_all[t]
         if len(feet):
-            J = kin.jacobians[t, feet].reshape(-1, robot.nv)  # (6k, nv)
-            f = np.linalg.lstsq(J[:, :6].T, tau[:6], rcond=None)[0]
-            tau = tau - J.T @ f
-            fk = f.reshape(-1, 6)
+            fk = (sole_wrench_map(J) @ tau_all[t, :6]).reshape(-1, 6)
             fz = fk[:, 2]
             tang = np.linalg.norm(fk[:, :2], axis=1)
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = np.where(fz > 0, tang / (mu * np.maximum(fz, 1e-12)), np.inf)
             friction[t] = r.max()
-        ratio[t] = np.abs(tau[6:]) / robot.effort_max
+        ratio[t] = np.abs(tau) / robot.effort_max
     t, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     sup = support.any(axis=1)
     ft = int(np.argmax(np.where(sup, friction, -1.0))) if sup.any() else -1

@@ -743,6 +743,37 @@ class Robot:
         self._jac_valid = False
         return com, dh, ag
 
+    def inverse_dynamics_trajectory(self, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                                    derivatives: np.ndarray | None = None):
+        """Inverse dynamics along a trajectory (pinocchio ``rnea``; where asked, also
+        ``computeRNEADerivatives``).
+
+        Args:
+            q: (T, nq) configurations; v, a: (T, nv) velocities and accelerations.
+            derivatives: (T,) bool frames whose partial derivatives are wanted (None: none).
+
+        Returns:
+            (tau (T, nv), dtau (T, 3, nv, nv)): generalized forces (the base's wrench in the base
+            frame, then joint torques [Nm]) and, at the frames asked for, ``[dtau/dq, dtau/dv,
+            dtau/da]`` (with respect to a tangent perturbation of q); zeros elsewhere.
+        """
+        pin, model, data = self._pin, self.model, self.data
+        T = len(q)
+        tau = np.empty((T, self.nv))
+        dtau = np.zeros((T, 3, self.nv, self.nv))
+        want = np.zeros(T, bool) if derivatives is None else np.asarray(derivatives, bool)
+        upper = np.triu(np.ones((self.nv, self.nv), bool), 1)
+        for t in range(T):  # pinocchio is per configuration
+            tau[t] = pin.rnea(model, data, q[t], v[t], a[t])
+            if want[t]:
+                dq, dv, da = pin.computeRNEADerivatives(model, data, q[t], v[t], a[t])
+                dtau[t, 0], dtau[t, 1], dtau[t, 2] = dq, dv, da
+                # pinocchio fills only the upper triangle of dtau/da (the mass matrix)
+                dtau[t, 2][upper.T] = dtau[t, 2].T[upper.T]
+        self._q = None
+        self._jac_valid = False
+        return tau, dtau
+
     def frame_angular_jacobians(self, q, frames: Sequence[int | str]) -> np.ndarray:
         """(F, 3, nv) float world angular-velocity Jacobians of frames (``omega = J @ v``)."""
         self._jac(q)

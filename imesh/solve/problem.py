@@ -30,6 +30,9 @@ Constraints:
   ``c_z'' = -g``;
 * friction: ``|c_a''| <= (mu / sqrt 2) (g + c_z'')`` for a = x, y in support frames (elastic):
   the ground's total force ``m (c'' - g)`` in the friction pyramid;
+* joint torques: ``|P_t tau_t| <= (1 - torque_margin) effort`` on the frames and joints above
+  70 % of it (elastic; inverse dynamics with the base wrench split between the support soles,
+  the evaluator's ``torque_ratio_ref``; :mod:`.torque`);
 * ZMP (cart-table with the evaluator's difference operator ``D`` = gradient of gradient):
   ``p_t = c_xy,t - (c_z,t / g) (D c)_xy,t + delta_t`` inside the support polygon shrunk by
   ``zmp_margin_m``, where ``delta_t`` is the multibody ZMP minus the cart-table ZMP at the
@@ -40,12 +43,16 @@ Constraints:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..errors import OptionError
 from .qp import SOLVERS, QpProblem
+
+if TYPE_CHECKING:
+    from .torque import TorqueLinearization
 
 GRAVITY = 9.81
 
@@ -94,6 +101,10 @@ class WholeBodyConfig:
             and 1.3).
         friction: mu of the friction cone the ground's total horizontal force stays in (the
             evaluator's ``friction_ratio_max`` uses the same mu); 0: no friction rows.
+        torque_margin: the net joint torques (inverse dynamics, the base wrench split between
+            the support soles as the evaluator's ``torque_ratio_ref``) stay within
+            ``1 - torque_margin`` of the effort limits (elastic rows, :mod:`.torque`); 1: no
+            torque rows.
         trust_region: largest change of any base or joint coordinate in one iteration [m or
             rad], so the linearization stays valid.
         base_trust: the base translation's region is this fraction of ``trust_region`` [m].
@@ -124,6 +135,7 @@ class WholeBodyConfig:
     min_normal: float = 0.7
     max_normal: float = 1.3
     friction: float = 0.7
+    torque_margin: float = 0.05
     trust_region: float = 0.3
     base_trust: float = 0.2
     initial_lowpass_hz: float = 4.0
@@ -140,10 +152,12 @@ class WholeBodyConfig:
                      "init_weight", "zmp_margin_m", "velocity_margin", "acceleration_margin",
                      "clearance_m", "swing_lift_m", "swing_edge_m", "zmp_slack_weight",
                      "elastic_weight", "zmp_band_m", "trust_region", "initial_lowpass_hz",
-                     "base_trust", "min_normal", "max_normal", "friction"):
+                     "base_trust", "min_normal", "max_normal", "friction", "torque_margin"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise OptionError(name, value, "a non-negative number")
+        if self.torque_margin > 1:
+            raise OptionError("torque_margin", self.torque_margin, "a number in [0, 1]")
         if self.max_normal < self.min_normal:
             raise OptionError("max_normal", self.max_normal,
                               f"a number >= min_normal ({self.min_normal})")
@@ -171,6 +185,7 @@ class Linearization:
             part; mass: [kg].
         zmp_multibody: (T, 2) [m] the evaluator's multibody ZMP of the trajectory.
         base_rotations: (T, 3, 3) world rotations of the base.
+        torques: the net joint torques and their working-set rows (None: not linearized).
     """
 
     points: np.ndarray
@@ -191,6 +206,7 @@ class Linearization:
     mass: float
     zmp_multibody: np.ndarray
     base_rotations: np.ndarray
+    torques: TorqueLinearization | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -307,20 +323,23 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         QpProblem over x = (x_0, ..., x_{T-1}) with x_t = (dq_t (nv), dc_t (3), dk_t (2), s_t):
         the tangent update, the CoM update ``dc_t = J_c dq_t`` and the horizontal centroidal
         angular momentum update ``dk_t`` (auxiliaries that keep the ZMP rows sparse: written in
-        dq they would couple whole 35-column blocks over 9 frames) and
-        the ZMP slack ``s_t >= 0`` (an exact L1 penalty, so a linearization whose polygon
-        cannot be met still has a solution; at a feasible point it is 0).
+        dq they would couple whole 35-column blocks over 9 frames), then the slacks of the
+        elastic rows (ZMP polygon, soles, ground, accelerations, ZMP band, torques; each
+        ``>= 0`` and priced linearly, an exact L1 penalty, so a linearization whose rows
+        cannot be met still has a solution; at a feasible point they are 0).
     """
     T, K = lin.points.shape[:2]
     nv = lin.point_jacobians.shape[-1]
-    nx = nv + 12
+    nx = nv + 13
     n_j = nv - 6
     N = T * nx
     h = 1.0 / plan.fps
     # offsets in a frame's block: dc, dk, the ZMP slack, the two soles' slacks, the ground's
     # and the acceleration rows'
     # and the acceleration rows', then the ZMP's excess over its dead band (x, y)
-    C0, K0, S0, F0, G0, A0, B0 = nv, nv + 3, nv + 5, nv + 6, nv + 8, nv + 9, nv + 10
+    # and the torque rows' slack
+    C0, K0, S0, F0, G0, A0, B0, Q0 = (nv, nv + 3, nv + 5, nv + 6, nv + 8, nv + 9, nv + 10,
+                                      nv + 12)
 
     # --- per-frame blocks: key points + interaction mesh, directions, damping ------------------
     Jp = lin.point_jacobians.reshape(T, K, 3 * nv)
@@ -347,6 +366,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     g[:, F0:F0 + 2] = config.elastic_weight
     g[:, G0] = config.elastic_weight
     g[:, A0] = config.elastic_weight
+    g[:, Q0] = config.zmp_slack_weight
     P = block_diagonal(H)
     c = g.ravel()
 
@@ -484,6 +504,21 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         G_blocks.append(D[finite])
         lo.append((-lim - d)[finite])
         hi.append((lim - d)[finite])
+    # net joint torques within the effort limits on the working set (ratio units, elastic:
+    # |r + C dq| <= 1 - margin + s_t), :mod:`.torque`
+    trq = lin.torques
+    if trq is not None and len(trq.frames):
+        R, W = trq.columns.shape
+        rows = sp.csr_matrix((trq.coefficients.ravel(),
+                              (np.repeat(np.arange(R), W * nv),
+                               (trq.columns[:, :, None] * nx + np.arange(nv)).ravel())),
+                             shape=(R, N))
+        slack = sp.csr_matrix((np.ones(R), (np.arange(R), trq.frames * nx + Q0)), shape=(R, N))
+        r0 = trq.values
+        bound = 1.0 - config.torque_margin
+        G_blocks += [rows - slack, rows + slack]
+        lo += [np.full(R, -np.inf), -bound - r0]
+        hi += [bound - r0, np.full(R, np.inf)]
     # ZMP inside the shrunk support polygons: n . (p0 + Z x) + s_t >= b + margin
     hp_frame, hp_n, hp_b = plan.halfplanes
     if len(hp_frame):
@@ -612,6 +647,8 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
                              - config.friction / np.sqrt(2.0) * (GRAVITY + az[sup]), 0.0))
            if config.friction > 0 else 0.0)
         + np.sum(np.abs(az[~sup] + GRAVITY)))
+    if lin.torques is not None:
+        penalty += config.zmp_slack_weight * np.sum(lin.torques.excess(1.0 - config.torque_margin))
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
         1 - config.acceleration_margin)
     penalty += config.elastic_weight * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))

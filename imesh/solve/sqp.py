@@ -40,6 +40,7 @@ from .problem import (
     sole_errors,
 )
 from .qp import solve_qp
+from .torque import linearize_torques
 
 log = logging.getLogger(__name__)
 
@@ -175,8 +176,11 @@ def _cross_rows(J: np.ndarray, r: np.ndarray) -> np.ndarray:
     return -np.cross(r[..., None, :], np.swapaxes(J, -1, -2)).swapaxes(-1, -2)
 
 
-def linearize(robot, q: np.ndarray, frames: _Frames, fps: float) -> Linearization:
-    """Key points, directions, soles, CoM and their Jacobians at every frame of ``q``."""
+def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
+              support: np.ndarray | None = None, torque_limit: float = 1.0) -> Linearization:
+    """Key points, directions, soles, CoM and their Jacobians at every frame of ``q``; with the
+    planned ``support`` (T, 2) also the net joint torques and the rows of those above 70 % of
+    ``torque_limit`` (a fraction of the effort limits, :mod:`.torque`)."""
     kin = robot.trajectory_kinematics(q, frames.ids)
     M, J = kin.placements, kin.jacobians
     R, p = M[..., :3, :3], M[..., :3, 3]
@@ -206,6 +210,9 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float) -> Linearizatio
     zmp = np.stack([com[:, 0] - (com[:, 2] * acc[:, 0] + ld[:, 1] / m) / dn,
                     com[:, 1] - (com[:, 2] * acc[:, 1] - ld[:, 0] / m) / dn], axis=1)
     rot = _base_rotations(q)
+    torques = None
+    if support is not None:
+        torques = linearize_torques(robot, q, v, a, fps, support, soles, js, torque_limit)
     return Linearization(points=points, point_jacobians=point_j, axes=axes,
                          axis_jacobians=J[:, frames.dirs, 3:], soles=soles, sole_jacobians=js,
                          corners=corners, corner_jacobians_z=cz, body_z=body_z,
@@ -213,7 +220,7 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float) -> Linearizatio
                          com_jacobians=kin.com_jacobians, com_acceleration=acc,
                          angular_momentum_rate=ld, centroidal_angular=ag[:, 3:5], mass=m,
                          zmp_multibody=zmp,
-                         base_rotations=rot)
+                         base_rotations=rot, torques=torques)
 
 
 def _base_rotations(q: np.ndarray) -> np.ndarray:
@@ -335,7 +342,9 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     seconds = {"linearize": 0.0, "build": 0.0, "qp": 0.0}
     t_all = time.perf_counter()
     t0 = time.perf_counter()
-    lin = linearize(robot, q, frames, plan.fps)
+    # torque rows unless the margin is 1 (the whole limit given up)
+    support = plan.support if config.torque_margin < 1 else None
+    lin = linearize(robot, q, frames, plan.fps, support, 1.0 - config.torque_margin)
     seconds["linearize"] += time.perf_counter() - t0
     history = [_report(lin, plan, q, 0.0, 0.0, 0, config.zmp_margin_m)]
     converged = False
@@ -363,7 +372,8 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         t0 = time.perf_counter()
         for alpha in (1.0, 0.5, 0.25, 0.125):
             q_new = np.array([robot.integrate(q[t], alpha * dq[t]) for t in range(T)])
-            lin_new = linearize(robot, q_new, frames, plan.fps)
+            lin_new = linearize(robot, q_new, frames, plan.fps, support,
+                                1.0 - config.torque_margin)
             phi_new = merit(lin_new, plan, q_new, config)
             if phi_new < phi:
                 break
