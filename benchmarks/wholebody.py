@@ -50,7 +50,7 @@ def main(argv=None) -> int:
                                                                      solver=args.solver))
     head = (f"{'clip':<30} {'robot':<6} {'frames':>6} {'rms mm':>7} {'sole mm':>7} "
             f"{'tilt':>5} {'skid':>5} {'pen mm':>6} {'lim':>4} {'zmp in':>6} {'zmp mm':>6} "
-            f"{'fell':>5} {'surv s':>6} {'trq':>5} {'it':>3} {'solve s':>7} {'total s':>7}")
+            f"{'fell':>5} {'surv s':>6} {'trq':>5} {'trq rf':>6} {'fric':>5} {'it':>3} {'solve s':>7} {'total s':>7}")
     print(head)
     print("-" * len(head))
     for clip in args.clips:
@@ -88,6 +88,7 @@ def main(argv=None) -> int:
                   f"{f('limit_violation_frames', '4d')} {f('zmp_inside_fraction', '6.3f')} "
                   f"{f('zmp_error_mm', '6.1f')} {str(m.get('physics_fell', 'n/a')):>5} "
                   f"{f('physics_survived_s', '6.2f')} {f('torque_ratio_max', '5.2f')} "
+                  f"{f('torque_ratio_ref', '6.2f')} {f('friction_ratio_max', '5.2f')} "
                   f"{wb.get('iterations', 0):>3} {res.seconds.get('wholebody', 0.0):>7.2f} "
                   f"{total:>7.2f}")
             sys.stdout.flush()
