@@ -7,6 +7,7 @@ side when the scene has it), the soles, support polygon and ZMP; the camera foll
 
 from __future__ import annotations
 
+import base64
 import io
 import logging
 import os
@@ -78,7 +79,7 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
     with tempfile.TemporaryDirectory(prefix="imesh-video-") as tmpdir:
         page_path = Path(tmpdir) / "viewer.html"
         page_path.write_text(viewer_html(scene), encoding="utf-8")
-        with chromium_page(size[0], size[1] + 80) as (page, errors), \
+        with chromium_page(size[0], size[1]) as (page, errors), \
                 atomic_path(path) as tmp:
             open_viewer(page, page_path.as_uri())
             page.evaluate("""() => {
@@ -89,13 +90,13 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
                 document.getElementById('bar').style.display = 'none';
                 window.dispatchEvent(new Event('resize'));
             }""")
-            view = page.locator("#view")
             writer = _ffmpeg_writer(tmp, size, fps)
             try:
                 for k in frames:
-                    page.evaluate(f"window.imeshViewer.setFrame({int(k)})")
-                    png = view.screenshot(type="png")
-                    img = Image.open(io.BytesIO(png)).convert("RGB")
+                    url = page.evaluate(f"window.imeshViewer.setFrame({int(k)}), "
+                                        "window.imeshViewer.snapshot('image/jpeg', 0.95)")
+                    data = base64.b64decode(url.split(",", 1)[1])
+                    img = Image.open(io.BytesIO(data)).convert("RGB")
                     if img.size != size:
                         img = img.resize(size)
                     writer.send(np.asarray(img).tobytes())

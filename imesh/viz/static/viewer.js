@@ -23,7 +23,7 @@
 
   function OrbitControl(camera, dom, target) {
     // Z-up orbit: left drag rotates, right drag (or shift) pans, wheel zooms.
-    var self = this, sph = {r: 4.0, th: -1.2, ph: 1.2}, drag = null;
+    var self = this, sph = {r: 4.6, th: -0.55, ph: 1.22}, drag = null;
     this.target = target;
     this.update = function () {
       var s = Math.sin(sph.ph);
@@ -119,9 +119,19 @@
     var sun = new THREE.DirectionalLight(0xffffff, 0.7);
     sun.position.set(2, -3, 5);
     scene3.add(sun);
-    var grid = new THREE.GridHelper(20, 40, 0xaaaaaa, 0xd5d5d5);
-    grid.rotation.x = Math.PI / 2;
-    scene3.add(grid);
+    (function grid() {  // 0.5 m floor grid on z = 0, 1 m lines darker
+      var fine = [], bold = [];
+      for (var i = -40; i <= 40; i++) {
+        var v = i * 0.5, a = (i % 2 === 0) ? bold : fine;
+        for (var j = -20; j < 20; j++)  // short segments: long lines through the camera
+          a.push(v, j, 0, v, j + 1, 0, j, v, 0, j + 1, v, 0);  // plane get lost in clipping
+      }
+      [[fine, 0xcfd3d8], [bold, 0xa9aeb5]].forEach(function (gc) {
+        var g = new THREE.BufferGeometry();
+        g.setAttribute("position", new THREE.BufferAttribute(new Float32Array(gc[0]), 3));
+        scene3.add(new THREE.LineSegments(g, new THREE.LineBasicMaterial({color: gc[1]})));
+      });
+    })();
 
     // robot links
     var poses = decode(S.link_poses), L = S.links.length;
@@ -186,6 +196,12 @@
       return l;
     }
     var zmpPath = path(zmp, 0xd91a1a), desPath = path(zdes, 0x1a73e6);
+    // the ZMP, its target and the support polygon stay visible through the feet
+    [zmpDot, desDot, polyLine, soleLines].forEach(function (o) {
+      o.material.depthTest = false;
+      o.renderOrder = 10;
+    });
+    zmpDot.renderOrder = 12;
 
     // UI
     var slider = document.getElementById("frame"), label = document.getElementById("label");
@@ -334,7 +350,23 @@
     setFrame(0);
     window.requestAnimationFrame(tick);
     document.getElementById("title").textContent = S.title;
+    function snapshot(type, quality) {
+      // the 3D view with the frame's text drawn in, as a data URL (videos)
+      renderer.render(scene3, camera);
+      var src = renderer.domElement, c = document.createElement("canvas");
+      c.width = src.width; c.height = src.height;
+      var g = c.getContext("2d"), k = src.width / Math.max(host.clientWidth, 1);
+      g.drawImage(src, 0, 0);
+      g.font = (13 * k) + "px sans-serif";
+      var lines = info.textContent.split("\n");
+      g.fillStyle = "rgba(255,255,255,0.8)";
+      g.fillRect(6 * k, 6 * k, 420 * k, (lines.length * 17 + 8) * k);
+      g.fillStyle = info.className === "warn" ? "#b00" : "#222";
+      lines.forEach(function (s2, i) { g.fillText(s2, 12 * k, (22 + 17 * i) * k); });
+      return c.toDataURL(type || "image/png", quality);
+    }
     window.imeshViewer = {
+      snapshot: snapshot,
       frames: T, fps: fps, setFrame: function (t) { play(false); setFrame(t); return current; },
       play: function () { play(true); }, pause: function () { play(false); },
       frame: function () { return current; }, ready: true
