@@ -342,12 +342,14 @@ def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, suppor
                             allow_flight=getattr(args, "allow_flight", False),
                             lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s,
                             arms=_arms_config(args))
-    bar, update = _progress(args, steps, f"morph for {robot.name}")
+    from .cli_view import StageBar, retarget_stages, retarget_steps
+
+    bar = StageBar(args.quiet, retarget_steps(config), f"retarget to {robot.name}")
     try:
-        return retarget(motion, robot, config=config, progress=update)
+        with retarget_stages(bar, motion, config, robot.name) as progress:
+            return retarget(motion, robot, config=config, progress=progress)
     finally:
-        if bar is not None:
-            bar.close()
+        bar.close()
 
 
 def cmd_retarget(args) -> int:

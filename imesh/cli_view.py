@@ -133,6 +133,58 @@ def _sqp_iterations(tick):
         logger.propagate = old[1]
 
 
+def retarget_steps(config) -> int:
+    """Bar steps of :func:`retarget_stages`: morph steps, the fit, the SQP iterations."""
+    sqp = config.wholebody.iterations if config.balance == "wholebody" else 0
+    return config.morph.steps + 1 + sqp
+
+
+@contextmanager
+def retarget_stages(bar: StageBar, motion, config, robot_name: str):
+    """Drive ``bar`` through :func:`imesh.retarget.retarget`'s stages: yields the morph-step
+    callback; SQP iterations are counted from the solver's log records. The bar ends the block
+    :func:`retarget_steps` further on, whatever the SQP's iteration count.
+
+    Args:
+        bar: the job's StageBar.
+        motion: the loaded human motion (MarkerMotion).
+        config: the RetargetConfig.
+        robot_name: for the descriptions.
+    """
+    fps = config.fps or motion.fps
+    n_work = int(round(motion.n_frames / motion.fps * fps))
+    wholebody = config.balance == "wholebody"
+    n_out = n_work + (2 * int(round(config.lead_s * fps)) if wholebody else 0)
+    start = bar.done
+    morph_done = start + config.morph.steps
+    end = start + retarget_steps(config)
+    sqp_max = config.wholebody.iterations
+    bar.stage(f"morph for {robot_name} ({n_work} frames, {config.morph.steps} steps)")
+    sqp = {"it": 0}
+
+    def morph_step(_report) -> None:
+        if bar.done < morph_done:
+            bar.advance()
+        if bar.done >= morph_done and not sqp["it"]:
+            bar.stage(f"fit + whole-body solve ({n_out} frames, SQP up to {sqp_max} iterations)"
+                      if wholebody else f"fit ({n_work} frames)")
+
+    def sqp_tick() -> None:
+        if sqp["it"] == 0:
+            bar.reach(morph_done + 1)  # the fit is done when the SQP iterates
+        sqp["it"] += 1
+        if bar.done < end:
+            bar.advance()
+        bar.stage(f"whole-body solve ({n_out} frames, iteration {sqp['it']})")
+
+    if wholebody:
+        with _sqp_iterations(sqp_tick):
+            yield morph_step
+    else:
+        yield morph_step
+    bar.reach(end)
+
+
 # ----------------------------------------------------------------------------------------------
 # commands
 
@@ -189,7 +241,6 @@ def run_demo(args) -> int:
     from .retarget import RetargetConfig, retarget
     from .robot import load_robot
     from .robot_motion import save_robot_motion
-    from .solve import WholeBodyConfig
     from .verify import failed_gates
     from .viz.html import write_viewer
     from .viz.report import write_report
@@ -199,40 +250,17 @@ def run_demo(args) -> int:
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     clip = Path(args.clip) if args.clip else demo_clip()
-    sqp_max = WholeBodyConfig().iterations
-    # steps: load 1, morph args.steps, fit 1, SQP iterations, verify 1, write 1, viewer 1,
-    # report 1
-    bar = StageBar(args.quiet, 1 + args.steps + 1 + sqp_max + 4, "demo")
+    base = RetargetConfig()
+    config = dataclasses.replace(base, morph=dataclasses.replace(base.morph, steps=args.steps))
+    # steps: load 1, the retarget's (morph, fit, SQP iterations), verify, write, viewer, report
+    bar = StageBar(args.quiet, 1 + retarget_steps(config) + 4, "demo")
     try:
         bar.stage(f"load {clip.name}")
         motion = load_motion(clip)
         robot = load_robot(args.robot, urdf=args.urdf)
         bar.advance()
-        base = RetargetConfig()
-        config = dataclasses.replace(base, morph=dataclasses.replace(base.morph,
-                                                                     steps=args.steps))
-        n_work = int(round(motion.n_frames / motion.fps * config.fps))
-        n_out = n_work + 2 * int(round(config.lead_s * config.fps))
-        bar.stage(f"morph ({n_work} frames, {args.steps} steps)")
-        morph_done = 1 + args.steps
-        sqp = {"it": 0}
-
-        def morph_step(_report) -> None:
-            bar.advance()
-            if bar.done >= morph_done:
-                bar.stage(f"fit + whole-body solve ({n_out} frames, SQP up to {sqp_max} "
-                          "iterations)")
-
-        def sqp_tick() -> None:
-            if sqp["it"] == 0:
-                bar.reach(morph_done + 1)  # the fit is done when the SQP iterates
-            sqp["it"] += 1
-            bar.advance()
-            bar.stage(f"whole-body solve ({n_out} frames, iteration {sqp['it']})")
-
-        with _sqp_iterations(sqp_tick):
+        with retarget_stages(bar, motion, config, robot.name) as morph_step:
             result = retarget(motion, robot, config=config, progress=morph_step)
-        bar.reach(morph_done + 1 + sqp_max)
 
         bar.stage(f"verify ({result.motion.n_frames} frames)")
         run_metrics = evaluate_motion(robot, result.motion, adapted=result.adapted,
