@@ -243,3 +243,15 @@ def test_solvers_do_not_import_the_viewer():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=ROOT, check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_decimation_keeps_the_shape():
+    import trimesh
+
+    from imesh.viz.scene import decimate
+
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=0.1)
+    v, f = decimate(sphere.vertices, sphere.faces, 0.01)
+    assert len(f) < len(sphere.faces) / 4 and f.max() < len(v)
+    r = np.linalg.norm(v, axis=1)
+    assert np.all(np.abs(r - 0.1) < 0.01)

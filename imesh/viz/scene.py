@@ -46,13 +46,16 @@ class VisualMesh:
     color: tuple[float, float, float]
 
 
-def visual_meshes(robot) -> list[VisualMesh]:
+def visual_meshes(robot, max_faces: int = 40_000, cell_m: float = 0.004) -> list[VisualMesh]:
     """The visual meshes of a robot's URDF, each in the frame of its link.
 
     URDF primitives (box, sphere, cylinder) are turned into triangle meshes with trimesh.
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
+        max_faces: above this many triangles in all, the meshes are decimated
+            (:func:`decimate`) so a page stays small.
+        cell_m: the decimation grid [m].
 
     Returns:
         list of VisualMesh, one per URDF visual element whose link exists in ``robot``.
@@ -89,7 +92,41 @@ def visual_meshes(robot) -> list[VisualMesh]:
             color = (0.7, 0.7, 0.7)
         out.append(VisualMesh(link=frame.name, vertices=verts.astype(np.float32),
                               faces=faces.astype(np.uint32), color=color))
+    n_faces = sum(len(m.faces) for m in out)
+    if n_faces > max_faces:  # e.g. the G1's 290k triangles: 4 mm clusters keep its look
+        small = []
+        for m in out:
+            v, f = decimate(m.vertices, m.faces, cell_m)
+            small.append(VisualMesh(link=m.link, vertices=v, faces=f, color=m.color))
+        out = small
+        log.info("viewer: %s meshes decimated from %d to %d triangles", robot.name, n_faces,
+                 sum(len(m.faces) for m in out))
     return out
+
+
+def decimate(vertices: np.ndarray, faces: np.ndarray, cell_m: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Vertex-clustering decimation: vertices in one ``cell_m`` cube merge into their mean, and
+    triangles that collapse are dropped (for display only).
+
+    Args:
+        vertices: (N, 3) float [m]; faces: (F, 3) int.
+        cell_m: the grid size [m].
+
+    Returns:
+        (vertices (N', 3) float32, faces (F', 3) uint32).
+    """
+    vertices = np.asarray(vertices, dtype=float)
+    key = np.floor(vertices / cell_m).astype(np.int64)
+    _, inv = np.unique(key, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    n = int(inv.max()) + 1 if len(inv) else 0
+    count = np.bincount(inv, minlength=n).astype(float)
+    merged = np.stack([np.bincount(inv, weights=vertices[:, k], minlength=n) for k in range(3)],
+                      axis=1) / np.maximum(count, 1)[:, None]
+    f = inv[np.asarray(faces, dtype=np.int64)]
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    return merged.astype(np.float32), f[keep].astype(np.uint32)
 
 
 def _primitive(cls: str, geo) -> tuple[np.ndarray, np.ndarray] | None:

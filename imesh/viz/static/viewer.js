@@ -215,6 +215,7 @@
       el.addEventListener("change", function () { setFrame(current); });
     });
     if (!source) opts.source.parentNode.style.display = "none";
+    if (!source && !human) opts.beside.parentNode.style.display = "none";
     if (!human) { opts.human.parentNode.style.display = "none";
                   opts.edges.parentNode.style.display = "none"; }
 
