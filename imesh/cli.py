@@ -362,7 +362,13 @@ def cmd_retarget(args) -> int:
     if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
         from .arms.cli import run_arms
 
-        return run_arms(args, robot, motion)
+        status = run_arms(args, robot, motion)
+        if args.report_html:
+            from .viz.report import write_report
+
+            write_report(args.report_html, robot, args.output, source=motion, balanced=False,
+                         facts={"source clip": args.clip, "mode": "arms (Kim 2005)"})
+        return status
     result = _retarget(args, motion, robot, args.steps, args.window_frames,
                        support=not args.no_support, balance=args.balance)
     report = result.report()
