@@ -95,6 +95,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-support", action="store_true",
                    help="no support-foot constraints in the morph")
     p.add_argument("--markers", help="also write the adapted markers (.npz or .csv)")
+    p.add_argument("--report", dest="report_html",
+                   help="write an HTML report of the written motion (metrics, figures, 3D view)")
     p.add_argument("--balance", choices=("wholebody", "nishiwaki", "none"), default="wholebody",
                    help="wholebody: the whole-body spacetime solve (default; docs/wholebody.md); "
                         "nishiwaki: the paper's waist-correction loop; none: the initial fit")
@@ -122,9 +124,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_evaluate_parser(sub)
     add_reduce_parser(sub)
 
-    p = sub.add_parser("demo", help="run the main job on the built-in synthetic clip")
-    p.add_argument("-o", "--output", required=True, help="output folder")
-    p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
+    from .cli_view import add_parsers as add_view_parsers
+
+    add_view_parsers(sub)  # view, demo
     return parser
 
 
@@ -340,12 +342,14 @@ def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, suppor
                             allow_flight=getattr(args, "allow_flight", False),
                             lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s,
                             arms=_arms_config(args))
-    bar, update = _progress(args, steps, f"morph for {robot.name}")
+    from .cli_view import StageBar, retarget_stages, retarget_steps
+
+    bar = StageBar(args.quiet, retarget_steps(config), f"retarget to {robot.name}")
     try:
-        return retarget(motion, robot, config=config, progress=update)
+        with retarget_stages(bar, motion, config, robot.name) as progress:
+            return retarget(motion, robot, config=config, progress=progress)
     finally:
-        if bar is not None:
-            bar.close()
+        bar.close()
 
 
 def cmd_retarget(args) -> int:
@@ -358,7 +362,13 @@ def cmd_retarget(args) -> int:
     if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
         from .arms.cli import run_arms
 
-        return run_arms(args, robot, motion)
+        status = run_arms(args, robot, motion)
+        if args.report_html:
+            from .viz.report import write_report
+
+            write_report(args.report_html, robot, args.output, source=motion, balanced=False,
+                         facts={"source clip": args.clip, "mode": "arms (Kim 2005)"})
+        return status
     result = _retarget(args, motion, robot, args.steps, args.window_frames,
                        support=not args.no_support, balance=args.balance)
     report = result.report()
@@ -387,6 +397,13 @@ def cmd_retarget(args) -> int:
         save_marker_motion(args.markers, result.adapted)
     if args.report:
         write_json(args.report, report)
+    if args.report_html:
+        from .viz.report import write_report
+
+        write_report(args.report_html, robot, args.output, source=motion,
+                     balanced=args.balance != "none",
+                     facts={"source clip": args.clip,
+                            "retarget time": f"{report['seconds']['total']:.1f} s"})
     print(f"retargeted {report['frames']} frames to {robot.name} in "
           f"{report['seconds']['total']:.2f} s -> {args.output}")
     if report["unconstrained_frames"]:
@@ -408,39 +425,15 @@ def cmd_robots(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from .adapt import adapt_motion
-    from .export import save_marker_motion, write_json
-    from .morph.problem import MorphConfig
-    from .synthetic import synthetic_walk_clap
+    from .cli_view import run_demo
 
-    out = Path(args.output)
-    out.mkdir(parents=True, exist_ok=True)
-    motion = synthetic_walk_clap()
-    scales = {"arms": 1.25, "legs": 0.9}
-    bar, update = _progress(args, args.steps, "morph")
-    try:
-        result = adapt_motion(motion, scales=scales, config=MorphConfig(steps=args.steps),
-                              progress=update)
-    finally:
-        if bar is not None:
-            bar.close()
-    report = result.report()
-    report["input"] = motion.source
-    report["scales"] = scales
-    save_marker_motion(out / "source_markers.npz", result.source)
-    save_marker_motion(out / "adapted_markers.npz", result.adapted)
-    write_json(out / "report.json", report)
-    try:
-        from .plots import plot_adaptation
+    return run_demo(args)
 
-        plot_adaptation(result, out / "adaptation.png")
-    except ImportError as exc:  # matplotlib is a dependency, but keep the demo's data useful
-        log.warning("no plot written: %s", exc)
-    print(f"demo: synthetic walk+clap ({motion.n_frames} frames) adapted with {scales}: bone "
-          f"residual {report['bone_residual_m']:.2e} m, close-pair error "
-          f"{report['close_pair_error']:.4f} vs naive {report['naive_close_pair_error']:.4f}; "
-          f"wrote {out}/")
-    return 0
+
+def cmd_view(args) -> int:
+    from .cli_view import run_view
+
+    return run_view(args)
 
 
 def cmd_evaluate(args) -> int:
@@ -457,11 +450,12 @@ def cmd_reduce(args) -> int:
 
 COMMANDS = {"inspect": cmd_inspect, "rig": cmd_rig, "adapt": cmd_adapt, "retarget": cmd_retarget,
             "robots": cmd_robots, "demo": cmd_demo, "evaluate": cmd_evaluate,
-            "reduce": cmd_reduce}
+            "reduce": cmd_reduce, "view": cmd_view}
 
 
 _MOTION = (".npz", ".csv")
 _JSON = (".json",)
+_HTML = (".html", ".htm")
 _FOLDER = None
 #: The output options of each command, checked before it starts: (attribute of the parsed
 #: arguments, option, valid extensions or _FOLDER for an output folder). A new output option
@@ -469,8 +463,11 @@ _FOLDER = None
 OUTPUTS: dict[str, tuple[tuple[str, str, tuple[str, ...] | None], ...]] = {
     "adapt": (("output", "-o", _MOTION), ("report", "--json", _JSON)),
     "retarget": (("output", "-o", _MOTION), ("report", "--json", _JSON),
-                 ("markers", "--markers", _MOTION), ("plots", "--plots", _FOLDER)),
-    "evaluate": (("report", "--json", _JSON), ("plot", "--plot", (".png", ".pdf", ".svg"))),
+                 ("markers", "--markers", _MOTION), ("plots", "--plots", _FOLDER),
+                 ("report_html", "--report", _HTML)),
+    "evaluate": (("report", "--json", _JSON), ("plot", "--plot", (".png", ".pdf", ".svg")),
+                 ("report_html", "--report", _HTML)),
+    "view": (("html", "--html", _HTML), ("video", "--video", (".mp4",))),
     "reduce": (("output", "-o", (".npz",)), ("report", "--json", _JSON),
                ("plots", "--plots", _FOLDER)),
     "demo": (("output", "-o", _FOLDER),),

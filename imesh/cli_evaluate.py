@@ -31,6 +31,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="weld the base at its first pose in DART (arm-only tracking)")
     p.add_argument("--plot", help="write the DART run's figure here (.png)")
     p.add_argument("--json", dest="report", help="write the metrics (JSON) here")
+    p.add_argument("--report", dest="report_html",
+                   help="write an HTML report (metrics table with the gates, figures, 3D view)")
     return p
 
 
@@ -55,4 +57,10 @@ def run(args) -> int:
     print(format_table(report))
     if args.report:
         write_json(args.report, report)
+    if args.report_html:
+        from .viz.report import write_report
+
+        write_report(args.report_html, robot, args.motion, metrics=report, source=args.source,
+                     fps=args.fps)
+        print(f"report: {args.report_html}")
     return 0

@@ -1,0 +1,316 @@
+"""``imesh view`` and ``imesh demo``: argument parsing and the commands (the library is
+:mod:`imesh.viz`).
+
+``imesh demo`` runs the main job on the built-in clip (a 2.9 s CMU walk shipped in
+``imesh/data/demo``): retarget to JVRC-1 with the whole-body solve, verify, and write the motion,
+the HTML report and the viewer page.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+import time
+from contextlib import contextmanager
+from importlib import resources
+from pathlib import Path
+
+log = logging.getLogger("imesh")
+
+#: The built-in clip of ``imesh demo`` (CMU 02_01 walk; terms in CMU_TERMS.txt beside it).
+DEMO_CLIP = "cmu_02_01_walk.bvh"
+
+
+def demo_clip() -> Path:
+    """Path of the built-in demo clip (package data)."""
+    return Path(str(resources.files("imesh").joinpath("data", "demo", DEMO_CLIP)))
+
+
+def add_parsers(sub) -> None:
+    """Add the ``view`` and ``demo`` commands to an argparse subparsers object."""
+    p = sub.add_parser(
+        "view", help="look at a robot motion: 3D viewer in the browser, one self-contained "
+        "page (--html) or a video (--video)",
+        description="Show a robot motion (.npz/.csv from 'imesh retarget') in 3D: the robot's "
+        "meshes, the adapted markers and the human source, the interaction mesh, soles, support "
+        "polygon, desired and actual ZMP, self-collisions and limit violations, with a "
+        "timeline. Without --html/--video the page is served on 127.0.0.1 until Ctrl-C.")
+    p.add_argument("motion", help="robot motion (.npz or .csv)")
+    p.add_argument("--robot", default="jvrc1",
+                   help="robot: a folder of robots/ (jvrc1, g1, hrp4c) or a robot.toml")
+    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
+    p.add_argument("--source", help="the human clip, drawn beside the robot")
+    p.add_argument("--fps", type=float, help="frame rate of motion files that store none")
+    p.add_argument("--html", help="write the viewer as one self-contained page (.html): no "
+                   "server, no network")
+    p.add_argument("--video", help="render the whole motion to a video (.mp4), headless: robot "
+                   "with the markers and the human beside it (needs chromium)")
+    p.add_argument("--video-fps", type=float, help="video frame rate (default: the motion's)")
+    p.add_argument("--port", type=int, default=8765, help="server port (default 8765; 0: any)")
+    p.add_argument("--no-browser", action="store_true", help="serve without opening a browser")
+
+    p = sub.add_parser("demo", help="retarget the built-in CMU walk to JVRC-1 and write the "
+                       "motion, an HTML report and a 3D viewer page")
+    p.add_argument("-o", "--output", default="imesh-demo", help="output folder (default "
+                   "imesh-demo)")
+    p.add_argument("--clip", help=f"another clip instead of the built-in {DEMO_CLIP}")
+    p.add_argument("--robot", default="jvrc1", help="robot (default jvrc1)")
+    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
+    p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
+
+
+# ----------------------------------------------------------------------------------------------
+# progress
+
+
+class StageBar:
+    """One tqdm bar over the stages of a job (weights in steps), with the stage and its frame
+    count as the description; None-safe when quiet."""
+
+    def __init__(self, quiet: bool, total: int, desc: str):
+        self.bar = None
+        self.done = 0
+        if not quiet:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, desc=desc, unit="step", file=sys.stderr,
+                            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} "
+                                       "[{elapsed}<{remaining}]")
+        self.total = total
+
+    def stage(self, text: str) -> None:
+        if self.bar is not None:
+            self.bar.set_description_str(text)
+            self.bar.refresh()
+
+    def advance(self, n: int = 1) -> None:
+        n = max(0, min(n, self.total - self.done))
+        self.done += n
+        if self.bar is not None and n:
+            self.bar.update(n)
+
+    def reach(self, mark: int) -> None:
+        """Advance to ``mark`` steps done (end of a stage that took fewer than planned)."""
+        self.advance(mark - self.done)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+class _IterationHandler(logging.Handler):
+    """Calls ``tick`` on every whole-body SQP iteration record (``imesh.solve.sqp``); with
+    ``forward``, passes WARNING and above on to the parent loggers."""
+
+    def __init__(self, tick, forward: bool):
+        super().__init__(logging.DEBUG)
+        self.tick, self.forward = tick, forward
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if str(record.msg).startswith("whole-body iteration"):
+            self.tick()
+        if self.forward and record.levelno >= logging.WARNING:
+            logging.getLogger("imesh.solve").handle(record)
+
+
+@contextmanager
+def _sqp_iterations(tick):
+    """Route the SQP's per-iteration log records to ``tick``; they are still printed with -v,
+    and not without it."""
+    logger = logging.getLogger("imesh.solve.sqp")
+    shown = logger.isEnabledFor(logging.INFO)
+    handler = _IterationHandler(tick, forward=not shown)
+    old = logger.level, logger.propagate
+    logger.addHandler(handler)
+    if not shown:
+        logger.setLevel(logging.INFO)
+        logger.propagate = False
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(old[0])
+        logger.propagate = old[1]
+
+
+def retarget_steps(config) -> int:
+    """Bar steps of :func:`retarget_stages`: morph steps, the fit, the SQP iterations."""
+    sqp = config.wholebody.iterations if config.balance == "wholebody" else 0
+    return config.morph.steps + 1 + sqp
+
+
+@contextmanager
+def retarget_stages(bar: StageBar, motion, config, robot_name: str):
+    """Drive ``bar`` through :func:`imesh.retarget.retarget`'s stages: yields the morph-step
+    callback; SQP iterations are counted from the solver's log records. The bar ends the block
+    :func:`retarget_steps` further on, whatever the SQP's iteration count.
+
+    Args:
+        bar: the job's StageBar.
+        motion: the loaded human motion (MarkerMotion).
+        config: the RetargetConfig.
+        robot_name: for the descriptions.
+    """
+    fps = config.fps or motion.fps
+    n_work = int(round(motion.n_frames / motion.fps * fps))
+    wholebody = config.balance == "wholebody"
+    n_out = n_work + (2 * int(round(config.lead_s * fps)) if wholebody else 0)
+    start = bar.done
+    morph_done = start + config.morph.steps
+    end = start + retarget_steps(config)
+    sqp_max = config.wholebody.iterations
+    bar.stage(f"morph for {robot_name} ({n_work} frames, {config.morph.steps} steps)")
+    sqp = {"it": 0}
+
+    def morph_step(_report) -> None:
+        if bar.done < morph_done:
+            bar.advance()
+        if bar.done >= morph_done and not sqp["it"]:
+            bar.stage(f"fit + whole-body solve ({n_out} frames, SQP up to {sqp_max} iterations)"
+                      if wholebody else f"fit ({n_work} frames)")
+
+    def sqp_tick() -> None:
+        if sqp["it"] == 0:
+            bar.reach(morph_done + 1)  # the fit is done when the SQP iterates
+        sqp["it"] += 1
+        if bar.done < end:
+            bar.advance()
+        bar.stage(f"whole-body solve ({n_out} frames, iteration {sqp['it']})")
+
+    if wholebody:
+        with _sqp_iterations(sqp_tick):
+            yield morph_step
+    else:
+        yield morph_step
+    bar.reach(end)
+
+
+# ----------------------------------------------------------------------------------------------
+# commands
+
+
+def run_view(args) -> int:
+    """``imesh view``."""
+    from .evaluate import load_motion_file
+    from .robot import load_robot
+    from .viz.scene import build_scene
+
+    robot = load_robot(args.robot, urdf=args.urdf)
+    motion = load_motion_file(args.motion, robot, fps=args.fps)
+    scene = build_scene(robot, motion, source=args.source,
+                        title=f"{Path(args.motion).name} ({robot.name})")
+    if args.html or args.video:
+        if args.html:
+            from .viz.html import write_viewer
+
+            write_viewer(args.html, scene)
+            print(f"viewer page: {args.html} (open it in a browser; no server needed)")
+        if args.video:
+            from .viz.video import write_video
+
+            n = write_video(args.video, scene, fps=args.video_fps,
+                            progress=None if args.quiet else "video")
+            print(f"video: {args.video} ({n} frames at {args.video_fps or motion.fps:g} fps)")
+        return 0
+    from .viz.server import ViewerServer
+
+    server = ViewerServer(scene, port=args.port)
+    print(f"viewer: {server.url}  (Ctrl-C to stop)", flush=True)
+    if not args.no_browser:
+        import webbrowser
+
+        webbrowser.open(server.url)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.close()
+    return 0
+
+
+def run_demo(args) -> int:
+    """``imesh demo``: the real main job on the built-in clip (module docstring)."""
+    import dataclasses
+
+    from .errors import VerificationError
+    from .evaluate import evaluate_motion, format_table, load_motion_file
+    from .export import write_json
+    from .io import load_motion
+    from .retarget import RetargetConfig, retarget
+    from .robot import load_robot
+    from .robot_motion import save_robot_motion
+    from .verify import failed_gates
+    from .viz.html import write_viewer
+    from .viz.report import write_report
+    from .viz.scene import build_scene
+
+    t_start = time.perf_counter()
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    clip = Path(args.clip) if args.clip else demo_clip()
+    base = RetargetConfig()
+    config = dataclasses.replace(base, morph=dataclasses.replace(base.morph, steps=args.steps))
+    # steps: load 1, the retarget's (morph, fit, SQP iterations), verify, write, viewer, report
+    bar = StageBar(args.quiet, 1 + retarget_steps(config) + 4, "demo")
+    try:
+        bar.stage(f"load {clip.name}")
+        motion = load_motion(clip)
+        robot = load_robot(args.robot, urdf=args.urdf)
+        bar.advance()
+        with retarget_stages(bar, motion, config, robot.name) as morph_step:
+            result = retarget(motion, robot, config=config, progress=morph_step)
+
+        bar.stage(f"verify ({result.motion.n_frames} frames)")
+        run_metrics = evaluate_motion(robot, result.motion, adapted=result.adapted,
+                                      seconds=result.seconds)
+        failed = failed_gates(run_metrics)
+        bar.advance()
+
+        bar.stage("write motion")
+        motion_path, json_path = out / "motion.npz", out / "report.json"
+        save_robot_motion(motion_path, result.motion, markers=result.adapted)
+        report = result.report()
+        report["metrics"] = run_metrics
+        report["verification"] = {"passed": not failed,
+                                  "failed": {k: {"value": v[0], "gate": v[1]}
+                                             for k, v in failed.items()}}
+        write_json(json_path, report)
+        bar.advance()
+
+        bar.stage(f"viewer page ({result.motion.n_frames} frames)")
+        written = load_motion_file(motion_path, robot)  # the page shows the file as written
+        scene = build_scene(robot, written, source=clip,
+                            title=f"{clip.name} -> {robot.name}")
+        viewer_path = write_viewer(out / "viewer.html", scene)
+        bar.advance()
+
+        bar.stage("report")
+        seconds = result.seconds
+        facts = {"source clip": f"{clip} ({motion.n_frames} frames at {motion.fps:g} fps)",
+                 "retarget time": f"{seconds['total']:.1f} s (" + ", ".join(
+                     f"{k} {v:.1f} s" for k, v in seconds.items() if k != "total") + ")",
+                 "data": "CMU Graphics Lab Motion Capture Database (mocap.cs.cmu.edu), "
+                         "funded by NSF EIA-0196217" if not args.clip else str(clip)}
+        report_path = write_report(out / "report.html", robot, motion_path, source=clip,
+                                   facts=facts, scene=scene)
+        bar.advance()
+    finally:
+        bar.close()
+    elapsed = time.perf_counter() - t_start
+    print(f"demo: retargeted {clip.name} ({motion.n_frames / motion.fps:.1f} s) to "
+          f"{robot.name}: {result.motion.n_frames} frames in {seconds['total']:.1f} s "
+          f"(demo {elapsed:.1f} s)")
+    print(format_table(run_metrics))
+    print(f"verification: {'passed every gate' if not failed else 'FAILED ' + ', '.join(failed)}")
+    print(f"  robot motion  {motion_path}")
+    print(f"  report        {report_path}   (open in a browser)")
+    print(f"  viewer page   {viewer_path}   (open in a browser; no server needed)")
+    print(f"  metrics JSON  {json_path}")
+    print(f"live viewer:    imesh view {motion_path} --robot {robot.name} --source {clip}")
+    if failed:
+        raise VerificationError(f"demo motion of {clip} for {robot.name} (written with its "
+                                "report)", failed)
+    return 0
+

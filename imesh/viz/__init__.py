@@ -1,0 +1,24 @@
+"""Looking at results: the 3D viewer, its self-contained page, videos and the HTML report.
+
+- :func:`~imesh.viz.scene.build_scene`: everything the viewer draws for a robot motion (meshes
+  from the URDF, link poses per frame, markers, interaction mesh, soles, support polygon, ZMP,
+  self-collisions and limit violations).
+- :func:`~imesh.viz.html.write_viewer`: one HTML file with three.js and the scene inlined (no
+  server, no network); :class:`~imesh.viz.server.ViewerServer` serves the same page.
+- :func:`~imesh.viz.video.write_video`: an mp4 rendered in headless Chromium
+  (``pip install 'imesh[viz]'`` and Debian's ``chromium``).
+- :func:`~imesh.viz.report.write_report`: the HTML report of a written motion file.
+
+Solvers never import this package (tested); its heavy parts import lazily.
+"""
+
+from __future__ import annotations
+
+from ..lazy import lazy_exports
+
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "build_scene": ".scene", "write_viewer": ".html", "viewer_html": ".html",
+    "ViewerServer": ".server", "write_video": ".video", "write_report": ".report",
+}, globals())
+__all__ = ["build_scene", "write_viewer", "viewer_html", "ViewerServer", "write_video",
+           "write_report"]

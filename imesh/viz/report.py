@@ -1,0 +1,411 @@
+"""The HTML report of a robot motion (``imesh retarget/evaluate --report``, ``imesh demo``).
+
+One self-contained file: the evaluator's metrics table with pass/fail against the gates of
+:mod:`imesh.verify`, figures computed from the motion file as written (ZMP inside the support
+polygon, sole heights and skid, joints against their position and velocity limits as in Kim
+2005 Fig. 4, torques against effort limits, marker errors per body part), and the 3D viewer
+embedded. Each metrics row carries its exact value (``data-metric``/``data-value``), the number
+``imesh evaluate --json`` writes for the same file.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import logging
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from ..contacts import SIDES
+
+log = logging.getLogger(__name__)
+
+#: Body parts of the standard markers, for the marker-error figure.
+BODY_PARTS: dict[str, tuple[str, ...]] = {
+    "legs": ("hip_l", "hip_r", "knee_l", "knee_r", "ankle_l", "ankle_r", "toe_l", "toe_r"),
+    "torso": ("pelvis", "spine", "chest", "neck"),
+    "head": ("head",),
+    "arms": ("shoulder_l", "shoulder_r", "elbow_l", "elbow_r", "wrist_l", "wrist_r", "hand_l",
+             "hand_r"),
+}
+
+
+def _pyplot():
+    try:
+        import matplotlib
+    except ImportError:
+        raise ImportError("the report's figures need matplotlib: pip install matplotlib"
+                          ) from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _png(fig) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
+    _pyplot().close(fig)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+# ----------------------------------------------------------------------------------------------
+# figures (each returns a base64 PNG)
+
+
+def figure_zmp(t: np.ndarray, zmp, polygons, support: np.ndarray) -> str:
+    """Top view of the ZMP path and the support polygons, and ZMP x/y against the polygon's
+    extent over time.
+
+    Args:
+        t: (T,) float [s] frame times.
+        zmp: a :class:`imesh.metrics.kinematics.ZmpReport`.
+        polygons: per frame the (K, 2) support polygon or None.
+        support: (T, 2) bool feet in support.
+    """
+    plt = _pyplot()
+    fig = plt.figure(figsize=(12, 4.2))
+    ax = fig.add_subplot(1, 2, 1)
+    step = max(1, len(t) // 40)
+    for k in range(0, len(t), step):
+        p = polygons[k]
+        if p is not None:
+            q = np.vstack([p, p[:1]])
+            ax.plot(q[:, 0], q[:, 1], color="tab:green", lw=0.6, alpha=0.5)
+    ax.plot(zmp.desired_m[:, 0], zmp.desired_m[:, 1], color="tab:blue", lw=1.2,
+            label="desired ZMP")
+    ax.plot(zmp.zmp_m[:, 0], zmp.zmp_m[:, 1], color="tab:red", lw=1.2, label="ZMP (multibody)")
+    out = zmp.support_frames & ~zmp.inside
+    if out.any():
+        ax.scatter(zmp.zmp_m[out, 0], zmp.zmp_m[out, 1], s=12, color="k", zorder=5,
+                   label=f"outside ({int(out.sum())} frames)")
+    ax.plot([], [], color="tab:green", lw=0.6, label="support polygons")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title("ZMP path over the support polygons (top view)")
+    ax.legend(fontsize=8, loc="best")
+    for i, axis in enumerate("xy"):
+        ax = fig.add_subplot(2, 2, 2 + 2 * i)
+        lo = np.array([p[:, i].min() if p is not None else np.nan for p in polygons])
+        hi = np.array([p[:, i].max() if p is not None else np.nan for p in polygons])
+        ax.fill_between(t, lo, hi, color="tab:green", alpha=0.25, lw=0, label="support polygon")
+        ax.plot(t, zmp.desired_m[:, i], color="tab:blue", lw=1, label="desired")
+        ax.plot(t, zmp.zmp_m[:, i], color="tab:red", lw=1, label="ZMP")
+        ax.set_ylabel(f"{axis} [m]")
+        if i == 0:
+            ax.set_title("ZMP and the support polygon's extent over time")
+            ax.legend(fontsize=7, ncol=3, loc="best")
+        else:
+            ax.set_xlabel("time [s]")
+    return _png(fig)
+
+
+def figure_soles(t: np.ndarray, soles, support: np.ndarray) -> str:
+    """Lowest sole corner height and the sole's horizontal motion per frame, per foot, with the
+    support phases shaded."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(12, 4.6), sharex=True)
+    for k, side in enumerate(SIDES):
+        low = soles.lowest(side) * 1e3
+        step = np.zeros(len(t))
+        step[1:] = np.linalg.norm(np.diff(soles.centers[side][:, :2], axis=0), axis=1) * 1e3
+        skid = np.where(np.r_[False, support[1:, k] & support[:-1, k]], step, np.nan)
+        for ax in axes[:, k]:
+            ax.fill_between(t, 0, 1, where=support[:, k], color="0.85", lw=0,
+                            transform=ax.get_xaxis_transform(), label="support")
+        axes[0, k].plot(t, low, color="tab:purple", lw=1)
+        axes[0, k].axhline(0, color="k", lw=0.6)
+        axes[0, k].set_title(f"{side} foot")
+        axes[0, k].set_ylabel("lowest sole corner [mm]")
+        axes[1, k].plot(t, step, color="0.5", lw=0.8, label="sole centre motion")
+        axes[1, k].plot(t, skid, color="tab:red", lw=1.2, label="skid (in support)")
+        axes[1, k].set_ylabel("horizontal motion [mm/frame]")
+        axes[1, k].set_xlabel("time [s]")
+        axes[1, k].legend(fontsize=7, loc="upper right")
+    return _png(fig)
+
+
+def figure_joints(t: np.ndarray, robot, q: np.ndarray, fps: float, n_worst: int = 8) -> str:
+    """Joints against their limits (Kim 2005 Fig. 4): the ``n_worst`` joints closest to a
+    position limit with their limits, and every joint's |velocity| / limit over time."""
+    plt = _pyplot()
+    qj = q[:, 7:]
+    lo, hi = robot.q_lower, robot.q_upper
+    closeness = np.maximum((qj - lo) / (hi - lo), (hi - qj) / (hi - lo)).max(axis=0)
+    vel = np.zeros_like(qj)
+    vel[1:] = np.abs(np.diff(qj, axis=0)) * fps / robot.v_max
+    order = np.argsort(-np.maximum(closeness - 0.5, vel.max(axis=0) - 0.5))[:n_worst]
+    cols = 4
+    rows = int(np.ceil(len(order) / cols))
+    fig = plt.figure(figsize=(12, 2.3 * rows + 3.2))
+    gs = fig.add_gridspec(rows + 1, cols, height_ratios=[1.0] * rows + [1.4])
+    for i, j in enumerate(order):
+        ax = fig.add_subplot(gs[i // cols, i % cols])
+        ax.plot(t, np.degrees(qj[:, j]), color="tab:blue", lw=1)
+        for lim in (lo[j], hi[j]):
+            ax.axhline(np.degrees(lim), color="tab:red", lw=1, ls="--")
+        span = np.degrees(hi[j] - lo[j])
+        ax.set_ylim(np.degrees(lo[j]) - 0.08 * span, np.degrees(hi[j]) + 0.08 * span)
+        ax.set_title(f"{robot.joint_names[j]} (max |v| {vel[:, j].max():.2f} of limit)",
+                     fontsize=8)
+        ax.tick_params(labelsize=7)
+        if i % cols == 0:
+            ax.set_ylabel("angle [deg]", fontsize=8)
+    ax = fig.add_subplot(gs[rows, :])
+    im = ax.imshow(vel.T, aspect="auto", origin="lower", cmap="magma", vmin=0, vmax=1,
+                   extent=(t[0], t[-1], -0.5, qj.shape[1] - 0.5), interpolation="nearest")
+    ax.set_yticks(range(qj.shape[1]))
+    ax.set_yticklabels(robot.joint_names, fontsize=5)
+    ax.set_xlabel("time [s]")
+    ax.set_title("|joint velocity| / velocity limit (1 = at the limit)", fontsize=9)
+    fig.colorbar(im, ax=ax, fraction=0.02)
+    fig.tight_layout()
+    return _png(fig)
+
+
+def figure_torques(t: np.ndarray, dyn) -> str:
+    """The largest joint torque / effort limit and the friction demand of every frame
+    (:func:`imesh.metrics.dynamics.reference_dynamics`)."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(12, 3.2))
+    axes[0].plot(t, dyn.torque_ratios, color="tab:orange", lw=1.2)
+    axes[0].axhline(1.0, color="tab:red", ls="--", lw=1, label="effort limit")
+    axes[0].set_title(f"largest |torque| / effort limit per frame (max {dyn.torque_ratio:.2f}, "
+                      f"{dyn.torque_joint})", fontsize=9)
+    axes[0].set_xlabel("time [s]")
+    axes[0].legend(fontsize=8)
+    fr = np.where(np.isfinite(dyn.friction_ratios), dyn.friction_ratios, np.nan)
+    axes[1].plot(t, fr, color="tab:brown", lw=1.2)
+    axes[1].axhline(1.0, color="tab:red", ls="--", lw=1, label="friction cone (mu 0.7)")
+    axes[1].set_title("tangential / (mu x normal) sole force per frame", fontsize=9)
+    axes[1].set_xlabel("time [s]")
+    axes[1].legend(fontsize=8)
+    return _png(fig)
+
+
+def figure_markers(t: np.ndarray, keypoints, markers) -> str:
+    """RMS distance of the robot's key points from the adapted markers, per marker (grouped by
+    body part) and per body part over time."""
+    plt = _pyplot()
+    names = [n for n in keypoints.names if n in markers.names]
+    kp = keypoints.subset(names).positions_m
+    mk = markers.subset(names).positions_m
+    n = min(len(kp), len(mk))
+    err = np.linalg.norm(kp[:n] - mk[:n], axis=2) * 1e3  # (T, M) mm
+    fig, axes = plt.subplots(1, 2, figsize=(12, 3.6), gridspec_kw={"width_ratios": [1.3, 1]})
+    colors = dict(zip(BODY_PARTS, ("tab:green", "tab:blue", "tab:purple", "tab:orange"),
+                      strict=True))
+    x = 0
+    for part, members in BODY_PARTS.items():
+        idx = [names.index(m) for m in members if m in names]
+        if not idx:
+            continue
+        rms = np.sqrt(np.mean(err[:, idx] ** 2, axis=0))
+        axes[0].bar(np.arange(x, x + len(idx)), rms, color=colors[part], label=part)
+        axes[0].set_xticks(list(axes[0].get_xticks()))
+        x += len(idx)
+        axes[1].plot(t[:n], np.sqrt(np.mean(err[:, idx] ** 2, axis=1)), color=colors[part],
+                     lw=1.1, label=part)
+    order = [m for ms in BODY_PARTS.values() for m in ms if m in names]
+    axes[0].set_xticks(range(len(order)))
+    axes[0].set_xticklabels(order, rotation=60, fontsize=7)
+    axes[0].set_ylabel("RMS error [mm]")
+    axes[0].set_title("key point vs adapted marker, per marker", fontsize=9)
+    axes[0].legend(fontsize=8)
+    axes[1].set_xlabel("time [s]")
+    axes[1].set_ylabel("RMS error [mm]")
+    axes[1].set_title("per body part over time", fontsize=9)
+    axes[1].legend(fontsize=8)
+    return _png(fig)
+
+
+# ----------------------------------------------------------------------------------------------
+# the page
+
+
+def _fmt(value) -> str:
+    from ..evaluate import _fmt as fmt
+
+    return fmt(value)
+
+
+def metrics_rows(metrics: Mapping[str, dict], balanced: bool = True) -> list[dict]:
+    """Rows of the report's table: name, value, unit, gate, status (pass/fail/-), note."""
+    from ..evaluate import _note
+    from ..verify import Gates, failed_gates
+
+    gates = Gates()
+    gate_text = {"limit_violation_frames": f"<= {gates.limit_violation_frames}",
+                 "ground_penetration_mm": f"<= {gates.ground_penetration_mm}",
+                 "marker_rms_mm": f"<= {gates.marker_rms_mm}"}
+    if balanced:
+        gate_text["zmp_inside_fraction"] = f">= {gates.zmp_inside_fraction}"
+    failed = failed_gates(dict(metrics), gates, balanced=balanced)
+    rows = []
+    for name, entry in metrics.items():
+        value = entry.get("value")
+        gate = gate_text.get(name, "")
+        status = "" if not gate or value is None else ("fail" if name in failed else "pass")
+        rows.append({"name": name, "value": value, "text": _fmt(value),
+                     "unit": entry.get("unit", ""), "gate": gate, "status": status,
+                     "note": _note(name, entry)})
+    return rows
+
+
+def _table(rows: list[dict]) -> str:
+    out = ['<table class="metrics"><thead><tr><th>metric</th><th>value</th><th>unit</th>'
+           '<th>gate</th><th>result</th><th>note</th></tr></thead><tbody>']
+    for r in rows:
+        out.append(
+            f'<tr data-metric="{html.escape(r["name"])}" '
+            f'data-value="{html.escape(json.dumps(r["value"]))}" class="{r["status"]}">'
+            f'<td>{html.escape(r["name"])}</td><td class="num">{html.escape(r["text"])}</td>'
+            f'<td>{html.escape(r["unit"])}</td><td>{html.escape(r["gate"])}</td>'
+            f'<td>{r["status"]}</td><td>{html.escape(str(r["note"]))}</td></tr>')
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+STYLE = """
+body { font: 14px/1.45 system-ui, sans-serif; max-width: 1240px; margin: 0 auto; padding: 16px;
+       color: #222; }
+h1 { font-size: 22px; } h2 { font-size: 17px; margin-top: 28px; border-bottom: 1px solid #ddd; }
+table.metrics { border-collapse: collapse; font-size: 13px; }
+table.metrics td, table.metrics th { border-bottom: 1px solid #e4e4e4; padding: 3px 10px;
+       text-align: left; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+tr.pass td:nth-child(5) { color: #127a2e; font-weight: 600; }
+tr.fail td:nth-child(5), tr.fail td:first-child { color: #c00; font-weight: 600; }
+.verdict { font-size: 16px; font-weight: 600; padding: 6px 10px; display: inline-block;
+           border-radius: 4px; }
+.verdict.ok { background: #dff3e4; color: #12632a; } .verdict.bad { background: #fbe1e1;
+           color: #a00; }
+img { max-width: 100%; } iframe { width: 100%; height: 640px; border: 1px solid #ccc; }
+.meta td { padding: 1px 12px 1px 0; }
+"""
+
+
+def report_html(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str, dict],
+                figures: Mapping[str, str], viewer_page: str | None, facts: Mapping[str, str],
+                balanced: bool = True) -> str:
+    """The report page from its parts (see :func:`write_report`)."""
+    rows = metrics_rows(metrics, balanced)
+    failed = [r["name"] for r in rows if r["status"] == "fail"]
+    verdict = ('<span class="verdict ok">passes every gate</span>' if not failed else
+               f'<span class="verdict bad">fails: {html.escape(", ".join(failed))}</span>')
+    meta = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>"
+                   for k, v in facts.items())
+    captions = {
+        "zmp": "ZMP inside the support polygon",
+        "soles": "Sole heights and skid per foot",
+        "joints": "Joints against their position and velocity limits",
+        "torques": "Torques against effort limits, and friction",
+        "markers": "Marker errors per body part",
+    }
+    figs = "\n".join(f'<h2>{html.escape(captions.get(k, k))}</h2>'
+                     f'<img alt="{html.escape(k)}" src="data:image/png;base64,{v}">'
+                     for k, v in figures.items())
+    view = ""
+    if viewer_page is not None:
+        view = ('<h2>3D view</h2><p>Drag to orbit, right-drag to pan, wheel to zoom; space '
+                'plays.</p><iframe title="3D view" srcdoc="'
+                + html.escape(viewer_page, quote=True) + '"></iframe>')
+    title = f"imesh report: {Path(motion_path).name} ({robot.name})"
+    return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>'
+            f'{html.escape(title)}</title><link rel="icon" href="data:,"><style>{STYLE}</style>'
+            f'</head><body><h1>{html.escape(title)}</h1><table class="meta">{meta}</table>'
+            f'<h2>Metrics</h2><p>{verdict}</p><p>The numbers <code>imesh evaluate '
+            f'{html.escape(Path(motion_path).name)} --robot {html.escape(robot.name)} --json'
+            f'</code> writes for this file; gates of <code>imesh.verify.Gates</code>.</p>'
+            f'{_table(rows)}{figs}{view}</body></html>')
+
+
+def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike, *,
+                 metrics: Mapping[str, dict] | None = None, source=None,
+                 facts: Mapping[str, str] | None = None, viewer: bool = True,
+                 scene: dict | None = None, balanced: bool = True,
+                 fps: float | None = None) -> Path:
+    """Write the HTML report of a written robot motion file.
+
+    Everything is computed from the file as written (:func:`imesh.evaluate.load_motion_file`).
+
+    Args:
+        path: the ``.html`` file to write (atomically).
+        robot: the :class:`imesh.robot.Robot` of the motion.
+        motion_path: the robot motion file (``.npz`` with its adapted markers, or ``.csv``).
+        metrics: the evaluator's report of that file (:func:`imesh.evaluate.evaluate_motion`);
+            None: computed here.
+        source: the human clip, drawn in the embedded viewer.
+        facts: extra lines for the header (name -> text).
+        viewer: embed the 3D viewer.
+        scene: the viewer's scene of this file (:func:`imesh.viz.scene.build_scene`), if
+            already built.
+        balanced: judge the ZMP gate (False for ``--balance none`` motions).
+        fps: frame rate of motion files that store none.
+
+    Returns:
+        the path written.
+    """
+    from ..evaluate import evaluate_motion, load_motion_file
+    from ..export import atomic_path
+    from ..metrics.dynamics import reference_dynamics
+    from ..metrics.kinematics import (
+        detect_support,
+        motion_derivatives,
+        sole_tracks,
+        support_polygons,
+        zmp_report,
+        zmp_trajectory,
+    )
+    from ..metrics.markers import keypoint_motion
+
+    motion = load_motion_file(motion_path, robot, fps=fps)
+    if metrics is None:
+        metrics = evaluate_motion(robot, motion)
+    q, fps = motion.q, motion.fps
+    t = np.arange(motion.n_frames) / fps
+    soles = sole_tracks(robot, q, fps)
+    support = detect_support(soles).support
+    v, a = motion_derivatives(q, fps)
+    zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
+    figures = {"zmp": figure_zmp(t, zmp, support_polygons(soles, support), support),
+               "soles": figure_soles(t, soles, support),
+               "joints": figure_joints(t, robot, q, fps)}
+    if support.any():
+        figures["torques"] = figure_torques(t, reference_dynamics(robot, q, v, a, support))
+    adapted = motion.meta.get("adapted_markers")
+    if adapted is not None:
+        figures["markers"] = figure_markers(t, keypoint_motion(robot, q, fps), adapted)
+    page = None
+    if viewer:
+        from .html import viewer_html
+        from .scene import build_scene
+
+        if scene is None:
+            scene = build_scene(robot, motion, source=source,
+                                title=f"{Path(motion_path).name} ({robot.name})")
+        page = viewer_html(scene)
+    info = {"motion": str(motion_path), "robot": robot.name,
+            "frames": f"{motion.n_frames} at {fps:g} fps ({motion.n_frames / fps:.2f} s)"}
+    info.update(facts or {})
+    with atomic_path(path) as tmp:
+        tmp.write_text(report_html(robot=robot, motion_path=motion_path, metrics=metrics,
+                                   figures=figures, viewer_page=page, facts=info,
+                                   balanced=balanced), encoding="utf-8")
+    log.info("wrote the report %s", path)
+    return Path(path)
+
+
+def table_values(report_path: str | os.PathLike) -> dict:
+    """``{metric: value}`` read back from a report's table (``data-value`` of each row)."""
+    import re
+
+    text = Path(report_path).read_text(encoding="utf-8")
+    return {m: json.loads(html.unescape(v))
+            for m, v in re.findall(r'data-metric="([^"]+)" data-value="([^"]*)"', text)}

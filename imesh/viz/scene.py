@@ -1,0 +1,336 @@
+"""The data of the 3D viewer: a robot motion with its meshes, markers and balance overlays.
+
+:func:`build_scene` computes everything the viewer page draws, once, in Python: the robot's
+visual meshes (from its URDF, in link frames), the world pose of every link at every frame, the
+human markers (the adapted markers the robot fitted, and optionally the source clip beside it),
+the interaction mesh edges per frame, the soles, support polygons, desired and actual ZMP, and
+the self-collisions and joint-limit violations per frame. The page only plays it back.
+
+Arrays are sent as base64 of little-endian float32/uint16/uint8 (``{"b64": ..., "dtype": ...,
+"shape": ...}``), so a 5 s motion of JVRC-1 is about 1 MB of JSON.
+"""
+
+from __future__ import annotations
+
+import base64
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contacts import SIDES
+from ..markerset import STANDARD_BONE_NAMES
+
+log = logging.getLogger(__name__)
+
+#: Colours (RGB 0-1) of the overlays, also used by the report's figures.
+COLORS = {"zmp": (0.85, 0.1, 0.1), "desired": (0.1, 0.45, 0.9), "polygon": (0.1, 0.65, 0.3),
+          "markers": (0.1, 0.35, 0.95), "source": (0.55, 0.2, 0.75)}
+
+
+@dataclass(frozen=True, eq=False)
+class VisualMesh:
+    """One visual mesh of a robot link.
+
+    Attributes:
+        link: the link (frame) name it is attached to.
+        vertices: (N, 3) float32 [m] vertices in the link frame.
+        faces: (F, 3) uint32 triangle vertex indices.
+        color: (3,) float RGB in [0, 1] (the URDF material, or grey).
+    """
+
+    link: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    color: tuple[float, float, float]
+
+
+def visual_meshes(robot, max_faces: int = 40_000, cell_m: float = 0.004) -> list[VisualMesh]:
+    """The visual meshes of a robot's URDF, each in the frame of its link.
+
+    URDF primitives (box, sphere, cylinder) are turned into triangle meshes with trimesh.
+
+    Args:
+        robot: an :class:`imesh.robot.Robot`.
+        max_faces: above this many triangles in all, the meshes are decimated
+            (:func:`decimate`) so a page stays small.
+        cell_m: the decimation grid [m].
+
+    Returns:
+        list of VisualMesh, one per URDF visual element whose link exists in ``robot``.
+    """
+    from ..robot.model import _package_dirs, _pinocchio
+
+    pin = _pinocchio()
+    full = pin.buildModelFromUrdf(str(robot.urdf), pin.JointModelFreeFlyer())
+    geom = pin.buildGeomFromUrdf(full, str(robot.urdf), pin.GeometryType.VISUAL, None,
+                                 _package_dirs(robot.urdf))
+    known = set(robot.frame_names)
+    out = []
+    for g in geom.geometryObjects:
+        frame = full.frames[g.parentFrame]
+        if frame.name not in known:
+            continue
+        T = (frame.placement.inverse() * g.placement).homogeneous
+        geo = g.geometry
+        cls = type(geo).__name__
+        if cls.startswith("BVHModel") or cls.startswith("Convex"):
+            verts = np.array(geo.vertices(), dtype=float).reshape(-1, 3)
+            faces = np.array([[geo.tri_indices(i)[k] for k in range(3)]
+                              for i in range(geo.num_tris)], dtype=np.uint32).reshape(-1, 3)
+        else:
+            mesh = _primitive(cls, geo)
+            if mesh is None:
+                log.info("visual %s of %s: unsupported geometry %s, not drawn", g.name,
+                         frame.name, cls)
+                continue
+            verts, faces = mesh
+        verts = verts @ T[:3, :3].T + T[:3, 3]
+        color = tuple(float(c) for c in np.asarray(g.meshColor)[:3])
+        if np.allclose(color, 0.0):
+            color = (0.7, 0.7, 0.7)
+        out.append(VisualMesh(link=frame.name, vertices=verts.astype(np.float32),
+                              faces=faces.astype(np.uint32), color=color))
+    n_faces = sum(len(m.faces) for m in out)
+    if n_faces > max_faces:  # e.g. the G1's 290k triangles: 4 mm clusters keep its look
+        small = []
+        for m in out:
+            v, f = decimate(m.vertices, m.faces, cell_m)
+            small.append(VisualMesh(link=m.link, vertices=v, faces=f, color=m.color))
+        out = small
+        log.info("viewer: %s meshes decimated from %d to %d triangles", robot.name, n_faces,
+                 sum(len(m.faces) for m in out))
+    return out
+
+
+def decimate(vertices: np.ndarray, faces: np.ndarray, cell_m: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Vertex-clustering decimation: vertices in one ``cell_m`` cube merge into their mean, and
+    triangles that collapse are dropped (for display only).
+
+    Args:
+        vertices: (N, 3) float [m]; faces: (F, 3) int.
+        cell_m: the grid size [m].
+
+    Returns:
+        (vertices (N', 3) float32, faces (F', 3) uint32).
+    """
+    vertices = np.asarray(vertices, dtype=float)
+    key = np.floor(vertices / cell_m).astype(np.int64)
+    _, inv = np.unique(key, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    n = int(inv.max()) + 1 if len(inv) else 0
+    count = np.bincount(inv, minlength=n).astype(float)
+    merged = np.stack([np.bincount(inv, weights=vertices[:, k], minlength=n) for k in range(3)],
+                      axis=1) / np.maximum(count, 1)[:, None]
+    f = inv[np.asarray(faces, dtype=np.int64)]
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    return merged.astype(np.float32), f[keep].astype(np.uint32)
+
+
+def _primitive(cls: str, geo) -> tuple[np.ndarray, np.ndarray] | None:
+    import trimesh
+
+    if cls == "Box":
+        m = trimesh.creation.box(extents=2 * np.asarray(geo.halfSide))
+    elif cls == "Sphere":
+        m = trimesh.creation.icosphere(subdivisions=2, radius=float(geo.radius))
+    elif cls == "Cylinder":
+        m = trimesh.creation.cylinder(radius=float(geo.radius), height=2 * float(geo.halfLength))
+    elif cls == "Capsule":
+        m = trimesh.creation.capsule(radius=float(geo.radius), height=2 * float(geo.halfLength))
+    else:
+        return None
+    return np.asarray(m.vertices, dtype=float), np.asarray(m.faces, dtype=np.uint32)
+
+
+def encode(array: np.ndarray, dtype: str = "float32") -> dict:
+    """An array as ``{"b64", "dtype", "shape"}`` (little-endian ``dtype``) for the page."""
+    a = np.ascontiguousarray(np.asarray(array), dtype=np.dtype(dtype).newbyteorder("<"))
+    return {"b64": base64.b64encode(a.tobytes()).decode("ascii"), "dtype": dtype,
+            "shape": list(a.shape)}
+
+
+def decode(entry: Mapping) -> np.ndarray:
+    """The inverse of :func:`encode`."""
+    raw = base64.b64decode(entry["b64"])
+    return np.frombuffer(raw, dtype=np.dtype(entry["dtype"]).newbyteorder("<")).reshape(
+        entry["shape"])
+
+
+def lead_frames(markers: np.ndarray) -> tuple[int, int]:
+    """(lead-in, lead-out) frames of a retargeted motion: its adapted markers hold the first and
+    the last clip frame still over the standing lead-in/out (``imesh.retarget``).
+
+    Args:
+        markers: (T, M, 3) float [m] adapted markers, frame-aligned with the motion.
+    """
+    T = len(markers)
+    if T < 3:
+        return 0, 0
+    same_first = np.all(np.abs(markers - markers[0]) < 1e-9, axis=(1, 2))
+    same_last = np.all(np.abs(markers - markers[-1]) < 1e-9, axis=(1, 2))
+    a = int(np.argmin(same_first)) if not same_first.all() else 0
+    b = int(np.argmin(same_last[::-1])) if not same_last.all() else 0
+    return max(a - 1, 0), max(b - 1, 0)
+
+
+def _bones(names) -> list[list[int]]:
+    index = {n: i for i, n in enumerate(names)}
+    return [[index[a], index[b]] for a, b in STANDARD_BONE_NAMES if a in index and b in index]
+
+
+def _marker_entry(positions: np.ndarray, names, label: str) -> dict:
+    pos = np.nan_to_num(np.asarray(positions, dtype=float), nan=0.0)
+    return {"label": label, "names": list(names), "positions": encode(pos),
+            "bones": _bones(names)}
+
+
+def _mesh_edges(positions: np.ndarray) -> dict:
+    """(T, E, 2) uint16 Delaunay edges of every frame, padded with 65535."""
+    from ..mesh.interaction import tetrahedralize
+
+    pos = np.nan_to_num(positions)
+    edges = [tetrahedralize(p)[0] for p in pos]
+    width = max((len(e) for e in edges), default=0)
+    out = np.full((len(edges), width, 2), 65535, dtype=np.uint16)
+    for t, e in enumerate(edges):
+        out[t, :len(e)] = e
+    return encode(out, "uint16")
+
+
+def build_scene(robot, motion, *, markers=None, source=None, title: str | None = None,
+                metrics: Mapping | None = None) -> dict:
+    """Everything the viewer draws for a robot motion, JSON-ready.
+
+    Args:
+        robot: an :class:`imesh.robot.Robot`.
+        motion: its :class:`imesh.robot_motion.RobotMotion` (T frames).
+        markers: the adapted markers the robot fitted (a MarkerMotion frame-aligned with the
+            motion), or None: ``motion.meta["adapted_markers"]`` (stored in imesh motion files).
+        source: the human clip (a path or MarkerMotion), drawn beside the robot: arranged for
+            the robot's size, resampled to the motion's fps and shifted by the lead-in.
+        title: page title.
+        metrics: an :func:`imesh.evaluate.evaluate_motion` report, shown in the page.
+
+    Returns:
+        dict (see the module docstring): ``fps``, ``frames``, ``links``, ``link_poses`` (T, L, 7:
+        position [m], quaternion x y z w), ``meshes``, ``markers``, ``source``, ``mesh_edges``,
+        ``soles`` (T, 2, 4, 3), ``support`` (T, 2), ``polygons`` (T, 8, 2) with ``polygon_sizes``
+        (T,), ``zmp`` and ``zmp_desired`` (T, 2), ``collisions`` (per frame a list of link index
+        pairs), ``limits`` (per frame the joints outside a limit), ``ground``.
+    """
+    from scipy.spatial.transform import Rotation
+
+    from ..metrics.collision import SELF_COLLISION_DEPTH_M, SelfCollisionChecker
+    from ..metrics.kinematics import (
+        detect_support,
+        motion_derivatives,
+        support_polygons,
+        zmp_report,
+        zmp_trajectory,
+    )
+
+    q = np.asarray(motion.q, dtype=float)
+    T, fps = len(q), float(motion.fps)
+    meshes = visual_meshes(robot)
+    links = sorted({m.link for m in meshes})
+    link_ids = [robot.frame_id(n) for n in links]
+    poses = np.empty((T, len(links), 7), dtype=np.float32)
+    for t in range(T):
+        M = robot.frame_placements(q[t], link_ids)
+        poses[t, :, :3] = M[:, :3, 3]
+        poses[t, :, 3:] = Rotation.from_matrix(M[:, :3, :3]).as_quat()
+    scene: dict = {
+        "version": 1, "title": title or f"{robot.name} motion", "robot": robot.name,
+        "fps": fps, "frames": T, "links": links, "link_poses": encode(poses),
+        "root_link": robot.waist_frame if robot.waist_frame in links else links[0],
+        "meshes": [{"link": links.index(m.link), "color": list(m.color),
+                    "vertices": encode(m.vertices), "faces": encode(m.faces, "uint32")}
+                   for m in meshes],
+    }
+
+    if markers is None:
+        markers = motion.meta.get("adapted_markers")
+    lead = (0, 0)
+    if markers is not None and markers.n_frames == T:
+        scene["markers"] = _marker_entry(markers.positions_m, markers.names,
+                                         "adapted markers (the robot's targets)")
+        scene["mesh_edges"] = _mesh_edges(markers.positions_m)
+        lead = lead_frames(markers.positions_m)
+    elif markers is not None:
+        log.warning("viewer: %d adapted-marker frames for %d motion frames: not drawn",
+                    markers.n_frames, T)
+    if source is not None:
+        from ..errors import ImeshError
+
+        try:
+            scene["source"] = _source_entry(source, robot, fps, T, lead)
+        except ImeshError as exc:  # the robot motion is still worth showing
+            log.warning("viewer: the human source is not drawn: %s", exc)
+
+    # soles, support, ZMP
+    from ..metrics.kinematics import sole_tracks
+
+    soles = sole_tracks(robot, q, fps)
+    support = detect_support(soles).support
+    v, a = motion_derivatives(q, fps)
+    zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
+    polys = support_polygons(soles, support)
+    width = max((len(p) for p in polys if p is not None), default=1)
+    poly_arr = np.zeros((T, width, 2), dtype=np.float32)
+    sizes = np.zeros(T, dtype=np.uint8)
+    for t, p in enumerate(polys):
+        if p is not None:
+            poly_arr[t, :len(p)] = p
+            sizes[t] = len(p)
+    scene["soles"] = encode(np.stack([soles.corners[s] for s in SIDES], axis=1))
+    scene["support"] = encode(support.astype(np.uint8), "uint8")
+    scene["polygons"] = encode(poly_arr)
+    scene["polygon_sizes"] = encode(sizes, "uint8")
+    scene["zmp"] = encode(np.nan_to_num(zmp.zmp_m))
+    scene["zmp_desired"] = encode(np.nan_to_num(zmp.desired_m))
+    scene["zmp_inside"] = encode(zmp.inside.astype(np.uint8), "uint8")
+
+    # collisions and limits per frame
+    checker = SelfCollisionChecker(robot)
+    index = {n: i for i, n in enumerate(links)}
+    collisions = []
+    for t in range(T):
+        hits = checker.collisions(q[t], SELF_COLLISION_DEPTH_M)
+        collisions.append([[index.get(a_, -1), index.get(b_, -1), round(1e3 * d, 1)]
+                           for a_, b_, d in hits])
+    scene["collisions"] = collisions
+    scene["limits"] = _limit_frames(robot, q, fps)
+    if metrics is not None:
+        from ..evaluate import metric_values
+
+        scene["metrics"] = {k: v for k, v in metric_values(metrics).items()}
+    return scene
+
+
+def _limit_frames(robot, q: np.ndarray, fps: float) -> list[list[str]]:
+    """Per frame the joints outside their position, velocity or acceleration limit (the
+    evaluator's tests, :func:`imesh.metrics.kinematics.limit_violations`)."""
+    qj = q[:, 7:]
+    over = (qj > robot.q_upper + 1e-6) | (qj < robot.q_lower - 1e-6)
+    if len(qj) > 1:
+        over[1:] |= np.abs(np.diff(qj, axis=0)) * fps / robot.v_max > 1.0 + 1e-6
+    if len(qj) > 2:
+        over[1:-1] |= np.abs(np.diff(qj, n=2, axis=0)) * fps * fps / robot.a_max > 1.0 + 1e-6
+    names = robot.joint_names
+    return [[names[j] for j in np.flatnonzero(row)] for row in over]
+
+
+def _source_entry(source, robot, fps: float, T: int, lead: tuple[int, int]) -> dict:
+    """The arranged human clip at the motion's rate, frames shifted by the lead-in (held still
+    over the lead-in/out), placed 1 m to the robot's left."""
+    from ..evaluate import arranged_source
+
+    src = arranged_source(source, robot)
+    if abs(src.fps - fps) > 1e-6 * fps:
+        src = src.resample(fps)
+    pos = src.positions_m
+    idx = np.clip(np.arange(T) - lead[0], 0, len(pos) - 1)
+    return _marker_entry(pos[idx], src.names, "human source (arranged to the robot's size)")

@@ -1,0 +1,387 @@
+/* imesh viewer: plays back a scene built by imesh.viz.scene.build_scene with three.js.
+ * The scene comes inline (script#imesh-scene, the self-contained page) or from scene.json (the
+ * local server). window.imeshViewer exposes setFrame/play/pause for tests and scripts. */
+(function () {
+  "use strict";
+  var Z_UP = new THREE.Vector3(0, 0, 1);
+
+  function decode(e) {
+    var bin = atob(e.b64), n = bin.length, buf = new Uint8Array(n);
+    for (var i = 0; i < n; i++) buf[i] = bin.charCodeAt(i);
+    var T = {float32: Float32Array, uint32: Uint32Array, uint16: Uint16Array, uint8: Uint8Array};
+    return new T[e.dtype](buf.buffer);
+  }
+
+  function loadScene() {
+    var el = document.getElementById("imesh-scene");
+    if (el && el.textContent.trim()) return Promise.resolve(JSON.parse(el.textContent));
+    return fetch("scene.json").then(function (r) {
+      if (!r.ok) throw new Error("scene.json: HTTP " + r.status);
+      return r.json();
+    });
+  }
+
+  function OrbitControl(camera, dom, target) {
+    // Z-up orbit: left drag rotates, right drag (or shift) pans, wheel zooms.
+    var self = this, sph = {r: 4.6, th: -0.55, ph: 1.22}, drag = null;
+    this.target = target;
+    this.update = function () {
+      var s = Math.sin(sph.ph);
+      camera.position.set(self.target.x + sph.r * s * Math.cos(sph.th),
+                          self.target.y + sph.r * s * Math.sin(sph.th),
+                          self.target.z + sph.r * Math.cos(sph.ph));
+      camera.up.copy(Z_UP);
+      camera.lookAt(self.target);
+    };
+    dom.addEventListener("contextmenu", function (ev) { ev.preventDefault(); });
+    dom.addEventListener("pointerdown", function (ev) {
+      drag = {x: ev.clientX, y: ev.clientY, pan: ev.button === 2 || ev.shiftKey};
+      dom.setPointerCapture(ev.pointerId);
+    });
+    dom.addEventListener("pointerup", function () { drag = null; });
+    dom.addEventListener("pointermove", function (ev) {
+      if (!drag) return;
+      var dx = ev.clientX - drag.x, dy = ev.clientY - drag.y;
+      drag.x = ev.clientX; drag.y = ev.clientY;
+      if (drag.pan) {
+        var right = new THREE.Vector3().setFromMatrixColumn(camera.matrix, 0);
+        var up = new THREE.Vector3().setFromMatrixColumn(camera.matrix, 1);
+        var k = sph.r * 0.0015;
+        self.target.addScaledVector(right, -dx * k).addScaledVector(up, dy * k);
+      } else {
+        sph.th -= dx * 0.008;
+        sph.ph = Math.min(Math.max(sph.ph - dy * 0.008, 0.05), Math.PI - 0.05);
+      }
+      self.update();
+    });
+    dom.addEventListener("wheel", function (ev) {
+      ev.preventDefault();
+      sph.r = Math.min(Math.max(sph.r * Math.exp(ev.deltaY * 0.001), 0.3), 40);
+      self.update();
+    }, {passive: false});
+  }
+
+  function lineSegments(maxSegments, color, opacity) {
+    var g = new THREE.BufferGeometry();
+    g.setAttribute("position", new THREE.BufferAttribute(new Float32Array(maxSegments * 6), 3));
+    g.setDrawRange(0, 0);
+    var m = new THREE.LineBasicMaterial({color: color, transparent: opacity < 1,
+                                         opacity: opacity});
+    var l = new THREE.LineSegments(g, m);
+    l.frustumCulled = false;
+    return l;
+  }
+
+  function markerSet(entry, color, scene3) {
+    var names = entry.names, M = names.length;
+    var pos = decode(entry.positions);
+    var group = new THREE.Group();
+    var sphere = new THREE.SphereGeometry(0.022, 12, 8);
+    var mat = new THREE.MeshLambertMaterial({color: color});
+    var balls = new THREE.InstancedMesh(sphere, mat, M);
+    balls.frustumCulled = false;
+    group.add(balls);
+    var bones = lineSegments(entry.bones.length, color, 1.0);
+    group.add(bones);
+    scene3.add(group);
+    var tmp = new THREE.Matrix4();
+    return {
+      group: group, pos: pos, M: M, offset: new THREE.Vector3(),
+      set: function (t) {
+        var o = this.offset, b = t * M * 3;
+        for (var j = 0; j < M; j++) {
+          tmp.makeTranslation(pos[b + 3 * j] + o.x, pos[b + 3 * j + 1] + o.y,
+                              pos[b + 3 * j + 2] + o.z);
+          balls.setMatrixAt(j, tmp);
+        }
+        balls.instanceMatrix.needsUpdate = true;
+        var arr = bones.geometry.attributes.position.array;
+        entry.bones.forEach(function (bn, k) {
+          for (var e = 0; e < 2; e++) for (var c = 0; c < 3; c++)
+            arr[6 * k + 3 * e + c] = pos[b + 3 * bn[e] + c] + [o.x, o.y, o.z][c];
+        });
+        bones.geometry.attributes.position.needsUpdate = true;
+        bones.geometry.setDrawRange(0, 2 * entry.bones.length);
+      }
+    };
+  }
+
+  function build(S) {
+    var T = S.frames, fps = S.fps;
+    var host = document.getElementById("view");
+    var renderer = new THREE.WebGLRenderer({antialias: true, preserveDrawingBuffer: true});
+    renderer.setPixelRatio(window.devicePixelRatio || 1);
+    renderer.setClearColor(0xf4f6f8);
+    host.appendChild(renderer.domElement);
+    var scene3 = new THREE.Scene();
+    var camera = new THREE.PerspectiveCamera(40, 1, 0.02, 100);
+    scene3.add(new THREE.HemisphereLight(0xffffff, 0x8d8d8d, 0.9));
+    var sun = new THREE.DirectionalLight(0xffffff, 0.7);
+    sun.position.set(2, -3, 5);
+    scene3.add(sun);
+    (function grid() {  // 0.5 m floor grid on z = 0, 1 m lines darker
+      var fine = [], bold = [];
+      for (var i = -40; i <= 40; i++) {
+        var v = i * 0.5, a = (i % 2 === 0) ? bold : fine;
+        for (var j = -20; j < 20; j++)  // short segments: long lines through the camera
+          a.push(v, j, 0, v, j + 1, 0, j, v, 0, j + 1, v, 0);  // plane get lost in clipping
+      }
+      [[fine, 0xcfd3d8], [bold, 0xa9aeb5]].forEach(function (gc) {
+        var g = new THREE.BufferGeometry();
+        g.setAttribute("position", new THREE.BufferAttribute(new Float32Array(gc[0]), 3));
+        scene3.add(new THREE.LineSegments(g, new THREE.LineBasicMaterial({color: gc[1]})));
+      });
+    })();
+
+    // robot links
+    var poses = decode(S.link_poses), L = S.links.length;
+    var linkGroups = S.links.map(function () {
+      var g = new THREE.Group(); scene3.add(g); return g;
+    });
+    var linkMats = S.links.map(function () { return []; });
+    var red = new THREE.Color(0.95, 0.1, 0.1);
+    S.meshes.forEach(function (m) {
+      var g = new THREE.BufferGeometry();
+      g.setAttribute("position", new THREE.BufferAttribute(decode(m.vertices), 3));
+      g.setIndex(new THREE.BufferAttribute(decode(m.faces), 1));
+      g.computeVertexNormals();
+      var col = new THREE.Color(m.color[0], m.color[1], m.color[2]);
+      var mat = new THREE.MeshPhongMaterial({color: col, shininess: 30, flatShading: false});
+      mat.userData.base = col;
+      var mesh = new THREE.Mesh(g, mat);
+      linkGroups[m.link].add(mesh);
+      linkMats[m.link].push(mat);
+    });
+
+    var human = S.markers ? markerSet(S.markers, 0x1a5af2, scene3) : null;
+    var source = S.source ? markerSet(S.source, 0x8c33bf, scene3) : null;
+    var edgesArr = S.mesh_edges ? decode(S.mesh_edges) : null;
+    var E = S.mesh_edges ? S.mesh_edges.shape[1] : 0;
+    var edgeLines = lineSegments(Math.max(E, 1), 0x3a7bd5, 0.35);
+    scene3.add(edgeLines);
+
+    // floor overlays
+    var soles = decode(S.soles), support = decode(S.support);
+    var polys = decode(S.polygons), polySizes = decode(S.polygon_sizes);
+    var PW = S.polygons.shape[1];
+    var zmp = decode(S.zmp), zdes = decode(S.zmp_desired), zin = decode(S.zmp_inside);
+    var soleLines = lineSegments(8, 0x333333, 1.0);
+    scene3.add(soleLines);
+    var polyLine = lineSegments(PW, 0x1aa64d, 1.0);
+    scene3.add(polyLine);
+    var polyFillGeo = new THREE.BufferGeometry();
+    polyFillGeo.setAttribute("position",
+                             new THREE.BufferAttribute(new Float32Array(PW * 9), 3));
+    var polyFill = new THREE.Mesh(polyFillGeo, new THREE.MeshBasicMaterial(
+      {color: 0x1aa64d, transparent: true, opacity: 0.25, side: THREE.DoubleSide,
+       depthWrite: false}));
+    polyFill.frustumCulled = false;
+    scene3.add(polyFill);
+    function disc(color) {
+      var d = new THREE.Mesh(new THREE.CylinderGeometry(0.025, 0.025, 0.004, 20),
+                             new THREE.MeshBasicMaterial({color: color}));
+      d.rotation.x = Math.PI / 2;
+      scene3.add(d);
+      return d;
+    }
+    var zmpDot = disc(0xd91a1a), desDot = disc(0x1a73e6);
+    function path(arr, color) {
+      var g = new THREE.BufferGeometry(), p = new Float32Array(T * 3);
+      for (var t = 0; t < T; t++) { p[3 * t] = arr[2 * t]; p[3 * t + 1] = arr[2 * t + 1];
+                                    p[3 * t + 2] = 0.002; }
+      g.setAttribute("position", new THREE.BufferAttribute(p, 3));
+      var l = new THREE.Line(g, new THREE.LineBasicMaterial({color: color, transparent: true,
+                                                              opacity: 0.5}));
+      scene3.add(l);
+      return l;
+    }
+    var zmpPath = path(zmp, 0xd91a1a), desPath = path(zdes, 0x1a73e6);
+    // the ZMP, its target and the support polygon stay visible through the feet
+    [zmpDot, desDot, polyLine, soleLines].forEach(function (o) {
+      o.material.depthTest = false;
+      o.renderOrder = 10;
+    });
+    zmpDot.renderOrder = 12;
+
+    // UI
+    var slider = document.getElementById("frame"), label = document.getElementById("label");
+    var info = document.getElementById("info"), playBtn = document.getElementById("play");
+    var speedSel = document.getElementById("speed");
+    slider.max = T - 1;
+    var opts = {};
+    ["human", "source", "edges", "floor", "beside", "follow"].forEach(function (k) {
+      var el = document.getElementById("opt-" + k);
+      opts[k] = el;
+      el.addEventListener("change", function () { setFrame(current); });
+    });
+    if (!source) opts.source.parentNode.style.display = "none";
+    if (!source && !human) opts.beside.parentNode.style.display = "none";
+    if (!human) { opts.human.parentNode.style.display = "none";
+                  opts.edges.parentNode.style.display = "none"; }
+
+    var target = new THREE.Vector3(poses[0], poses[1], 0.8);
+    var controls = new OrbitControl(camera, renderer.domElement, target);
+    controls.update();
+
+    var current = 0, playing = false, clock = 0, last = null;
+    function setFrame(t) {
+      t = Math.max(0, Math.min(T - 1, Math.round(t)));
+      current = t;
+      slider.value = t;
+      var hits = {}, coll = S.collisions[t] || [];
+      coll.forEach(function (c) { hits[c[0]] = 1; hits[c[1]] = 1; });
+      for (var l = 0; l < L; l++) {
+        var b = (t * L + l) * 7, g = linkGroups[l];
+        g.position.set(poses[b], poses[b + 1], poses[b + 2]);
+        g.quaternion.set(poses[b + 3], poses[b + 4], poses[b + 5], poses[b + 6]);
+        linkMats[l].forEach(function (m) { m.color.copy(hits[l] ? red : m.userData.base); });
+      }
+      if (human) {
+        human.group.visible = opts.human.checked;
+        human.offset.set(0, opts.beside.checked ? 1.0 : 0, 0);
+        human.set(t);
+      }
+      if (source) {
+        source.group.visible = opts.source.checked;
+        source.offset.set(0, opts.beside.checked ? -1.0 : 1.0, 0);
+        source.set(t);
+      }
+      edgeLines.visible = !!(human && opts.edges.checked);
+      if (edgesArr) {
+        var hp = human.pos, M = human.M, arr = edgeLines.geometry.attributes.position.array;
+        var n = 0, o = human.offset;
+        for (var e = 0; e < E; e++) {
+          var a = edgesArr[(t * E + e) * 2], c2 = edgesArr[(t * E + e) * 2 + 1];
+          if (a === 65535) break;
+          [a, c2].forEach(function (j) {
+            arr[3 * n] = hp[(t * M + j) * 3] + o.x; arr[3 * n + 1] = hp[(t * M + j) * 3 + 1] + o.y;
+            arr[3 * n + 2] = hp[(t * M + j) * 3 + 2] + o.z; n++;
+          });
+        }
+        edgeLines.geometry.attributes.position.needsUpdate = true;
+        edgeLines.geometry.setDrawRange(0, n);
+      }
+      var floorOn = opts.floor.checked;
+      [soleLines, polyLine, polyFill, zmpDot, desDot, zmpPath, desPath].forEach(function (o2) {
+        o2.visible = floorOn;
+      });
+      var sa = soleLines.geometry.attributes.position.array, k = 0;
+      for (var s = 0; s < 2; s++) for (var i = 0; i < 4; i++) for (var e2 = 0; e2 < 2; e2++) {
+        var ci = (((t * 2 + s) * 4) + (i + e2) % 4) * 3;
+        sa[k++] = soles[ci]; sa[k++] = soles[ci + 1]; sa[k++] = Math.max(soles[ci + 2], 0.003);
+      }
+      soleLines.material.color.set(support[2 * t] || support[2 * t + 1] ? 0x222222 : 0x888888);
+      soleLines.geometry.attributes.position.needsUpdate = true;
+      soleLines.geometry.setDrawRange(0, 16);
+      var ns = polySizes[t], pa = polyLine.geometry.attributes.position.array;
+      var fa = polyFillGeo.attributes.position.array;
+      var cx = 0, cy = 0;
+      for (var v = 0; v < ns; v++) { cx += polys[(t * PW + v) * 2] / ns;
+                                     cy += polys[(t * PW + v) * 2 + 1] / ns; }
+      for (v = 0; v < ns; v++) {
+        var p0 = (t * PW + v) * 2, p1 = (t * PW + (v + 1) % ns) * 2;
+        pa.set([polys[p0], polys[p0 + 1], 0.003, polys[p1], polys[p1 + 1], 0.003], 6 * v);
+        fa.set([cx, cy, 0.001, polys[p0], polys[p0 + 1], 0.001, polys[p1], polys[p1 + 1], 0.001],
+               9 * v);
+      }
+      polyLine.geometry.attributes.position.needsUpdate = true;
+      polyLine.geometry.setDrawRange(0, 2 * ns);
+      polyFillGeo.attributes.position.needsUpdate = true;
+      polyFillGeo.setDrawRange(0, 3 * ns);
+      zmpDot.position.set(zmp[2 * t], zmp[2 * t + 1], 0.004);
+      desDot.position.set(zdes[2 * t], zdes[2 * t + 1], 0.003);
+      zmpDot.visible = floorOn && ns > 0;
+      if (opts.follow.checked) {
+        var b0 = t * L * 7, root = S.links.indexOf(S.root_link);
+        if (root >= 0) b0 += root * 7;
+        var dx = poses[b0] - target.x, dy = poses[b0 + 1] - target.y;
+        target.x += dx; target.y += dy;
+        controls.update();
+      }
+      var lim = S.limits[t] || [];
+      var lines = ["frame " + t + " / " + (T - 1) + "  (" + (t / fps).toFixed(2) + " s)"];
+      lines.push(ns ? "support: " + ["left", "right"].filter(function (_, q) {
+        return support[2 * t + q]; }).join(" + ") + (zin[t] ? "" : "  ZMP OUTSIDE") : "flight");
+      if (coll.length) lines.push("self-collision: " + coll.map(function (c) {
+        return S.links[c[0]] + "-" + S.links[c[1]] + " " + c[2] + " mm"; }).join(", "));
+      if (lim.length) lines.push("limits exceeded: " + lim.join(", "));
+      info.textContent = lines.join("\n");
+      info.className = coll.length || lim.length ? "warn" : "";
+      label.textContent = t + " / " + (T - 1);
+      renderer.render(scene3, camera);
+    }
+
+    function resize() {
+      var w = host.clientWidth, h = host.clientHeight;
+      renderer.setSize(w, h, false);
+      camera.aspect = w / Math.max(h, 1);
+      camera.updateProjectionMatrix();
+      renderer.render(scene3, camera);
+    }
+    window.addEventListener("resize", resize);
+    slider.addEventListener("input", function () { playing = false; playBtn.textContent = "play";
+                                                   setFrame(+slider.value); });
+    function play(on) {
+      playing = on === undefined ? !playing : on;
+      playBtn.textContent = playing ? "pause" : "play";
+      last = null;
+      if (playing && current >= T - 1) { clock = 0; setFrame(0); }
+    }
+    playBtn.addEventListener("click", function () { play(); });
+    document.addEventListener("keydown", function (ev) {
+      if (ev.key === " ") { ev.preventDefault(); play(); }
+      if (ev.key === "ArrowRight") setFrame(current + 1);
+      if (ev.key === "ArrowLeft") setFrame(current - 1);
+    });
+    function tick(now) {
+      if (playing) {
+        if (last !== null) clock += (now - last) / 1000 * parseFloat(speedSel.value);
+        else clock = current / fps;
+        last = now;
+        var t = Math.floor(clock * fps);
+        if (t >= T - 1) { setFrame(T - 1); play(false); } else if (t !== current) setFrame(t);
+      }
+      renderer.render(scene3, camera);
+      window.requestAnimationFrame(tick);
+    }
+    ["mousemove", "wheel"].forEach(function (n) {
+      renderer.domElement.addEventListener(n, function () { renderer.render(scene3, camera); });
+    });
+    resize();
+    setFrame(0);
+    window.requestAnimationFrame(tick);
+    document.getElementById("title").textContent = S.title;
+    function snapshot(type, quality) {
+      // the 3D view with the frame's text drawn in, as a data URL (videos)
+      renderer.render(scene3, camera);
+      var src = renderer.domElement, c = document.createElement("canvas");
+      c.width = src.width; c.height = src.height;
+      var g = c.getContext("2d"), k = src.width / Math.max(host.clientWidth, 1);
+      g.drawImage(src, 0, 0);
+      g.font = (13 * k) + "px sans-serif";
+      var lines = info.textContent.split("\n");
+      g.fillStyle = "rgba(255,255,255,0.8)";
+      g.fillRect(6 * k, 6 * k, 420 * k, (lines.length * 17 + 8) * k);
+      g.fillStyle = info.className === "warn" ? "#b00" : "#222";
+      lines.forEach(function (s2, i) { g.fillText(s2, 12 * k, (22 + 17 * i) * k); });
+      return c.toDataURL(type || "image/png", quality);
+    }
+    window.imeshViewer = {
+      snapshot: snapshot,
+      frames: T, fps: fps, setFrame: function (t) { play(false); setFrame(t); return current; },
+      play: function () { play(true); }, pause: function () { play(false); },
+      frame: function () { return current; }, ready: true
+    };
+    document.body.setAttribute("data-ready", "1");
+  }
+
+  function start() {
+    loadScene().then(build).catch(function (err) {
+      document.getElementById("info").textContent = "cannot show the motion: " + err;
+      document.getElementById("info").className = "warn";
+      throw err;
+    });
+  }
+  if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
+  else start();
+})();
