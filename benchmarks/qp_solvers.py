@@ -5,7 +5,9 @@
 
 Builds the first QP of the whole-body solve of the clip (``imesh.retarget`` up to the first
 ``solve_qp`` call) and solves it with PIQP (its two sparse KKT back ends), Clarabel, OSQP and
-ProxSuite (the last two from ``pip install -e .[bench]``), each directly (no qpsolvers layer).
+ProxSuite (the last two from ``pip install -e .[bench]``), each directly (no qpsolvers layer),
+and our own banded interior-point solver (``_banded_ipm.py``: the KKT system in a band, LAPACK's
+banded LU).
 Prints wall time (best of ``--repeat``), iterations, the largest constraint violation and the
 objective; the solver the solve uses by default (``WholeBodyConfig.solver``) is chosen from
 this table (docs/wholebody.md).
@@ -86,6 +88,7 @@ def main(argv=None) -> int:
     ap.add_argument("--fps", type=float, default=30.0)
     ap.add_argument("--tol", type=float, default=1e-7)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--solvers", nargs="+", help="only these rows (names as printed)")
     args = ap.parse_args(argv)
 
     from imesh.solve.qp import solve_qp
@@ -103,9 +106,18 @@ def main(argv=None) -> int:
             return sol.x, sol.status, sol.iterations
         runs[name] = run
     runs["proxsuite sparse"] = lambda: _proxsuite(qp, args.tol)
+
+    def own():
+        from _banded_ipm import solve_banded_qp
+
+        x, status, it, bw = solve_banded_qp(qp, args.tol)
+        return x, f"{status} (band {bw})", it
+    runs["own banded IPM"] = own
     print(f"{'solver':<24} {'seconds':>8} {'status':>22} {'iter':>6} {'violation':>10} "
           f"{'objective':>14}")
     for name, run in runs.items():
+        if args.solvers and name not in args.solvers:
+            continue
         best = np.inf
         try:
             for _ in range(args.repeat):

@@ -50,7 +50,8 @@ def main(argv=None) -> int:
                                                                      solver=args.solver))
     head = (f"{'clip':<30} {'robot':<6} {'frames':>6} {'rms mm':>7} {'sole mm':>7} "
             f"{'tilt':>5} {'skid':>5} {'pen mm':>6} {'lim':>4} {'zmp in':>6} {'zmp mm':>6} "
-            f"{'fell':>5} {'surv s':>6} {'trq':>5} {'trq rf':>6} {'fric':>5} {'it':>3} {'solve s':>7} {'total s':>7}")
+            f"{'fell':>5} {'surv s':>6} {'trq':>5} {'trq rf':>6} {'fric':>5} {'it':>3} "
+            f"{'solve s':>7} {'total s':>7}")
     print(head)
     print("-" * len(head))
     for clip in args.clips:
