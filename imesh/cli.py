@@ -15,6 +15,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from .cli_args import add_robot_arguments
 from .errors import ImeshError
 
 log = logging.getLogger("imesh")
@@ -86,9 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("retarget", help="adapt a motion file to a robot")
     p.add_argument("clip")
-    p.add_argument("--robot", default="jvrc1",
-                   help="robot: a folder of robots/ (jvrc1, g1, hrp4c) or a robot.toml")
-    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
+    add_robot_arguments(p)
     p.add_argument("-o", "--output", required=True,
                    help="robot motion (.npz or .csv: base position, base quaternion xyzw, joints)")
     p.add_argument("--json", dest="report", help="write the report (JSON) here")

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from .cli_args import add_robot_arguments
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``evaluate`` command to an argparse subparsers object."""
@@ -13,9 +15,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "base position [m], base quaternion; see docs/checking.md), print a table and "
         "optionally write them as JSON (keys = the metric names).")
     p.add_argument("motion", help="robot motion (.npz or .csv)")
-    p.add_argument("--robot", default="jvrc1",
-                   help="robot: a folder of robots/ (jvrc1, g1, hrp4c) or a robot.toml")
-    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
+    add_robot_arguments(p)
     p.add_argument("--source", help="the human clip the motion was retargeted from")
     p.add_argument("--adapted", help="the adapted markers the robot fitted (.npz from "
                    "'imesh retarget --markers')")

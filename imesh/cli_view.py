@@ -15,6 +15,8 @@ from contextlib import contextmanager
 from importlib import resources
 from pathlib import Path
 
+from .cli_args import add_robot_arguments
+
 log = logging.getLogger("imesh")
 
 #: The built-in clip of ``imesh demo`` (CMU 02_01 walk; terms in CMU_TERMS.txt beside it).
@@ -36,9 +38,7 @@ def add_parsers(sub) -> None:
         "polygon, desired and actual ZMP, self-collisions and limit violations, with a "
         "timeline. Without --html/--video the page is served on 127.0.0.1 until Ctrl-C.")
     p.add_argument("motion", help="robot motion (.npz or .csv)")
-    p.add_argument("--robot", default="jvrc1",
-                   help="robot: a folder of robots/ (jvrc1, g1, hrp4c) or a robot.toml")
-    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
+    add_robot_arguments(p)
     p.add_argument("--source", help="the human clip, drawn beside the robot")
     p.add_argument("--fps", type=float, help="frame rate of motion files that store none")
     p.add_argument("--html", help="write the viewer as one self-contained page (.html): no "
@@ -54,8 +54,7 @@ def add_parsers(sub) -> None:
     p.add_argument("-o", "--output", default="imesh-demo", help="output folder (default "
                    "imesh-demo)")
     p.add_argument("--clip", help=f"another clip instead of the built-in {DEMO_CLIP}")
-    p.add_argument("--robot", default="jvrc1", help="robot (default jvrc1)")
-    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
+    add_robot_arguments(p)
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
 
 
