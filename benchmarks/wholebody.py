@@ -6,7 +6,8 @@
 For every clip x robot: ``imesh.retarget`` with default settings, the motion and the adapted
 markers written to ``--out``, then the written file read back and scored by
 ``imesh.evaluate.evaluate_motion`` (what ``imesh evaluate OUT.npz --adapted MARKERS.npz
-[--physics]`` prints). Prints one row per run: marker RMS, sole deviation/tilt, skid, ground
+[--physics]`` prints). Prints one row per run: marker RMS, close-pair error (``cpe``: against
+the source clip, on the clip's frames without the lead-in/out), sole deviation/tilt, skid, ground
 penetration, limit violations, ZMP inside/error, DART, and the time of each stage.
 """
 
@@ -48,7 +49,7 @@ def main(argv=None) -> int:
     base = RetargetConfig()
     config = dataclasses.replace(base, wholebody=dataclasses.replace(base.wholebody,
                                                                      solver=args.solver))
-    head = (f"{'clip':<30} {'robot':<6} {'frames':>6} {'rms mm':>7} {'sole mm':>7} "
+    head = (f"{'clip':<30} {'robot':<6} {'frames':>6} {'rms mm':>7} {'cpe':>6} {'sole mm':>7} "
             f"{'tilt':>5} {'skid':>5} {'pen mm':>6} {'lim':>4} {'zmp in':>6} {'zmp mm':>6} "
             f"{'fell':>5} {'surv s':>6} {'trq':>5} {'trq rf':>6} {'fric':>5} {'it':>3} "
             f"{'solve s':>7} {'total s':>7}")
@@ -72,6 +73,12 @@ def main(argv=None) -> int:
             written = load_robot_motion(path, robot)
             m = metric_values(evaluate_motion(robot, written, adapted=str(markers),
                                               physics=args.physics))
+            # close-pair error against the source clip, on the clip's frames (the lead-in and
+            # lead-out are the solve's own)
+            a, b = res.lead_frames
+            clip_part = written.frames(a, written.n_frames - b)
+            m["close_pair_error"] = metric_values(evaluate_motion(
+                robot, clip_part, source=motion, resample=True))["close_pair_error"]
             wb = res.wholebody.report() if res.wholebody is not None else {}
             if args.plots:
                 from imesh.plots import plot_wholebody
@@ -84,6 +91,7 @@ def main(argv=None) -> int:
                 return format(v, fmt) if isinstance(v, (int, float)) else "n/a"
 
             print(f"{clip:<30} {name:<6} {written.n_frames:>6} {f('marker_rms_mm', '7.1f')} "
+                  f"{f('close_pair_error', '6.4f')} "
                   f"{f('sole_deviation_mm', '7.2f')} {f('sole_tilt_deg', '5.2f')} "
                   f"{f('foot_skid_mm_per_frame', '5.2f')} {f('ground_penetration_mm', '6.1f')} "
                   f"{f('limit_violation_frames', '4d')} {f('zmp_inside_fraction', '6.3f')} "
