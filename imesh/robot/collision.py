@@ -114,6 +114,7 @@ class GeometryItem:
         vertices: (N, 3) float [m] mesh vertices in the geometry's own frame (scaled), or None.
         source: ``collision`` or ``visual``.
         name: the element's name (for messages).
+        native: the coal geometry pinocchio loaded (for exact queries), or None.
     """
 
     frame: str
@@ -123,6 +124,7 @@ class GeometryItem:
     vertices: np.ndarray | None
     source: str
     name: str = ""
+    native: object = None
 
     def points_in_frame(self) -> np.ndarray:
         """(P, 3) float [m] points of the element in the link frame (mesh vertices, or the
@@ -433,3 +435,65 @@ def adjacent_frame_pairs(frame_joint: Mapping[str, int], joint_parent: Sequence[
 def pair_key(a: str, b: str) -> tuple[str, str]:
     """The canonical (sorted) key of a frame pair as stored in ``Robot.ignored_pairs``."""
     return (a, b) if a <= b else (b, a)
+
+
+# ----------------------------------------------------------------------------------------------
+# the URDF's own collision geometry (coal), to validate the capsules
+
+
+class MeshCollisionChecker:
+    """Signed distances between the URDF's collision geometry of body pairs (coal, the library
+    pinocchio loads the geometry with): URDF primitives as they are, each collision mesh as its
+    convex hull (GJK/EPA give a penetration depth only for convex shapes). Pairs are the
+    robot's checked capsule pairs (same bodies, same ignore list).
+
+    Args:
+        robot: an :class:`imesh.robot.Robot`.
+    """
+
+    def __init__(self, robot):
+        import coal
+
+        from .capsules import body_key, robot_bodies
+
+        self._coal = coal
+        self.robot = robot
+        self.model = robot.capsule_model()
+        links, _ = robot_bodies(robot)
+        geometry = robot.link_geometry()
+        self.items: dict[str, list[tuple[str, np.ndarray, object]]] = {}
+        for body, members in links.items():
+            for link in members:
+                for it in geometry[link]["collision"]:
+                    geo = it.native
+                    if geo is None:
+                        continue
+                    if type(geo).__name__.startswith("BVHModel"):
+                        geo.buildConvexHull(True, "Qt")
+                        geo = geo.convex
+                    self.items.setdefault(body, []).append((link, it.placement, geo))
+        self.frames = list(dict.fromkeys(link for v in self.items.values() for link, _, _ in v))
+        bodies = sorted(self.items)
+        self.pairs = [(a, b) for k, a in enumerate(bodies) for b in bodies[k + 1:]
+                      if body_key(a, b) not in self.model.ignored]
+        self._request = coal.DistanceRequest()
+
+    def distances(self, q: np.ndarray, pairs=None) -> dict[tuple[str, str], float]:
+        """Signed distance [m] of each body pair at ``q`` (minimum over their geometry;
+        negative = penetration depth)."""
+        coal = self._coal
+        M = dict(zip(self.frames, self.robot.frame_placements(q, self.frames), strict=True))
+        out = {}
+        for a, b in (self.pairs if pairs is None else pairs):
+            best = np.inf
+            for la, Pa, ga in self.items[a]:
+                Ta = M[la] @ Pa
+                ta = coal.Transform3s(Ta[:3, :3], Ta[:3, 3])
+                for lb, Pb, gb in self.items[b]:
+                    Tb = M[lb] @ Pb
+                    res = coal.DistanceResult()
+                    d = coal.distance(ga, ta, gb, coal.Transform3s(Tb[:3, :3], Tb[:3, 3]),
+                                      self._request, res)
+                    best = min(best, float(d))
+            out[(a, b)] = best
+        return out
