@@ -240,7 +240,7 @@ def check_mesh_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
     from ..robot.collision import MeshCollisionChecker
 
     checker = MeshCollisionChecker(robot)
-    model = checker.model
+    model = robot.capsule_model()
     q = np.asarray(q, dtype=float)
     T = len(q)
     keys = checker.pairs

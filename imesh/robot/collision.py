@@ -449,16 +449,18 @@ class MeshCollisionChecker:
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
+        ignored: body pairs not checked (default: the capsules' ignore list).
     """
 
-    def __init__(self, robot):
+    def __init__(self, robot, ignored: set[tuple[str, str]] | None = None):
         import coal
 
         from .capsules import body_key, robot_bodies
 
         self._coal = coal
         self.robot = robot
-        self.model = robot.capsule_model()
+        self.model = robot.capsule_model() if ignored is None else None
+        ignored = self.model.ignored if ignored is None else ignored
         links, _ = robot_bodies(robot)
         geometry = robot.link_geometry()
         self.items: dict[str, list[tuple[str, np.ndarray, object]]] = {}
@@ -475,7 +477,7 @@ class MeshCollisionChecker:
         self.frames = list(dict.fromkeys(link for v in self.items.values() for link, _, _ in v))
         bodies = sorted(self.items)
         self.pairs = [(a, b) for k, a in enumerate(bodies) for b in bodies[k + 1:]
-                      if body_key(a, b) not in self.model.ignored]
+                      if body_key(a, b) not in ignored]
         self._request = coal.DistanceRequest()
 
     def distances(self, q: np.ndarray, pairs=None) -> dict[tuple[str, str], float]:
