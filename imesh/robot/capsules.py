@@ -84,11 +84,12 @@ def _axes(points: np.ndarray) -> list[np.ndarray]:
     return axes + [np.eye(3)[i] for i in range(3)]
 
 
-def _capsule_on_axis(points: np.ndarray, axis: np.ndarray
+def _capsule_on_axis(points: np.ndarray, axis: np.ndarray, exact: bool = False
                      ) -> tuple[np.ndarray, np.ndarray, float]:
     """Smallest capsule with direction ``axis`` around ``points``: the axis line through the
-    centre of the points' projected bounding circle (approximated by the bounding box centre of
-    the projection), radius the largest distance from it, end caps just covering the points."""
+    centre of the smallest circle around the projected points (approximate: a few
+    Badoiu-Clarkson steps; ``exact``: trimesh's minimum n-sphere), radius the largest distance
+    from it, end caps just covering the points."""
     z = axis / np.linalg.norm(axis)
     x = np.cross(z, [1.0, 0.0, 0.0])
     if np.linalg.norm(x) < 1e-6:
@@ -99,10 +100,16 @@ def _capsule_on_axis(points: np.ndarray, axis: np.ndarray
     local = points @ R
     xy = local[:, :2]
     centre = (xy.min(axis=0) + xy.max(axis=0)) / 2
-    # a few steps towards the farthest point shrink the bounding circle (Badoiu-Clarkson)
-    for k in range(1, 30):
+    for k in range(1, 16):
         far = xy[np.argmax(np.sum((xy - centre) ** 2, axis=1))]
         centre = centre + (far - centre) / (k + 1)
+    if exact:
+        try:
+            import trimesh
+
+            centre = np.asarray(trimesh.nsphere.minimum_nsphere(xy)[0], dtype=float)
+        except Exception:  # degenerate projections: keep the approximation
+            pass
     radial = np.linalg.norm(xy - centre, axis=1)
     r = float(radial.max()) + 1e-6
     reach = np.sqrt(np.maximum(r * r - radial ** 2, 0.0))
@@ -136,9 +143,9 @@ def fit_capsule(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
         a, b, r = _capsule_on_axis(pts, axis)
         v = capsule_volume(r, float(np.linalg.norm(b - a)))
         if best is None or v < best[0]:
-            best = (v, a, b, r)
+            best = (v, axis)
     assert best is not None
-    return best[1], best[2], best[3]
+    return _capsule_on_axis(pts, best[1], exact=True)
 
 
 def _vol(c: tuple[np.ndarray, np.ndarray, float]) -> float:
