@@ -117,8 +117,10 @@ def test_forearm_through_torso_has_the_right_depth():
     q = _pose(robot, G1_FOREARM_IN_TORSO)
     report = check_capsule_collisions(robot, q[None])
     assert report.n_frames == 1
-    assert [p.frames for p in report.pairs] == [("left_elbow_link", "torso_link")]
-    depth = report.pairs[0].max_depth_m
+    hits = {p.frames: p.max_depth_m for p in report.pairs}
+    assert ("left_elbow_link", "torso_link") in hits
+    assert all("torso_link" in key and any("left_" in b for b in key) for key in hits)
+    depth = hits[("left_elbow_link", "torso_link")]
     assert 0.02 < depth < 0.06
     # the same capsules as coal capsules: the same signed distance
     M = dict(zip(m.frames, robot.frame_placements(q, m.frames), strict=True))
