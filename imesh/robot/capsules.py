@@ -35,7 +35,10 @@ log = logging.getLogger(__name__)
 NOMINAL_CLEARANCE_M = 0.01
 #: A body gets two capsules when they enclose its geometry in at most this fraction of the
 #: volume of the best single capsule.
-SPLIT_GAIN = 0.8
+SPLIT_GAIN = 0.9
+#: ... or when both radii are at most this fraction of the single capsule's (a thick torso:
+#: a capsule's excess over the surface grows with its radius).
+SPLIT_RADIUS = 0.8
 PAIRS_FILE = "collision_pairs.toml"
 
 
@@ -152,46 +155,71 @@ def _vol(c: tuple[np.ndarray, np.ndarray, float]) -> float:
     return capsule_volume(c[2], float(np.linalg.norm(c[1] - c[0])))
 
 
-def _split(points: np.ndarray) -> tuple[float, list, list] | None:
-    """The best split of ``points`` in two along a principal axis: (volume, two capsules,
-    the two point sets), or None."""
+def _split(tris: np.ndarray) -> tuple[float, list, list] | None:
+    """The best split of triangles (F, 3, 3) in two along a principal axis by their centroids:
+    (volume, two capsules, the two triangle sets), or None. Each capsule encloses whole
+    triangles, so the union of the capsules encloses the surface, not only its vertices."""
     best = None
-    hull = _hull(points)
-    for axis in _axes(hull)[:3]:
-        s = points @ axis
-        for qtl in (0.25, 0.35, 0.5, 0.65, 0.75):
+    points = tris.reshape(-1, 3)
+    centroids = tris.mean(axis=1)
+    for axis in _axes(_hull(points))[:3]:
+        s = centroids @ axis
+        for qtl in (0.3, 0.5, 0.7):
             cut = np.quantile(s, qtl)
-            lo, hi = points[s <= cut], points[s >= cut]
-            if len(lo) < 4 or len(hi) < 4:
+            sides = [tris[s <= cut], tris[s > cut]]
+            if min(len(t) for t in sides) < 2:
                 continue
-            two = [fit_capsule(lo), fit_capsule(hi)]
+            two = [fit_capsule(t.reshape(-1, 3)) for t in sides]
             v = _vol(two[0]) + _vol(two[1])
             if best is None or v < best[0]:
-                best = (v, two, [lo, hi])
+                best = (v, two, sides)
     return best
 
 
-def fit_capsules(points: np.ndarray, max_count: int = 3
+def subdivide(tris: np.ndarray, max_edge: float = 0.03) -> np.ndarray:
+    """Triangles (F, 3, 3) split in four at their edge midpoints until no edge is longer than
+    ``max_edge`` [m] (so a split between capsules can follow the surface)."""
+    done = []
+    while len(tris):
+        edge = np.linalg.norm(tris - np.roll(tris, 1, axis=1), axis=-1).max(axis=1)
+        done.append(tris[edge <= max_edge])
+        big = tris[edge > max_edge]
+        if not len(big):
+            break
+        a, b, c = big[:, 0], big[:, 1], big[:, 2]
+        ab, bc, ca = (a + b) / 2, (b + c) / 2, (c + a) / 2
+        tris = np.concatenate([np.stack(t, axis=1) for t in
+                               ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))])
+    return np.concatenate(done) if done else np.zeros((0, 3, 3))
+
+
+def fit_capsules(points: np.ndarray, max_count: int = 3, triangles: np.ndarray | None = None
                  ) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """Capsules enclosing ``points``: one, then greedily split a capsule in two (along a
-    principal axis of its points) while that shrinks its volume to at most ``SPLIT_GAIN`` of
-    it, up to ``max_count`` capsules (flat hands, a torso with its head)."""
+    """Capsules enclosing ``points``: one, then (when the surface ``triangles`` (F, 3, 3) of
+    the points is given) greedily split a capsule's triangles in two along a principal axis
+    while that shrinks its volume to at most ``SPLIT_GAIN`` of it or both radii to at most
+    ``SPLIT_RADIUS`` of its radius, up to ``max_count``
+    capsules (flat hands, a torso with its head)."""
     points = np.asarray(points, dtype=float)
-    pieces = [(fit_capsule(points), points)]
+    one = fit_capsule(points)
+    if triangles is None or max_count < 2 or len(triangles) < 4:
+        return [one]
+    pieces = [(one, subdivide(np.asarray(triangles, dtype=float)))]
     while len(pieces) < max_count:
         best = None
-        for k, (cap, pts) in enumerate(pieces):
-            if len(pts) < 8:
+        for k, (cap, tris) in enumerate(pieces):
+            if len(tris) < 4:
                 continue
-            split = _split(pts)
-            if split is not None and split[0] <= SPLIT_GAIN * _vol(cap):
+            split = _split(tris)
+            if split is not None and (split[0] <= SPLIT_GAIN * _vol(cap)
+                                      or max(c[2] for c in split[1]) <= SPLIT_RADIUS * cap[2]):
                 gain = _vol(cap) - split[0]
                 if best is None or gain > best[0]:
                     best = (gain, k, split)
         if best is None:
             break
-        _, k, (_, two, sets) = best
-        pieces[k:k + 1] = [(two[0], sets[0]), (two[1], sets[1])]
+        _, k, (_, two, sides) = best
+        pieces[k:k + 1] = [(two[0], sides[0]), (two[1], sides[1])]
     return [cap for cap, _ in pieces]
 
 
@@ -415,23 +443,41 @@ def capsule_source(robot) -> str:
     return "collision"
 
 
-def _body_points(robot, body: str, links: list[str]) -> np.ndarray:
+def _triangles(geo) -> np.ndarray | None:
+    """(F, 3) vertex indices of a coal mesh's triangles, or None."""
+    n = getattr(geo, "num_tris", 0) if geo is not None else 0
+    if not n:
+        return None
+    return np.array([[geo.tri_indices(i)[k] for k in range(3)] for i in range(n)], dtype=int)
+
+
+def _body_points(robot, body: str, links: list[str]) -> tuple[np.ndarray, np.ndarray | None]:
+    """The body's geometry points in its frame, and its surface triangles (F, 3, 3) when it is
+    all meshes (None when it has URDF primitives: such a body gets one capsule)."""
     geometry = robot.link_geometry()
     use_visual = set(robot.config.collision.use_visual)
     if capsule_source(robot) == "visual":
         use_visual |= set(links)
     placements = robot.frame_placements(robot.q_nominal, [body, *links])
     inv = np.linalg.inv(placements[0])
-    pts = []
+    pts: list[np.ndarray] = []
+    tris: list[np.ndarray] | None = []
     for link, M in zip(links, placements[1:], strict=True):
         d = geometry[link]
         items = (d["visual"] if link in use_visual and d["visual"] else
                  d["collision"] or d["visual"])
         T = inv @ M
         for it in items:
-            p = it.points_in_frame()
-            pts.append(p @ T[:3, :3].T + T[:3, 3])
-    return np.concatenate(pts) if pts else np.zeros((0, 3))
+            p = it.points_in_frame() @ T[:3, :3].T + T[:3, 3]
+            pts.append(p)
+            tri = _triangles(it.native) if it.kind == "mesh" else None
+            if tris is not None and tri is not None and len(tri) and tri.max() < len(p):
+                tris.append(p[tri])
+            else:
+                tris = None
+    if not pts:
+        return np.zeros((0, 3)), None
+    return np.concatenate(pts), (np.concatenate(tris) if tris else None)
 
 
 def fit_robot_capsules(robot) -> list[Capsule]:
@@ -440,10 +486,10 @@ def fit_robot_capsules(robot) -> list[Capsule]:
     links, _ = robot_bodies(robot)
     out = []
     for body, members in links.items():
-        pts = _body_points(robot, body, members)
+        pts, tris = _body_points(robot, body, members)
         if len(pts) < 2:
             continue
-        fitted = fit_capsules(pts)
+        fitted = fit_capsules(pts, triangles=tris)
         for k, (a, b, r) in enumerate(fitted):
             name = body if len(fitted) == 1 else f"{body}#{k + 1}"
             out.append(Capsule(name=name, body=body, frame=body, a=a, b=b, radius=r))

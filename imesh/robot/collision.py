@@ -443,9 +443,11 @@ def pair_key(a: str, b: str) -> tuple[str, str]:
 
 class MeshCollisionChecker:
     """Signed distances between the URDF's collision geometry of body pairs (coal, the library
-    pinocchio loads the geometry with): URDF primitives as they are, each collision mesh as its
-    convex hull (GJK/EPA give a penetration depth only for convex shapes). Pairs are the
-    robot's checked capsule pairs (same bodies, same ignore list).
+    pinocchio loads the geometry with). URDF primitives are exact. Meshes: the distance between
+    the triangle meshes themselves (coal's BVH distance, exact) when they are apart; when they
+    intersect, the penetration depth of their convex hulls (GJK/EPA, an upper bound of the
+    meshes' depth). Pairs are the robot's checked capsule pairs (same bodies, same ignore
+    list).
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
@@ -463,18 +465,21 @@ class MeshCollisionChecker:
         ignored = self.model.ignored if ignored is None else ignored
         links, _ = robot_bodies(robot)
         geometry = robot.link_geometry()
-        self.items: dict[str, list[tuple[str, np.ndarray, object]]] = {}
+        # body -> [(link, placement in link, exact geometry, convex geometry)]
+        self.items: dict[str, list[tuple[str, np.ndarray, object, object]]] = {}
         for body, members in links.items():
             for link in members:
                 for it in geometry[link]["collision"]:
                     geo = it.native
                     if geo is None:
                         continue
+                    hull = geo
                     if type(geo).__name__.startswith("BVHModel"):
-                        geo.buildConvexHull(True, "Qt")
-                        geo = geo.convex
-                    self.items.setdefault(body, []).append((link, it.placement, geo))
-        self.frames = list(dict.fromkeys(link for v in self.items.values() for link, _, _ in v))
+                        if geo.convex is None:
+                            geo.buildConvexHull(True, "Qt")
+                        hull = geo.convex
+                    self.items.setdefault(body, []).append((link, it.placement, geo, hull))
+        self.frames = list(dict.fromkeys(i[0] for v in self.items.values() for i in v))
         bodies = sorted(self.items)
         self.pairs = [(a, b) for k, a in enumerate(bodies) for b in bodies[k + 1:]
                       if body_key(a, b) not in ignored]
@@ -486,16 +491,21 @@ class MeshCollisionChecker:
         coal = self._coal
         M = dict(zip(self.frames, self.robot.frame_placements(q, self.frames), strict=True))
         out = {}
+
+        def tf(T):
+            return coal.Transform3s(T[:3, :3], T[:3, 3])
+
         for a, b in (self.pairs if pairs is None else pairs):
             best = np.inf
-            for la, Pa, ga in self.items[a]:
-                Ta = M[la] @ Pa
-                ta = coal.Transform3s(Ta[:3, :3], Ta[:3, 3])
-                for lb, Pb, gb in self.items[b]:
-                    Tb = M[lb] @ Pb
-                    res = coal.DistanceResult()
-                    d = coal.distance(ga, ta, gb, coal.Transform3s(Tb[:3, :3], Tb[:3, 3]),
-                                      self._request, res)
-                    best = min(best, float(d))
+            for la, Pa, ga, ha in self.items[a]:
+                ta = tf(M[la] @ Pa)
+                for lb, Pb, gb, hb in self.items[b]:
+                    tb = tf(M[lb] @ Pb)
+                    d = float(coal.distance(ga, ta, gb, tb, self._request,
+                                            coal.DistanceResult()))
+                    if d <= 0.0 and (ga is not ha or gb is not hb):  # meshes intersect
+                        d = min(0.0, float(coal.distance(ha, ta, hb, tb, self._request,
+                                                         coal.DistanceResult())))
+                    best = min(best, d)
             out[(a, b)] = best
         return out
