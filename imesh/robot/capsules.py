@@ -301,25 +301,45 @@ class CapsuleModel:
         M = placements[:, self.frame_index]  # (T, C, 4, 4)
         return np.einsum("tcij,cej->tcei", M[..., :3, :3], self.ends) + M[:, :, None, :3, 3]
 
-    def distances(self, placements: np.ndarray, pairs: np.ndarray | None = None
-                  ) -> PairDistances:
-        """Signed distances of ``pairs`` (default: every checked pair) at every frame."""
+    def distances(self, placements: np.ndarray, pairs: np.ndarray | None = None,
+                  cutoff: float | None = None) -> PairDistances:
+        """Signed distances of ``pairs`` (default: every checked pair) at every frame.
+
+        ``cutoff`` [m]: a broad phase; samples whose bounding spheres (segment midpoint, half
+        length plus radius) are farther apart than this get distance +inf (normal and points
+        0) instead of the exact value.
+        """
         pairs = self.pairs if pairs is None else pairs
         seg = self.world_segments(placements)
         i, j = pairs[:, 0], pairs[:, 1]
-        ca, cb = segment_closest_points(seg[:, i, 0], seg[:, i, 1], seg[:, j, 0], seg[:, j, 1])
+        T, P = len(seg), len(pairs)
+        if cutoff is None:
+            tt, pp = np.meshgrid(np.arange(T), np.arange(P), indexing="ij")
+            tt, pp = tt.ravel(), pp.ravel()
+        else:
+            mid = seg.mean(axis=2)  # (T, C, 3)
+            bound = np.linalg.norm(self.ends[:, 1] - self.ends[:, 0], axis=1) / 2 + self.radius
+            gap = np.linalg.norm(mid[:, i] - mid[:, j], axis=-1) - bound[i] - bound[j]
+            tt, pp = np.nonzero(gap < cutoff)
+        ii, jj = i[pp], j[pp]
+        ca, cb = segment_closest_points(seg[tt, ii, 0], seg[tt, ii, 1], seg[tt, jj, 0],
+                                        seg[tt, jj, 1])
         diff = ca - cb
         norm = np.linalg.norm(diff, axis=-1)
         n = diff / np.maximum(norm, 1e-12)[..., None]
         bad = norm < 1e-9  # crossing segments: any direction normal to both
         if bad.any():
-            da = (seg[:, i, 1] - seg[:, i, 0])[bad]
-            db = (seg[:, j, 1] - seg[:, j, 0])[bad]
+            da = (seg[tt, ii, 1] - seg[tt, ii, 0])[bad]
+            db = (seg[tt, jj, 1] - seg[tt, jj, 0])[bad]
             alt = np.cross(da, db)
             alt[np.linalg.norm(alt, axis=-1) < 1e-12] = [0.0, 0.0, 1.0]
             n[bad] = alt / np.linalg.norm(alt, axis=-1, keepdims=True)
-        d = norm - self.radius[i] - self.radius[j]
-        return PairDistances(distance=d, normal=n, point_a=ca, point_b=cb)
+        d = np.full((T, P), np.inf)
+        d[tt, pp] = norm - self.radius[ii] - self.radius[jj]
+        out = [np.zeros((T, P, 3)) for _ in range(3)]
+        for arr, val in zip(out, (n, ca, cb), strict=True):
+            arr[tt, pp] = val
+        return PairDistances(distance=d, normal=out[0], point_a=out[1], point_b=out[2])
 
 
 def sample_rows(model: CapsuleModel, placements: np.ndarray, jacobians: np.ndarray,

@@ -27,7 +27,8 @@ class CollisionLinearization:
         pairs: (R,) index into ``model.pairs``.
         distance: (R,) [m] signed distance of each sample.
         rows: (R, nv) its gradient with respect to the tangent update of its frame.
-        min_distance: (T,) [m] smallest signed distance of any checked pair per frame.
+        min_distance: (T,) [m] smallest signed distance of any checked pair per frame (+inf
+            where no pair is within the activation distance).
     """
 
     frames: np.ndarray
@@ -39,7 +40,8 @@ class CollisionLinearization:
 
 def linearize_collisions(model: CapsuleModel, placements: np.ndarray, jacobians: np.ndarray,
                          activation: float) -> CollisionLinearization:
-    """Exact distances of every checked pair at every frame, and the rows of the active ones.
+    """Exact distances of every checked pair within the activation distance at every frame
+    (bounding-sphere broad phase), and the rows of the active ones.
 
     Args:
         model: the robot's capsules.
@@ -51,7 +53,7 @@ def linearize_collisions(model: CapsuleModel, placements: np.ndarray, jacobians:
     if not len(model.pairs):
         z = np.zeros(0, dtype=np.int64)
         return CollisionLinearization(z, z, np.zeros(0), np.zeros((0, nv)), np.full(T, np.inf))
-    dist = model.distances(placements)
+    dist = model.distances(placements, cutoff=activation)
     tt, pp = np.nonzero(dist.distance < activation)
     rows = sample_rows(model, placements, jacobians, tt, pp, dist)
     return CollisionLinearization(frames=tt, pairs=pp, distance=dist.distance[tt, pp],
