@@ -178,3 +178,12 @@ def test_two_frame_solve_stops_at_the_margin():
     kin = robot.trajectory_kinematics(q, m.frames)
     final = linearize_collisions(m, kin.placements, kin.jacobians, 0.02)
     assert collision_violation(final, margin) < 2e-4
+
+
+def test_cli_robots_collisions_prints_capsules_and_pairs(capsys):
+    from imesh.cli import main
+
+    assert main(["robots", "g1", "--collisions"]) == 0
+    out = capsys.readouterr().out
+    assert "capsules on 30 bodies" in out and "matches the rule" in out
+    assert "left_ankle_roll_link - right_ankle_roll_link: feet" in out

@@ -93,7 +93,7 @@ def test_zmp_linearization_predicts_the_multibody_zmp(robot):
     lin = linearize(robot, q, frames, FPS)
     qp = build_qp(lin, plan, q, WholeBodyConfig())
     rng = np.random.default_rng(1)
-    nv, nx = robot.nv, robot.nv + 12
+    nv, nx = robot.nv, robot.nv + 13  # the self-collision slack is the last column
     dq = np.zeros((len(q), nv))
     dq[:, 6:] = rng.normal(size=(len(q), nv - 6)) * 2e-4
     lin2 = linearize(robot, _moved(robot, q, dq), frames, FPS)
