@@ -35,6 +35,9 @@ def main(argv=None) -> int:
     ap.add_argument("--modes", nargs="+", default=["off", "on"], choices=["off", "on"])
     ap.add_argument("--out", default="out/collision", help="folder of the written motions")
     ap.add_argument("--no-mesh", action="store_true", help="skip the URDF-geometry check")
+    ap.add_argument("--allow-flight", action="store_true",
+                    help="RetargetConfig(allow_flight=True): clips with both feet off the ground "
+                         "(the salsa's jumps)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
@@ -47,7 +50,7 @@ def main(argv=None) -> int:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    base = RetargetConfig()
+    base = RetargetConfig(allow_flight=args.allow_flight)
     head = (f"{'clip':<38} {'robot':<6} {'mode':<4} {'frames':>6} {'cap>5':>5} {'cap mm':>6} "
             f"{'mesh>5':>6} {'mesh mm':>7} {'rms mm':>7} {'close':>6} {'it':>3} {'solve s':>7}")
     print(head)
