@@ -38,8 +38,13 @@ def main(argv=None) -> int:
     ap.add_argument("--allow-flight", action="store_true",
                     help="RetargetConfig(allow_flight=True): clips with both feet off the ground "
                          "(the salsa's jumps)")
+    ap.add_argument("--rescore", action="store_true",
+                    help="only score the motions already written in --out for the whole-body "
+                         "guarantees (soles, limits, ZMP, ground)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
+    if args.rescore:
+        return rescore(Path(args.out))
 
     from imesh.evaluate import evaluate_motion, metric_values
     from imesh.export import load_marker_motion, save_marker_motion
@@ -92,6 +97,33 @@ def main(argv=None) -> int:
                       f"{close if close is None else format(close, '.4f'):>6} "
                       f"{wb.get('iterations', 0):>3} {res.seconds.get('wholebody', 0.0):>7.2f}")
                 sys.stdout.flush()
+    return 0
+
+
+def rescore(out: Path) -> int:
+    """The whole-body guarantees of every motion written in ``out`` (no DART)."""
+    from imesh.evaluate import evaluate_motion, metric_values
+    from imesh.export import load_marker_motion
+    from imesh.robot_motion import load_robot_motion
+
+    robots: dict = {}
+    print(f"{'run':<46} {'sole mm':>7} {'tilt':>5} {'lim':>4} {'zmp in':>6} {'zmp mm':>6} "
+          f"{'pen mm':>6}")
+    for path in sorted(out.glob("*_o[nf]*.npz")):
+        if path.stem.endswith("_markers"):
+            continue
+        name = path.stem.split("_")[-2]
+        robot = robots.setdefault(name, load(name))
+        v = metric_values(evaluate_motion(
+            robot, load_robot_motion(path, robot),
+            adapted=load_marker_motion(path.with_name(path.stem + "_markers.npz"))))
+
+        def f(key, fmt, v=v):
+            return format(v[key], fmt) if v.get(key) is not None else "n/a"
+
+        print(f"{path.stem:<46} {f('sole_deviation_mm', '7.2f')} {f('sole_tilt_deg', '5.2f')} "
+              f"{f('limit_violation_frames', '4d')} {f('zmp_inside_fraction', '6.3f')} "
+              f"{f('zmp_error_mm', '6.1f')} {f('ground_penetration_mm', '6.1f')}")
     return 0
 
 
