@@ -1,10 +1,13 @@
-"""Collision and ground checks of a robot motion on the robot's primitive collision proxies.
+"""Collision and ground checks of a robot motion.
 
-- Self-collision (python-fcl): every frame, every pair of proxies on different links that is not
-  in ``Robot.ignored_pairs`` (adjacent in the tree, listed in robot.toml, or touching in the
-  nominal pose); a pair penetrating deeper than ``depth`` (5 mm) flags the frame. A bounding
-  sphere test skips the pairs that are far apart, so only close pairs reach fcl; results agree
-  with :meth:`imesh.robot.Robot.self_collisions`.
+- Self-collision on the capsules (:func:`check_capsule_collisions`, what the evaluator reports
+  as ``self_collision_frames``: the proxies and ignore list the whole-body solve keeps apart,
+  docs/collision.md) and on the URDF's own collision geometry with coal
+  (:func:`check_mesh_collisions`, to validate the capsules).
+- Self-collision on the primitive proxies (python-fcl, :func:`check_self_collisions`; the
+  evaluator's metric before the capsules): every pair of proxies on different links not in
+  ``Robot.ignored_pairs``; a pair penetrating deeper than ``depth`` (5 mm) flags the frame;
+  a bounding sphere test skips far pairs; agrees with :meth:`imesh.robot.Robot.self_collisions`.
 - Ground: the lowest point of all proxies per frame (penetration below z = 0), and floating:
   the lowest point more than ``float_m`` (2 cm) above the ground while a foot is planted.
 """
