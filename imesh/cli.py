@@ -115,7 +115,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_arms_options(p)  # --mode {full,arms}, --fit {dls,sqp}, --solver, --plots
 
-    sub.add_parser("robots", help="list the robots imesh knows")
+    p = sub.add_parser("robots", help="list the robots imesh knows")
+    p.add_argument("name", nargs="?", help="a robot (with --collisions)")
+    p.add_argument("--collisions", action="store_true",
+                   help="print the robot's self-collision capsules and the ignored pairs")
+    p.add_argument("--write", action="store_true",
+                   help="with --collisions: write robots/NAME/collision_pairs.toml from the rule")
+    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
 
     from .cli_evaluate import add_parser as add_evaluate_parser
     from .reduction.cli import add_parser as add_reduce_parser
@@ -414,6 +420,15 @@ def cmd_retarget(args) -> int:
 
 def cmd_robots(args) -> int:
     from .robot import list_robots
+
+    if args.collisions or args.name:
+        from .robot import load_robot
+        from .robot.capsules import describe_collisions
+
+        if not args.name:
+            raise ImeshError("imesh robots --collisions needs a robot name")
+        print(describe_collisions(load_robot(args.name, urdf=args.urdf), write=args.write))
+        return 0
 
     rows = list_robots()
     print(f"{'robot':<8} {'DOF':>4}  {'licence':<14} source")

@@ -43,9 +43,8 @@ from .errors import (
 from .export import load_npz
 from .metrics.collision import (
     SELF_COLLISION_DEPTH_M,
-    SelfCollisionChecker,
+    check_capsule_collisions,
     check_ground,
-    check_self_collisions,
 )
 from .metrics.dynamics import MU, reference_dynamics
 from .metrics.kinematics import (
@@ -372,10 +371,12 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
 
     # --- collisions and ground ----------------------------------------------------------------
     t0 = time.perf_counter()
-    selfc = check_self_collisions(robot, q, SELF_COLLISION_DEPTH_M, SelfCollisionChecker(robot))
+    selfc = check_capsule_collisions(robot, q, SELF_COLLISION_DEPTH_M)
     out["self_collision_frames"] = _metric(
         "self_collision_frames", selfc.n_frames, frames_total=T,
-        depth_threshold_mm=1e3 * selfc.depth_m, worst_pairs=selfc.summary()["worst_pairs"])
+        depth_threshold_mm=1e3 * selfc.depth_m, worst_pairs=selfc.summary()["worst_pairs"],
+        deepest_mm=round(1e3 * float(selfc.max_depth_m.max(initial=0.0)), 2),
+        proxies="capsules (Robot.capsule_model, robots/<name>/collision_pairs.toml)")
     soles = sole_tracks(robot, q, fps)
     contacts = detect_support(soles, support_config)
     ground = check_ground(robot, q, planted=planted_feet(soles, support_config))

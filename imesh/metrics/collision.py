@@ -1,10 +1,13 @@
-"""Collision and ground checks of a robot motion on the robot's primitive collision proxies.
+"""Collision and ground checks of a robot motion.
 
-- Self-collision (python-fcl): every frame, every pair of proxies on different links that is not
-  in ``Robot.ignored_pairs`` (adjacent in the tree, listed in robot.toml, or touching in the
-  nominal pose); a pair penetrating deeper than ``depth`` (5 mm) flags the frame. A bounding
-  sphere test skips the pairs that are far apart, so only close pairs reach fcl; results agree
-  with :meth:`imesh.robot.Robot.self_collisions`.
+- Self-collision on the capsules (:func:`check_capsule_collisions`, what the evaluator reports
+  as ``self_collision_frames``: the proxies and ignore list the whole-body solve keeps apart,
+  docs/collision.md) and on the URDF's own collision geometry with coal
+  (:func:`check_mesh_collisions`, to validate the capsules).
+- Self-collision on the primitive proxies (python-fcl, :func:`check_self_collisions`; the
+  evaluator's metric before the capsules): every pair of proxies on different links not in
+  ``Robot.ignored_pairs``; a pair penetrating deeper than ``depth`` (5 mm) flags the frame;
+  a bounding sphere test skips far pairs; agrees with :meth:`imesh.robot.Robot.self_collisions`.
 - Ground: the lowest point of all proxies per frame (penetration below z = 0), and floating:
   the lowest point more than ``float_m`` (2 cm) above the ground while a foot is planted.
 """
@@ -176,6 +179,89 @@ def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
                  pairs[0].worst_frame)
     return SelfCollisionReport(colliding=colliding, depth_m=depth, pairs=pairs,
                                max_depth_m=deepest)
+
+
+def check_capsule_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DEPTH_M
+                             ) -> SelfCollisionReport:
+    """Self-collisions over a motion on the robot's capsules (``Robot.capsule_model``: the
+    proxies and ignore list the whole-body solve keeps apart; DESIGN.md
+    ``self_collision_frames``). Pairs are body pairs.
+
+    Args:
+        robot: an :class:`imesh.robot.Robot`.
+        q: (T, nq) float configurations.
+        depth: penetration threshold [m] (default 5 mm).
+    """
+    model = robot.capsule_model()
+    q = np.asarray(q, dtype=float)
+    T = len(q)
+    if not len(model.pairs) or not T:
+        return SelfCollisionReport(colliding=np.zeros(T, bool), depth_m=depth,
+                                   max_depth_m=np.zeros(T))
+    placements = robot.trajectory_kinematics(q, model.frames).placements
+    d = model.distances(placements).distance  # (T, P)
+    return _report_from_distances(d, model.pair_bodies, depth)
+
+
+def _report_from_distances(d: np.ndarray, keys: list, depth: float) -> SelfCollisionReport:
+    """A SelfCollisionReport from (T, P) signed distances of pairs named ``keys``."""
+    T = len(d)
+    names = list(dict.fromkeys(keys))
+    col = {key: k for k, key in enumerate(names)}
+    per_key = np.full((T, len(names)), np.inf)
+    for k, key in enumerate(keys):  # a body pair: the minimum over its capsule pairs
+        per_key[:, col[key]] = np.minimum(per_key[:, col[key]], d[:, k])
+    d = per_key
+    pen = np.maximum(-d, 0.0)
+    hit = pen > depth
+    stats: dict[tuple[str, str], list] = {}
+    for k, key in enumerate(names):
+        frames = np.flatnonzero(hit[:, k])
+        if len(frames):
+            worst = int(np.argmax(pen[:, k]))
+            stats[key] = [float(pen[worst, k]), worst, len(frames), int(frames[0])]
+    pairs = sorted((PairHit(frames=k, max_depth_m=v[0], worst_frame=v[1], n_frames=v[2],
+                            first_frame=v[3]) for k, v in stats.items()),
+                   key=lambda p: -p.max_depth_m)
+    deepest = pen.max(axis=1) if d.shape[1] else np.zeros(T)
+    colliding = hit.any(axis=1) if d.shape[1] else np.zeros(T, bool)
+    if pairs:
+        log.info("self-collision in %d of %d frames; deepest %s-%s %.1f mm at frame %d",
+                 colliding.sum(), T, *pairs[0].frames, 1e3 * pairs[0].max_depth_m,
+                 pairs[0].worst_frame)
+    return SelfCollisionReport(colliding=colliding, depth_m=depth, pairs=pairs,
+                               max_depth_m=deepest)
+
+
+def check_mesh_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DEPTH_M,
+                          broad_m: float = 0.05) -> SelfCollisionReport:
+    """Self-collisions over a motion on the URDF's own collision geometry (coal; meshes as
+    convex hulls, :class:`imesh.robot.collision.MeshCollisionChecker`), for the body pairs the
+    capsules check. Only pairs whose capsules are closer than ``broad_m`` reach coal (the
+    capsules enclose the geometry, so farther pairs cannot touch).
+    """
+    from ..robot.collision import MeshCollisionChecker
+
+    checker = MeshCollisionChecker(robot)
+    model = robot.capsule_model()
+    q = np.asarray(q, dtype=float)
+    T = len(q)
+    keys = checker.pairs
+    d = np.full((T, len(keys)), np.inf)
+    if T and keys:
+        placements = robot.trajectory_kinematics(q, model.frames).placements
+        cap = model.distances(placements).distance
+        close: dict[tuple[str, str], np.ndarray] = {}
+        for k, key in enumerate(model.pair_bodies):
+            m = cap[:, k] < broad_m
+            close[key] = close[key] | m if key in close else m
+        index = {key: k for k, key in enumerate(keys)}
+        for t in range(T):
+            pairs = [key for key in keys if key in close and close[key][t]]
+            if pairs:
+                for key, dist in checker.distances(q[t], pairs).items():
+                    d[t, index[key]] = dist
+    return _report_from_distances(d, keys, depth)
 
 
 # ----------------------------------------------------------------------------------------------

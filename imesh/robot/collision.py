@@ -114,6 +114,7 @@ class GeometryItem:
         vertices: (N, 3) float [m] mesh vertices in the geometry's own frame (scaled), or None.
         source: ``collision`` or ``visual``.
         name: the element's name (for messages).
+        native: the coal geometry pinocchio loaded (for exact queries), or None.
     """
 
     frame: str
@@ -123,6 +124,7 @@ class GeometryItem:
     vertices: np.ndarray | None
     source: str
     name: str = ""
+    native: object = None
 
     def points_in_frame(self) -> np.ndarray:
         """(P, 3) float [m] points of the element in the link frame (mesh vertices, or the
@@ -433,3 +435,77 @@ def adjacent_frame_pairs(frame_joint: Mapping[str, int], joint_parent: Sequence[
 def pair_key(a: str, b: str) -> tuple[str, str]:
     """The canonical (sorted) key of a frame pair as stored in ``Robot.ignored_pairs``."""
     return (a, b) if a <= b else (b, a)
+
+
+# ----------------------------------------------------------------------------------------------
+# the URDF's own collision geometry (coal), to validate the capsules
+
+
+class MeshCollisionChecker:
+    """Signed distances between the URDF's collision geometry of body pairs (coal, the library
+    pinocchio loads the geometry with). URDF primitives are exact. Meshes: the distance between
+    the triangle meshes themselves (coal's BVH distance, exact) when they are apart; when they
+    intersect, the penetration depth of their convex hulls (GJK/EPA, an upper bound of the
+    meshes' depth). Pairs are the robot's checked capsule pairs (same bodies, same ignore
+    list).
+
+    Args:
+        robot: an :class:`imesh.robot.Robot`.
+        ignored: body pairs not checked (default: the capsules' ignore list).
+    """
+
+    def __init__(self, robot, ignored: set[tuple[str, str]] | None = None):
+        import coal
+
+        from .capsules import body_key, robot_bodies
+
+        self._coal = coal
+        self.robot = robot
+        self.model = robot.capsule_model() if ignored is None else None
+        ignored = self.model.ignored if ignored is None else ignored
+        links, _ = robot_bodies(robot)
+        geometry = robot.link_geometry()
+        # body -> [(link, placement in link, exact geometry, convex geometry)]
+        self.items: dict[str, list[tuple[str, np.ndarray, object, object]]] = {}
+        for body, members in links.items():
+            for link in members:
+                for it in geometry[link]["collision"]:
+                    geo = it.native
+                    if geo is None:
+                        continue
+                    hull = geo
+                    if type(geo).__name__.startswith("BVHModel"):
+                        if geo.convex is None:
+                            geo.buildConvexHull(True, "Qt")
+                        hull = geo.convex
+                    self.items.setdefault(body, []).append((link, it.placement, geo, hull))
+        self.frames = list(dict.fromkeys(i[0] for v in self.items.values() for i in v))
+        bodies = sorted(self.items)
+        self.pairs = [(a, b) for k, a in enumerate(bodies) for b in bodies[k + 1:]
+                      if body_key(a, b) not in ignored]
+        self._request = coal.DistanceRequest()
+
+    def distances(self, q: np.ndarray, pairs=None) -> dict[tuple[str, str], float]:
+        """Signed distance [m] of each body pair at ``q`` (minimum over their geometry;
+        negative = penetration depth)."""
+        coal = self._coal
+        M = dict(zip(self.frames, self.robot.frame_placements(q, self.frames), strict=True))
+        out = {}
+
+        def tf(T):
+            return coal.Transform3s(T[:3, :3], T[:3, 3])
+
+        for a, b in (self.pairs if pairs is None else pairs):
+            best = np.inf
+            for la, Pa, ga, ha in self.items[a]:
+                ta = tf(M[la] @ Pa)
+                for lb, Pb, gb, hb in self.items[b]:
+                    tb = tf(M[lb] @ Pb)
+                    d = float(coal.distance(ga, ta, gb, tb, self._request,
+                                            coal.DistanceResult()))
+                    if d <= 0.0 and (ga is not ha or gb is not hb):  # meshes intersect
+                        d = min(0.0, float(coal.distance(ha, ta, hb, tb, self._request,
+                                                         coal.DistanceResult())))
+                    best = min(best, d)
+            out[(a, b)] = best
+        return out

@@ -158,12 +158,16 @@ class CollisionConfig:
         skip: links that get no proxy.
         ignore: extra link pairs never checked against each other.
         touch_margin: [m] pairs closer than this in the nominal pose are ignored.
+        in_solve: the whole-body solve keeps the self-collision capsules apart
+            (``WholeBodyConfig.self_collision``, docs/collision.md); false for a robot whose
+            capsules are not yet validated against its geometry.
     """
 
     use_visual: tuple[str, ...] = ()
     skip: tuple[str, ...] = ()
     ignore: tuple[tuple[str, str], ...] = ()
     touch_margin: float = 0.002
+    in_solve: bool = True
 
 
 @dataclass(frozen=True)
@@ -323,7 +327,13 @@ _SOURCES = ("package", "user")
 _FRAME_KEYS = ("waist", "left_foot", "right_foot")
 _SOLE_KEYS = ("frame", "center", "half_extents", "normal")
 _LIMIT_KEYS = ("acceleration_default", "acceleration", "velocity", "effort", "position", "source")
-_COLLISION_KEYS = ("use_visual", "skip", "ignore", "touch_margin")
+def _flag(path: Path, value, key: str) -> bool:
+    if not isinstance(value, bool):
+        raise RobotConfigError(f"{key} must be true or false, got {value!r}", path=path, key=key)
+    return value
+
+
+_COLLISION_KEYS = ("use_visual", "skip", "ignore", "touch_margin", "in_solve")
 
 
 def load_robot_config(path: str | os.PathLike) -> RobotConfig:
@@ -424,6 +434,7 @@ def load_robot_config(path: str | os.PathLike) -> RobotConfig:
         skip=_names(path, col.get("skip", []), "collision.skip"),
         ignore=_pairs(path, col.get("ignore", []), "collision.ignore"),
         touch_margin=_number(path, col.get("touch_margin", 0.002), "collision.touch_margin"),
+        in_solve=_flag(path, col.get("in_solve", True), "collision.in_solve"),
     )
 
     markers = path.parent / "markers.toml"

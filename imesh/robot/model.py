@@ -157,6 +157,8 @@ class _Built:
     shapes: list[CollisionShape]
     ignored: set[tuple[str, str]]
     adjacent: set[tuple[str, str]] = field(default_factory=set)
+    geometry: dict = field(default_factory=dict)  # link -> {"collision": [...], "visual": [...]}
+    capsules: object = None  # the CapsuleModel, built on first use
 
 
 _CACHE: dict[tuple, _Built] = {}
@@ -190,7 +192,7 @@ def _geometry_items(pin, model, geom_model, source: str) -> list[GeometryItem]:
                         frame.name, cls)
             continue
         items.append(GeometryItem(frame=frame.name, kind=kind, dims=dims, placement=T,
-                                  vertices=verts, source=source, name=g.name))
+                                  vertices=verts, source=source, name=g.name, native=geo))
     return items
 
 
@@ -361,7 +363,8 @@ def _build(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
 
     built = _Built(config=config, markers=markers, urdf=urdf, model=model,
                    q_nominal=np.zeros(model.nq), q_lower=q_lower, q_upper=q_upper, v_max=v_max,
-                   a_max=a_max, effort_max=effort, soles=soles, shapes=shapes, ignored=set())
+                   a_max=a_max, effort_max=effort, soles=soles, shapes=shapes, ignored=set(),
+                   geometry=by_link)
     robot = Robot(built)  # a provisional Robot to compute the nominal pose and ignored pairs
     built.q_nominal = robot._standing_pose()
     frame_joint = {s.frame: int(model.frames[robot.frame_id(s.frame)].parentJoint)
@@ -986,6 +989,20 @@ class Robot:
         """
         hits = [(a, b, -d) for (a, b), d in self.shape_pair_distances(q).items() if -d > depth]
         return sorted(hits, key=lambda h: -h[2])
+
+    def capsule_model(self):
+        """The self-collision capsules and the pairs checked
+        (:class:`imesh.robot.capsules.CapsuleModel`), built on first use and shared by the
+        Robots of the same files."""
+        if self._built.capsules is None:
+            from .capsules import build_capsule_model
+
+            self._built.capsules = build_capsule_model(self)
+        return self._built.capsules
+
+    def link_geometry(self) -> dict:
+        """link -> {"collision": [GeometryItem], "visual": [GeometryItem]} of the URDF."""
+        return self._built.geometry
 
     def lowest_point(self, q) -> float:
         """[m] lowest z of any collision proxy (negative = below the ground z = 0)."""

@@ -112,6 +112,10 @@ class WholeBodyConfig:
             solve [Hz] (:func:`imesh.solve.initial.smooth_initializer`).
         solver: QP solver, one of :data:`imesh.solve.qp.SOLVERS`.
         qp_tolerance: absolute tolerance of each QP solve.
+        self_collision: keep the robot's capsules apart (docs/collision.md): every checked
+            pair closer than ``collision_activation_m`` gets a row ``d + J dq >= margin``.
+        collision_margin_m: the signed distance the capsules keep [m].
+        collision_activation_m: pairs closer than this at the iterate get a row [m].
     """
 
     iterations: int = 20
@@ -141,6 +145,9 @@ class WholeBodyConfig:
     initial_lowpass_hz: float = 4.0
     solver: str = "piqp"
     qp_tolerance: float = 1e-7
+    self_collision: bool = True
+    collision_margin_m: float = 0.005
+    collision_activation_m: float = 0.02
 
     def __post_init__(self) -> None:
         if not (isinstance(self.iterations, int) and self.iterations >= 1):
@@ -152,7 +159,8 @@ class WholeBodyConfig:
                      "init_weight", "zmp_margin_m", "velocity_margin", "acceleration_margin",
                      "clearance_m", "swing_lift_m", "swing_edge_m", "zmp_slack_weight",
                      "elastic_weight", "zmp_band_m", "trust_region", "initial_lowpass_hz",
-                     "base_trust", "min_normal", "max_normal", "friction", "torque_margin"):
+                     "base_trust", "min_normal", "max_normal", "friction", "torque_margin",
+                     "collision_activation_m"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise OptionError(name, value, "a non-negative number")
@@ -186,6 +194,8 @@ class Linearization:
         zmp_multibody: (T, 2) [m] the evaluator's multibody ZMP of the trajectory.
         base_rotations: (T, 3, 3) world rotations of the base.
         torques: the net joint torques and their working-set rows (None: not linearized).
+        collision: the self-collision samples
+            (:class:`imesh.solve.collision.CollisionLinearization`), or None.
     """
 
     points: np.ndarray
@@ -207,6 +217,7 @@ class Linearization:
     zmp_multibody: np.ndarray
     base_rotations: np.ndarray
     torques: TorqueLinearization | None = None
+    collision: object = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -324,22 +335,23 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         the tangent update, the CoM update ``dc_t = J_c dq_t`` and the horizontal centroidal
         angular momentum update ``dk_t`` (auxiliaries that keep the ZMP rows sparse: written in
         dq they would couple whole 35-column blocks over 9 frames), then the slacks of the
-        elastic rows (ZMP polygon, soles, ground, accelerations, ZMP band, torques; each
-        ``>= 0`` and priced linearly, an exact L1 penalty, so a linearization whose rows
-        cannot be met still has a solution; at a feasible point they are 0).
+        elastic rows (ZMP polygon, soles, ground, accelerations, ZMP band, torques,
+        self-collision; each ``>= 0`` and priced linearly, an exact L1 penalty, so a
+        linearization whose rows cannot be met still has a solution; at a feasible point they
+        are 0).
     """
     T, K = lin.points.shape[:2]
     nv = lin.point_jacobians.shape[-1]
-    nx = nv + 13
+    nx = nv + 14
     n_j = nv - 6
     N = T * nx
     h = 1.0 / plan.fps
     # offsets in a frame's block: dc, dk, the ZMP slack, the two soles' slacks, the ground's
     # and the acceleration rows'
     # and the acceleration rows', then the ZMP's excess over its dead band (x, y)
-    # and the torque rows' slack
-    C0, K0, S0, F0, G0, A0, B0, Q0 = (nv, nv + 3, nv + 5, nv + 6, nv + 8, nv + 9, nv + 10,
-                                      nv + 12)
+    # then the torque rows' and the self-collision rows' slacks
+    C0, K0, S0, F0, G0, A0, B0, Q0, X0 = (nv, nv + 3, nv + 5, nv + 6, nv + 8, nv + 9, nv + 10,
+                                          nv + 12, nv + 13)
 
     # --- per-frame blocks: key points + interaction mesh, directions, damping ------------------
     Jp = lin.point_jacobians.reshape(T, K, 3 * nv)
@@ -367,6 +379,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     g[:, G0] = config.elastic_weight
     g[:, A0] = config.elastic_weight
     g[:, Q0] = config.zmp_slack_weight
+    g[:, X0] = config.elastic_weight
     P = block_diagonal(H)
     c = g.ravel()
 
@@ -562,6 +575,13 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         G_blocks += [vert[flight], down]
         lo += [(-GRAVITY - acc[:, 2])[flight], np.full(int(flight.sum()), -np.inf)]
         hi += [np.full(int(flight.sum()), np.inf), (-GRAVITY - acc[:, 2])[flight]]
+    if lin.collision is not None and len(lin.collision.frames):
+        from .collision import collision_qp_rows
+
+        rows, low, high = collision_qp_rows(lin.collision, T, nx, X0, config.collision_margin_m)
+        G_blocks.append(rows)
+        lo.append(low)
+        hi.append(high)
     G = sp.vstack(G_blocks, format="csc") if G_blocks else sp.csc_matrix((0, N))
     # bounds: joint positions, a trust region on the update, slack >= 0
     x_l = np.full((T, nx), -np.inf)
@@ -652,4 +672,9 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
         1 - config.acceleration_margin)
     penalty += config.elastic_weight * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
+    if lin.collision is not None:
+        from .collision import collision_violation
+
+        penalty += config.elastic_weight * collision_violation(lin.collision,
+                                                               config.collision_margin_m)
     return float(0.5 * f + penalty)

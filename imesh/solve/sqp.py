@@ -111,7 +111,7 @@ class WholeBodySolution:
 class _Frames:
     """The robot frames one linearization asks for, and where each target finds its frame."""
 
-    def __init__(self, robot, targets: CompiledTargets):
+    def __init__(self, robot, targets: CompiledTargets, config: WholeBodyConfig | None = None):
         soles = [robot.frame_id(robot.soles[s].frame) for s in SIDES]
         ids = list(dict.fromkeys(list(targets.kp_frame_ids) + list(targets.dir_frame_ids)
                                  + soles + [robot.frame_id(robot.waist_frame)]))
@@ -129,6 +129,16 @@ class _Frames:
         self.ids = ids
         self.body = np.array([ids.index(f) for f in frames], dtype=int)
         self.body_points = points
+        # self-collision: the capsules' frames (imesh.solve.collision)
+        self.capsules = None
+        self.capsule_frames = np.zeros(0, dtype=int)
+        self.collision_activation = 0.0
+        if config is not None and config.self_collision and robot.config.collision.in_solve:
+            self.capsules = robot.capsule_model()
+            cf = [robot.frame_id(f) for f in self.capsules.frames]
+            ids += [f for f in dict.fromkeys(cf) if f not in ids]
+            self.capsule_frames = np.array([ids.index(f) for f in cf], dtype=int)
+            self.collision_activation = config.collision_activation_m
 
 
 def leg_ground_points(robot, below: float = 0.4) -> tuple[list[int], np.ndarray]:
@@ -213,6 +223,13 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
     torques = None
     if support is not None:
         torques = linearize_torques(robot, q, v, a, fps, support, soles, js, torque_limit)
+    collision = None
+    if frames.capsules is not None:
+        from .collision import linearize_collisions
+
+        collision = linearize_collisions(frames.capsules, M[:, frames.capsule_frames],
+                                         J[:, frames.capsule_frames],
+                                         frames.collision_activation)
     return Linearization(points=points, point_jacobians=point_j, axes=axes,
                          axis_jacobians=J[:, frames.dirs, 3:], soles=soles, sole_jacobians=js,
                          corners=corners, corner_jacobians_z=cz, body_z=body_z,
@@ -220,7 +237,7 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
                          com_jacobians=kin.com_jacobians, com_acceleration=acc,
                          angular_momentum_rate=ld, centroidal_angular=ag[:, 3:5], mass=m,
                          zmp_multibody=zmp,
-                         base_rotations=rot, torques=torques)
+                         base_rotations=rot, torques=torques, collision=collision)
 
 
 def _base_rotations(q: np.ndarray) -> np.ndarray:
@@ -337,7 +354,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         SolverError: a QP failed (infeasible linearization, non-finite result).
     """
     config = config or WholeBodyConfig()
-    frames = _Frames(robot, targets)
+    frames = _Frames(robot, targets, config)
     q = plan.q_init.copy()
     seconds = {"linearize": 0.0, "build": 0.0, "qp": 0.0}
     t_all = time.perf_counter()

@@ -1,0 +1,217 @@
+"""Self-collision capsules, their distances and Jacobians, the ignore lists, the solve's rows."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from conftest import load_test_robot
+
+from imesh.robot.capsules import (
+    NOMINAL_CLEARANCE_M,
+    capsule_ignore_rule,
+    fit_capsules,
+    pairs_file,
+    read_pairs_toml,
+    segment_closest_points,
+)
+from imesh.solve.collision import collision_qp_rows, collision_violation, linearize_collisions
+from imesh.solve.qp import QpProblem, solve_qp
+
+ROBOTS = ("jvrc1", "g1", "hrp4c")
+#: G1 left arm pose whose forearm (left_elbow_link) is inside the torso capsule
+G1_FOREARM_IN_TORSO = {"left_shoulder_pitch_joint": -0.5, "left_shoulder_roll_joint": -0.5,
+                       "left_shoulder_yaw_joint": 0.6, "left_elbow_joint": 0.5}
+
+
+def _pose(robot, joints: dict) -> np.ndarray:
+    q = robot.q_nominal.copy()
+    for name, value in joints.items():
+        q[7 + robot.joint_index(name)] = value
+    return q
+
+
+def _distances(robot, q: np.ndarray) -> np.ndarray:
+    m = robot.capsule_model()
+    return m.distances(robot.trajectory_kinematics(np.atleast_2d(q), m.frames).placements
+                       ).distance
+
+
+def test_segment_closest_points_against_sampling():
+    rng = np.random.default_rng(1)
+    p1, q1, p2, q2 = (rng.normal(size=(200, 3)) for _ in range(4))
+    q2[:20] = p2[:20]  # degenerate segments (points)
+    q1[20:40] = p1[20:40] + 1e-3 * (q2[20:40] - p2[20:40])  # nearly parallel, short
+    c1, c2 = segment_closest_points(p1, q1, p2, q2)
+    s = np.linspace(0, 1, 401)
+    a = p1[:, None] + s[None, :, None] * (q1 - p1)[:, None]
+    b = p2[:, None] + s[None, :, None] * (q2 - p2)[:, None]
+    brute = np.linalg.norm(a[:, :, None] - b[:, None, :], axis=-1).min(axis=(1, 2))
+    got = np.linalg.norm(c1 - c2, axis=-1)
+    assert np.all(got <= brute + 1e-12)
+    assert np.allclose(got, brute, atol=5e-3)
+
+
+def test_fitted_capsules_enclose_the_points():
+    rng = np.random.default_rng(2)
+    pts = rng.uniform(-1, 1, size=(500, 3)) * [0.05, 0.1, 0.2]  # a flat box
+    caps = fit_capsules(pts)
+    assert all(r > 0 for _, _, r in caps)
+    d = np.full(len(pts), np.inf)
+    for a, b, r in caps:
+        ab = b - a
+        t = np.clip((pts - a) @ ab / max(ab @ ab, 1e-12), 0, 1)
+        d = np.minimum(d, np.linalg.norm(pts - (a + t[:, None] * ab), axis=1) - r)
+    assert d.max() <= 1e-9
+
+
+@pytest.mark.parametrize("name", ["jvrc1", "g1"])
+def test_distance_jacobians_match_finite_differences(name):
+    robot = load_test_robot(name)
+    m = robot.capsule_model()
+    rng = np.random.default_rng(3)
+    q = robot.random_configuration(rng, 0.5)
+    kin = robot.trajectory_kinematics(q[None], m.frames)
+    lin = linearize_collisions(m, kin.placements, kin.jacobians, np.inf)
+    assert len(lin.frames) == len(m.pairs)
+    eps = 1e-6
+    fd = np.zeros_like(lin.rows)
+    for k in range(robot.nv):
+        dv = np.zeros(robot.nv)
+        dv[k] = eps
+        fd[:, k] = (_distances(robot, robot.integrate(q, dv))[0]
+                    - _distances(robot, robot.integrate(q, -dv))[0]) / (2 * eps)
+    assert np.abs(fd - lin.rows).max() < 1e-6 * max(1.0, np.abs(fd).max())
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_pairs_file_equals_the_rule(name):
+    robot = load_test_robot(name)
+    path = pairs_file(robot)
+    assert path.is_file(), f"regenerate with: imesh robots {name} --collisions --write"
+    assert read_pairs_toml(path) == set(capsule_ignore_rule(robot))
+    rule = capsule_ignore_rule(robot)
+    feet = [k for k, why in rule.items() if why == "feet"]
+    assert len(feet) == 1
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_nominal_pose_has_no_collision(name):
+    from imesh.metrics.collision import check_capsule_collisions, check_mesh_collisions
+
+    robot = load_test_robot(name)
+    d = _distances(robot, robot.q_nominal)[0]
+    assert d.min() >= NOMINAL_CLEARANCE_M  # every checked pair is clear
+    assert check_capsule_collisions(robot, robot.q_nominal[None], 0.0).n_frames == 0
+    mesh = check_mesh_collisions(robot, robot.q_nominal[None], 0.0)
+    assert mesh.n_frames == 0
+
+
+def test_forearm_through_torso_has_the_right_depth():
+    import coal
+
+    from imesh.metrics.collision import check_capsule_collisions, check_mesh_collisions
+
+    robot = load_test_robot("g1")
+    m = robot.capsule_model()
+    q = _pose(robot, G1_FOREARM_IN_TORSO)
+    report = check_capsule_collisions(robot, q[None])
+    assert report.n_frames == 1
+    hits = {p.frames: p.max_depth_m for p in report.pairs}
+    assert ("left_elbow_link", "torso_link") in hits
+    assert all("torso_link" in key and any("left_" in b for b in key) for key in hits)
+    depth = hits[("left_elbow_link", "torso_link")]
+    assert 0.02 < depth < 0.06
+    # the same capsules as coal capsules: the same signed distance
+    M = dict(zip(m.frames, robot.frame_placements(q, m.frames), strict=True))
+    objs = []
+    for c in m.capsules:
+        if c.body in ("left_elbow_link", "torso_link"):
+            a, b = (M[c.frame][:3, :3] @ p + M[c.frame][:3, 3] for p in (c.a, c.b))
+            z = (b - a) / max(np.linalg.norm(b - a), 1e-12)
+            x = np.cross(z, [1.0, 0, 0]) if abs(z[0]) < 0.9 else np.cross(z, [0, 1.0, 0])
+            x /= np.linalg.norm(x)
+            R = np.column_stack([x, np.cross(z, x), z])
+            objs.append((c.body, coal.Capsule(c.radius, float(np.linalg.norm(b - a))),
+                         coal.Transform3s(R, (a + b) / 2)))
+    arm = [o for o in objs if o[0] == "left_elbow_link"]
+    torso = [o for o in objs if o[0] == "torso_link"]
+    coal_d = min(coal.distance(g1, t1, g2, t2, coal.DistanceRequest(), coal.DistanceResult())
+                 for _, g1, t1 in arm for _, g2, t2 in torso)
+    assert coal_d == pytest.approx(-depth, abs=1e-6)
+    # the URDF meshes inside the capsules collide too, less deeply
+    mesh = check_mesh_collisions(robot, q[None], 0.0)
+    hit = {p.frames: p.max_depth_m for p in mesh.pairs}
+    assert 0 < hit[("left_elbow_link", "torso_link")] <= depth + 1e-6
+
+
+def test_two_frame_solve_stops_at_the_margin():
+    """Two frames pulled towards targets (nominal, forearm in the torso) with the solve's
+    elastic collision rows: the unconstrained solution collides, the constrained one stops at
+    the margin, and the frame without collision stays on its target."""
+    robot = load_test_robot("g1")
+    m = robot.capsule_model()
+    targets = np.stack([robot.q_nominal, _pose(robot, G1_FOREARM_IN_TORSO)])
+    margin, price = 0.005, 1e4
+    assert _distances(robot, targets).min(axis=1)[1] < -0.02  # unconstrained: collides
+    nv, T = robot.nv, 2
+    nx = nv + 1
+    q = targets.copy()
+    for _ in range(20):
+        kin = robot.trajectory_kinematics(q, m.frames)
+        lin = linearize_collisions(m, kin.placements, kin.jacobians, 0.02)
+        G, lo, hi = collision_qp_rows(lin, T, nx, nv, margin)
+        e = np.stack([robot.difference(q[t], targets[t]) for t in range(T)])
+        diag = np.tile(np.r_[np.ones(nv), 0.0], T)
+        c = np.concatenate([np.r_[-e[t], price] for t in range(T)])
+        x_l = np.tile(np.r_[np.full(nv, -0.1), 0.0], T)
+        x_u = np.tile(np.r_[np.full(nv, 0.1), np.inf], T)
+        qp = QpProblem(P=sp.diags(diag + 1e-9).tocsc(), c=c, A=sp.csc_matrix((0, T * nx)),
+                       b=np.zeros(0), G=G.tocsc(), l=lo, u=hi, x_l=x_l, x_u=x_u)
+        dq = solve_qp(qp, "piqp", 1e-9).x.reshape(T, nx)[:, :nv]
+        q = np.stack([robot.integrate(q[t], dq[t]) for t in range(T)])
+        if np.abs(dq).max() < 1e-7:
+            break
+    d = _distances(robot, q).min(axis=1)
+    assert d[1] == pytest.approx(margin, abs=2e-4)
+    assert np.abs(robot.difference(q[0], targets[0])).max() < 1e-6
+    kin = robot.trajectory_kinematics(q, m.frames)
+    final = linearize_collisions(m, kin.placements, kin.jacobians, 0.02)
+    assert collision_violation(final, margin) < 2e-4
+
+
+def test_cli_robots_collisions_prints_capsules_and_pairs(capsys):
+    from imesh.cli import main
+
+    assert main(["robots", "g1", "--collisions"]) == 0
+    out = capsys.readouterr().out
+    assert "capsules on 30 bodies" in out and "matches the rule" in out
+    assert "left_ankle_roll_link - right_ankle_roll_link: feet" in out
+
+
+@pytest.mark.parametrize("name, in_solve", [("jvrc1", True), ("g1", True), ("hrp4c", False)])
+def test_capsules_enter_the_solve_where_the_robot_allows(name, in_solve):
+    """HRP-4C's capsules stay out of the whole-body solve (robot.toml: collision.in_solve =
+    false, docs/collision.md); the other robots' are in it by default."""
+    from imesh.fit.targets import compile_targets
+    from imesh.solve import WholeBodyConfig
+    from imesh.solve.sqp import _Frames
+
+    robot = load_test_robot(name)
+    assert robot.config.collision.in_solve is in_solve
+    names = robot.keypoint_arrays()[0]
+    frames = _Frames(robot, compile_targets(robot, names, None, [], source="test"),
+                     WholeBodyConfig())
+    assert (frames.capsules is not None) is in_solve
+    assert (len(frames.capsule_frames) > 0) is in_solve
+
+
+def test_in_solve_must_be_a_boolean(tmp_path):
+    from imesh.robot.config import RobotConfigError, load_robot_config
+
+    src = load_test_robot("g1").config.path
+    text = src.read_text().replace("[collision]", "[collision]\nin_solve = 1", 1)
+    bad = tmp_path / "robot.toml"
+    bad.write_text(text)
+    with pytest.raises(RobotConfigError, match="collision.in_solve must be true or false"):
+        load_robot_config(bad)
