@@ -166,9 +166,9 @@ def mujoco_qpos(motion: RobotMotion, model) -> tuple[np.ndarray, list[str], list
     """
     import mujoco
 
-    free, hinge, slide = (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_HINGE,
-                          mujoco.mjtJoint.mjJNT_SLIDE)
-    if model.njnt == 0 or model.jnt_type[0] != free or model.jnt_qposadr[0] != 0:
+    free, hinge, slide = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_HINGE),
+                          int(mujoco.mjtJoint.mjJNT_SLIDE))
+    if model.njnt == 0 or int(model.jnt_type[0]) != free or model.jnt_qposadr[0] != 0:
         raise ExportError("the MuJoCo model's first joint must be the free joint of the base")
     qpos = np.tile(np.asarray(model.qpos0, dtype=np.float64), (motion.n_frames, 1))
     qpos[:, 0:3] = motion.base_position
@@ -178,7 +178,7 @@ def mujoco_qpos(motion: RobotMotion, model) -> tuple[np.ndarray, list[str], list
     names, filled = [], []
     for j in range(1, model.njnt):
         name = model.joint(j).name
-        if model.jnt_type[j] not in (hinge, slide):
+        if int(model.jnt_type[j]) not in (hinge, slide):
             raise ExportError(f"MuJoCo joint {name!r} is neither hinge nor slide")
         names.append(name)
         if name in index:
