@@ -63,7 +63,7 @@ def load_robot(name: str | PathLike = "jvrc1", urdf: PathLike | None = None) -> 
         >>> import imesh
         >>> robot = imesh.load_robot("jvrc1")
         >>> robot.name, len(robot.joint_names)
-        ('jvrc1', 34)
+        ('jvrc1', 32)
     """
     from .robot import load_robot as _load_robot
 
