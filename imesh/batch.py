@@ -225,6 +225,10 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
     else:
         ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
                  logging_level=logging.WARNING, runtime_env=env)
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _interrupt)  # ray.init installs its own
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(run_clip)
         pending: dict = {}
@@ -386,6 +390,12 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
 
 
 # ------------------------------------------------------------------------------ command line
+def _interrupt(signum, frame):
+    """SIGTERM ends a batch like Ctrl-C: workers stop, temporary files are removed."""
+    raise KeyboardInterrupt
+
+
+
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add ``imesh batch`` to an argparse subparsers object."""
     p = subparsers.add_parser(
@@ -425,10 +435,7 @@ def run(args) -> int:
                              urdf=str(Path(args.urdf).resolve()) if args.urdf else None,
                              force=args.force)
 
-    def terminate(signum, frame):  # SIGTERM ends like Ctrl-C: workers stop, temporaries go
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, terminate)
+    previous = signal.signal(signal.SIGTERM, _interrupt)
     try:
         report = run_batch(args.inputs, args.output, settings, workers=args.workers,
                            address=args.address, backend=args.backend,
