@@ -35,7 +35,7 @@ PathLike = str | os.PathLike
 def demo_clip() -> Path:
     """The shipped demo clip: a 2.9 s CMU walk (BVH, 120 fps; imesh/data/demo).
 
-    Example:
+    Examples:
         >>> import imesh
         >>> imesh.demo_clip().name
         'cmu_02_01_walk.bvh'
@@ -59,7 +59,7 @@ def load_robot(name: str | PathLike = "jvrc1", urdf: PathLike | None = None) -> 
     Raises:
         OptionError: unknown robot name (the message lists the known robots).
 
-    Example:
+    Examples:
         >>> import imesh
         >>> robot = imesh.load_robot("jvrc1")
         >>> robot.name, len(robot.joint_names)
@@ -115,7 +115,7 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
         ImeshError: unreadable clip, unknown robot, flight phases, solver failure,
             verification failure.
 
-    Example:
+    Examples:
         >>> import imesh
         >>> result = imesh.retarget(imesh.demo_clip(), "jvrc1")  # about 15 s
         >>> motion = result.motion
@@ -174,7 +174,7 @@ def load_robot_motion(path: PathLike, robot: Robot | str | None = None) -> Robot
     Raises:
         MotionFileError: unreadable or malformed file (names the file and what is wrong).
 
-    Example:
+    Examples:
         >>> import imesh, tempfile, os
         >>> motion = imesh.RobotMotion.from_parts(
         ...     [[0.0, 0.0, 0.8]] * 2, [[0.0, 0.0, 0.0, 1.0]] * 2, [[0.1], [0.2]], fps=30.0,
@@ -235,7 +235,7 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
     Returns:
         dict: metric name -> ``{"value", "unit", ...}`` (``imesh.evaluate.METRIC_NAMES``).
 
-    Example:
+    Examples:
         >>> import imesh
         >>> robot = imesh.load_robot("jvrc1")
         >>> q = robot.q_nominal
