@@ -218,7 +218,8 @@ def export_motion(motion: RobotMotion | PathLike, output: PathLike, fmt: str | N
 def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *,
              source: MarkerMotion | PathLike | None = None,
              adapted: MarkerMotion | PathLike | None = None, physics: bool = False,
-             fps: float | None = None, urdf: PathLike | None = None) -> dict:
+             fps: float | None = None, resample: bool = False,
+             urdf: PathLike | None = None) -> dict:
     """Every quality metric of a robot motion (the numbers of ``imesh evaluate``), also for
     the output of another retargeting tool (docs/checking.md).
 
@@ -230,6 +231,9 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
         adapted: the adapted markers the robot fitted (an imesh .npz stores them itself).
         physics: run the DART dynamics check (slower).
         fps: frame rate of files that store none [1/s].
+        resample: compare ``source``/``adapted`` markers of another frame rate or frame count
+            (resampled to the motion's fps, first common frames; e.g. a 120 fps clip against a
+            30 fps motion); by default such a mismatch raises SourceMismatchError.
         urdf: model file of robots whose model the user provides (HRP-4C).
 
     Returns:
@@ -255,7 +259,8 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
         motion = _load_for_evaluate(path, robot, fps)
     else:
         robot = _robot(robot if robot is not None else motion.robot, urdf)
-    return evaluate_motion(robot, motion, source=source, adapted=adapted, physics=physics)
+    return evaluate_motion(robot, motion, source=source, adapted=adapted, physics=physics,
+                           resample=resample)
 
 
 def _robot_named_in(path: Path) -> str:
