@@ -11,6 +11,8 @@ processes``, no Ray needed). Per clip, in ``OUT_DIR``:
   hash (robot, format, fps, balance, model file, imesh version), the output's SHA-256, frames
   and time. A clip whose output and stamp agree with its input and the settings is skipped, so a
   batch can be re-run or resumed after an interruption and recomputes only what is missing.
+  A clip whose last run failed with the same input bytes and settings is reported as failed
+  again without running (``--retry-failed`` runs it).
 
 ``OUT_DIR/batch.jsonl`` gets one JSON line per clip and run (``status`` ok / skipped / error,
 the error's type and message), and a final ``summary`` line; the summary table is printed.
@@ -138,6 +140,23 @@ def is_done(clip: Path, output: Path, settings: BatchSettings) -> bool:
         return False
 
 
+def known_failures(out_dir: Path) -> dict[str, dict]:
+    """The last record of every clip in ``out_dir``'s log whose last run failed."""
+    last: dict[str, dict] = {}
+    try:
+        with open(out_dir / LOG_NAME, encoding="utf-8") as fh:
+            for line in fh:
+                try:
+                    record = json.loads(line)
+                except ValueError:
+                    continue  # a line cut by a kill
+                if "clip" in record:
+                    last[record["clip"]] = record
+    except OSError:
+        return {}
+    return {c: r for c, r in last.items() if r.get("status") == "error"}
+
+
 def remove_stale_temporaries(out_dir: Path) -> list[Path]:
     """Remove temporary files an interrupted batch left (``.<name>.<random><suffix>`` of
     :func:`imesh.export.atomic_path`); returns them."""
@@ -162,8 +181,10 @@ def run_clip(clip: str, output: str, settings: BatchSettings) -> dict:
         ``seconds``; for errors ``error_type`` and ``error``.
     """
     t0 = time.perf_counter()
-    record: dict = {"clip": str(clip), "output": str(output)}
+    record: dict = {"clip": str(clip), "output": str(output),
+                    "settings_sha256": settings.digest()}
     try:
+        record["input_sha256"] = file_sha256(clip)
         from threadpoolctl import threadpool_limits
 
         with threadpool_limits(1):
@@ -297,7 +318,8 @@ class BatchReport:
         width = max([4, *(len(Path(r["clip"]).name) for r in self.records)])
         lines = [f"{'clip':<{width}}  {'status':<7} {'frames':>6} {'seconds':>8}  detail"]
         for r in self.records:
-            detail = (f"{r.get('error_type')}: {r.get('error')}" if r["status"] == "error"
+            detail = (f"{'(failed before, not retried) ' if r.get('cached') else ''}"
+                      f"{r.get('error_type')}: {r.get('error')}" if r["status"] == "error"
                       else r.get("output", ""))
             frames = r.get("frames", "")
             secs = f"{r['seconds']:.1f}" if "seconds" in r else ""
@@ -312,6 +334,7 @@ class BatchReport:
 def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathLike,
               settings: BatchSettings = BatchSettings(), *, workers: int = 2,
               address: str | None = None, backend: str = "ray", progress: bool = True,
+              retry_failed: bool = False,
               on_record: Callable[[dict], None] | None = None) -> BatchReport:
     """Retarget many clips into ``out_dir`` (module docstring).
 
@@ -323,6 +346,9 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
         address: a Ray cluster to join (``"auto"``, ``"HOST:6379"``); None starts a local one.
         backend: ``"ray"`` or ``"processes"`` (concurrent.futures, no Ray).
         progress: show a tqdm bar over the clips (with ETA) on stderr.
+        retry_failed: run clips again whose last run failed with the same input bytes and
+            settings (by default they are reported as failed again without running: a re-run
+            recomputes nothing).
         on_record: called with each clip's record as it ends.
 
     Returns:
@@ -355,13 +381,19 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
         if on_record is not None:
             on_record(record)
 
+    failures = {} if retry_failed else known_failures(out_dir)
+    digest = settings.digest()
     bar = None
     try:
         jobs = []
         for clip in clips:
             out = output_path(clip, out_dir, settings)
+            failed = failures.get(str(clip))
             if is_done(clip, out, settings):
                 emit({"clip": str(clip), "output": str(out), "status": "skipped"})
+            elif (failed and failed.get("settings_sha256") == digest
+                  and failed.get("input_sha256") == file_sha256(clip)):
+                emit({**{k: v for k, v in failed.items() if k != "run"}, "cached": True})
             else:
                 jobs.append((str(clip), str(out)))
         if jobs:
@@ -419,6 +451,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--balance", choices=("wholebody", "nishiwaki", "none"), default="wholebody")
     p.add_argument("--force", action="store_true",
                    help="write motions that fail verification (otherwise such a clip fails)")
+    p.add_argument("--retry-failed", action="store_true",
+                   help="run clips again that failed before with the same input and settings "
+                        "(default: reported as failed again, not recomputed)")
     return p
 
 
@@ -439,7 +474,7 @@ def run(args) -> int:
     try:
         report = run_batch(args.inputs, args.output, settings, workers=args.workers,
                            address=args.address, backend=args.backend,
-                           progress=not args.quiet)
+                           progress=not args.quiet, retry_failed=args.retry_failed)
     finally:
         signal.signal(signal.SIGTERM, previous)
     print(report.table())

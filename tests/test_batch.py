@@ -67,13 +67,20 @@ def test_batch_partial_then_resumed(clips, tmp_path, capsys):
     assert not (out / "cut.npz").exists()
     assert _leftovers(out) == []
 
-    # a second run recomputes nothing that was done (the corrupt clip fails again, quickly)
+    # a second run recomputes nothing: done clips are skipped, the corrupt one is reported as
+    # failed again without running (no Ray started)
     t0 = time.perf_counter()
     status = main(["-q", "batch", str(clips / "*.bvh"), "--robot", "jvrc1", "-o", str(out)])
     assert status == EXIT_PARTIAL
     last = [r for r in _records(out) if "clip" in r][-3:]
     assert sorted(r["status"] for r in last) == ["error", "skipped", "skipped"]
-    assert time.perf_counter() - t0 < 60
+    assert [r.get("cached") for r in last if r["status"] == "error"] == [True]
+    assert time.perf_counter() - t0 < 5
+    # --retry-failed runs it again
+    status = main(["-q", "batch", str(clips / "cut.bvh"), "--robot", "jvrc1", "-o", str(out),
+                   "--retry-failed", "--backend", "processes", "--workers", "1"])
+    assert status == EXIT_PARTIAL
+    assert "cached" not in _records(out)[-2]
 
     # changed settings are not up to date
     assert not is_done(clips / "walk.bvh", out / "walk.npz", BatchSettings(robot="jvrc1",
