@@ -10,9 +10,9 @@ Formats (:data:`FORMATS`):
     The layout of the widely used retargeted-LAFAN1 humanoid datasets that motion-tracking
     training code reads: no header, one row per frame, comma separated, ``%.17g`` numbers:
     base position x, y, z [m], base quaternion x, y, z, w, then one value per joint [rad] in the
-    robot's joint order (``RobotMotion.joint_names`` = the robot's ``joint_names``; docs/robots.md
-    and ``imesh robots --joints``). The file stores neither frame rate nor joint names: readers
-    need the robot (and the frame rate, 30 fps in those datasets; ``--fps``).
+    robot's joint order (``imesh.load_robot(name).joint_names``, the URDF's depth-first
+    order; docs/exports.md lists the G1's). The file stores neither frame rate nor joint
+    names: readers need the robot (and the frame rate, 30 fps in those datasets; ``--fps``).
 ``mujoco``
     MuJoCo ``qpos`` in an ``.npz``: ``qpos`` (T, nq) in the order of the robot's MJCF (free
     joint first: base position [m], base quaternion **w, x, y, z**; then each hinge/slide joint
