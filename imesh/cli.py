@@ -56,6 +56,15 @@ def _add_morph_options(p: argparse.ArgumentParser) -> None:
                    help="solve longer clips in windows of this many frames (default 2000)")
 
 
+def _add_format_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--format", choices=("npz", "csv", "mujoco"),
+                   help="output format (imesh.exports): npz (imesh's), csv (one headerless row "
+                        "per frame: base xyz, quaternion xyzw, joints), mujoco (qpos .npz, "
+                        "quaternion wxyz, MJCF joint order); default: imesh's by the suffix")
+    p.add_argument("--mjcf", help="MuJoCo model (.xml) for --format mujoco (default: the "
+                   "robot's model in mujoco-menagerie; g1)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="imesh",
@@ -63,6 +72,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="log decisions (-v) and solver steps (-vv)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    from . import __version__
+
+    parser.add_argument("--version", action="version", version=f"imesh {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("inspect", help="summarize a motion file and its rig mapping")
@@ -94,6 +106,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-support", action="store_true",
                    help="no support-foot constraints in the morph")
     p.add_argument("--markers", help="also write the adapted markers (.npz or .csv)")
+    _add_format_options(p)
     p.add_argument("--report", dest="report_html",
                    help="write an HTML report of the written motion (metrics, figures, 3D view)")
     p.add_argument("--balance", choices=("wholebody", "nishiwaki", "none"), default="wholebody",
@@ -122,6 +135,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--write", action="store_true",
                    help="with --collisions: write robots/NAME/collision_pairs.toml from the rule")
     p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
+
+    p = sub.add_parser("export", help="convert a robot motion to another format (CSV in the "
+                       "retargeted-LAFAN1 layout, MuJoCo qpos, imesh .npz); docs/exports.md")
+    p.add_argument("motion", help="robot motion (.npz or .csv, imesh's or an export)")
+    p.add_argument("-o", "--output", required=True, help="file to write (.npz or .csv)")
+    p.add_argument("--robot", help="the robot of a headerless CSV (its joint order)")
+    p.add_argument("--fps", type=float, help="resample to this frame rate (slerp for the base)")
+    p.add_argument("--source-fps", type=float,
+                   help="frame rate of a headerless CSV given as input (default 30)")
+    _add_format_options(p)
+
+    from .batch import add_parser as add_batch_parser
+
+    add_batch_parser(sub)
 
     from .cli_evaluate import add_parser as add_evaluate_parser
     from .reduction.cli import add_parser as add_reduce_parser
@@ -397,7 +424,12 @@ def cmd_retarget(args) -> int:
                                          for k, v in failed.items()}}
     if failed and not args.force:
         raise VerificationError(f"retargeted motion of {args.clip} for {robot.name}", failed)
-    save_robot_motion(args.output, robot_motion, markers=result.adapted)
+    if args.format in (None, "npz"):
+        save_robot_motion(args.output, robot_motion, markers=result.adapted)
+    else:
+        from .exports import write_export
+
+        write_export(robot_motion, args.output, args.format, mjcf=args.mjcf)
     if args.markers:
         save_marker_motion(args.markers, result.adapted)
     if args.report:
@@ -438,6 +470,25 @@ def cmd_robots(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from .exports import read_export, write_export
+
+    motion = read_export(args.motion, args.robot, fps=args.source_fps)
+    fmt = args.format
+    if fmt is None and Path(args.output).suffix.lower() == ".csv":
+        fmt = "csv"
+    write_export(motion, args.output, fmt, fps=args.fps, mjcf=args.mjcf)
+    print(f"exported {args.motion} -> {args.output} ({fmt or 'npz'}, "
+          f"{args.fps or motion.fps:g} fps)")
+    return 0
+
+
+def cmd_batch(args) -> int:
+    from .batch import run
+
+    return run(args)
+
+
 def cmd_demo(args) -> int:
     from .cli_view import run_demo
 
@@ -464,7 +515,8 @@ def cmd_reduce(args) -> int:
 
 COMMANDS = {"inspect": cmd_inspect, "rig": cmd_rig, "adapt": cmd_adapt, "retarget": cmd_retarget,
             "robots": cmd_robots, "demo": cmd_demo, "evaluate": cmd_evaluate,
-            "reduce": cmd_reduce, "view": cmd_view}
+            "reduce": cmd_reduce, "view": cmd_view, "export": cmd_export,
+            "batch": cmd_batch}
 
 
 _MOTION = (".npz", ".csv")
@@ -486,6 +538,8 @@ OUTPUTS: dict[str, tuple[tuple[str, str, tuple[str, ...] | None], ...]] = {
                ("plots", "--plots", _FOLDER)),
     "demo": (("output", "-o", _FOLDER),),
     "rig": (("output", "-o", (".toml",)),),
+    "export": (("output", "-o", _MOTION),),
+    "batch": (("output", "-o", _FOLDER),),
 }
 
 #: Exit statuses: 0 success, 2 bad input or usage, 3 reserved for an output that was written but

@@ -1,0 +1,194 @@
+"""Exports (imesh.exports, ``imesh export``): round trips of the CSV (LAFAN1 layout), MuJoCo
+qpos and npz formats on a real G1 retarget of the demo walk, MuJoCo loading joint by joint, and
+``--fps`` resampling (linear + slerp)."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import load_test_robot
+
+from imesh.cli import main
+from imesh.errors import OptionError
+from imesh.exports import (
+    ExportError,
+    mujoco_model,
+    read_export,
+    resample_robot_motion,
+    write_export,
+)
+
+
+@pytest.fixture(scope="module")
+def g1_motion():
+    """The demo walk retargeted to the G1 (the whole pipeline, about 25 s)."""
+    import imesh
+
+    return imesh.retarget(imesh.demo_clip(), load_test_robot("g1")).motion
+
+
+@pytest.fixture(scope="module")
+def g1_mjcf(tmp_path_factory) -> Path:
+    """An MJCF of the G1 made by MuJoCo from the URDF imesh uses (example-robot-data), with a
+    free joint on the pelvis: the same joints as mujoco-menagerie's unitree_g1 (whose meshes
+    are downloaded on first use, which needs the network)."""
+    mujoco = pytest.importorskip("mujoco")
+    from imesh.robot import load_robot_config, resolve_robot_toml, resolve_urdf
+
+    urdf, _ = resolve_urdf(load_robot_config(resolve_robot_toml("g1")), None)
+    root = ET.parse(urdf).getroot()
+    for link in root.iter("link"):
+        for tag in ("visual", "collision"):
+            for el in link.findall(tag):
+                link.remove(el)
+    folder = tmp_path_factory.mktemp("g1_mjcf")
+    raw = folder / "raw.xml"
+    mujoco.mj_saveLastXML(str(raw), mujoco.MjModel.from_xml_string(
+        ET.tostring(root, encoding="unicode")))
+    tree = ET.parse(raw)
+    world = tree.getroot().find("worldbody")
+    pelvis = ET.Element("body", name="pelvis")
+    ET.SubElement(pelvis, "freejoint", name="floating_base_joint")
+    ET.SubElement(pelvis, "inertial", pos="0 0 0", mass="3", diaginertia="0.01 0.01 0.01")
+    for child in list(world):
+        world.remove(child)
+        pelvis.append(child)
+    world.append(pelvis)
+    path = folder / "g1.xml"
+    tree.write(path)
+    return path
+
+
+def test_csv_round_trip_lafan1_layout(g1_motion, tmp_path):
+    path = write_export(g1_motion, tmp_path / "walk.csv", "csv")
+    rows = path.read_text().splitlines()
+    assert len(rows) == g1_motion.n_frames
+    cells = rows[0].split(",")
+    assert len(cells) == 7 + 29  # base xyz, quaternion xyzw, the G1's 29 joints
+    float(cells[0])  # no header
+    back = read_export(path, "g1", fps=g1_motion.fps)
+    assert back.joint_names == g1_motion.joint_names
+    assert np.max(np.abs(back.q - g1_motion.q)) <= 1e-9
+    # the quaternion is x, y, z, w: columns 3..6 are the motion's base_quat_xyzw
+    table = np.loadtxt(path, delimiter=",")
+    assert np.array_equal(table[:, 3:7], g1_motion.base_quat_xyzw)
+
+
+def test_npz_round_trip(g1_motion, tmp_path):
+    back = read_export(write_export(g1_motion, tmp_path / "walk.npz", "npz"))
+    assert np.array_equal(back.q, g1_motion.q) and back.fps == g1_motion.fps
+
+
+def test_mujoco_export_loads_joint_by_joint(g1_motion, g1_mjcf, tmp_path):
+    mujoco = pytest.importorskip("mujoco")
+    path = write_export(g1_motion, tmp_path / "walk_mj.npz", "mujoco", mjcf=g1_mjcf)
+    with np.load(path) as f:
+        qpos = f["qpos"]
+        assert list(f["filled_joints"]) == []
+    model = mujoco.MjModel.from_xml_path(str(g1_mjcf))
+    assert qpos.shape == (g1_motion.n_frames, model.nq)
+    data = mujoco.MjData(model)
+    robot = load_test_robot("g1")
+    feet = [robot.frame_id("left_ankle_roll_link"), robot.frame_id("right_ankle_roll_link")]
+    worst = 0.0
+    for t in (0, g1_motion.n_frames // 2, g1_motion.n_frames - 1):
+        data.qpos[:] = qpos[t]
+        mujoco.mj_kinematics(model, data)
+        for name in g1_motion.joint_names:  # joint by joint
+            adr = model.jnt_qposadr[model.joint(name).id]
+            assert data.qpos[adr] == g1_motion.joint_positions[t, g1_motion.joint_index(name)]
+        w, x, y, z = data.qpos[3:7]
+        assert np.allclose([x, y, z, w], g1_motion.base_quat_xyzw[t], atol=0, rtol=0)
+        # the same pose: feet where pinocchio puts them
+        pin = robot.frame_positions(g1_motion.q[t], feet)
+        mj = np.array([data.body("left_ankle_roll_link").xpos,
+                       data.body("right_ankle_roll_link").xpos])
+        worst = max(worst, float(np.max(np.abs(pin - mj))))
+    assert worst < 1e-6, worst  # the MJCF MuJoCo saved rounds body poses to ~1e-9 m
+    back = read_export(path)
+    assert back.joint_names == g1_motion.joint_names
+    assert np.max(np.abs(back.q - g1_motion.q)) <= 1e-9
+
+
+def test_mujoco_menagerie_g1(g1_motion, tmp_path):
+    """With the G1 of the mujoco-menagerie package (its assets are fetched on first use)."""
+    pytest.importorskip("mujoco_menagerie")
+    try:
+        model, source = mujoco_model("g1")
+    except ExportError as exc:
+        if "DownloadError" in str(exc):
+            pytest.skip(f"mujoco-menagerie cannot download the G1 assets here: {exc}")
+        raise
+    import mujoco
+
+    path = write_export(g1_motion, tmp_path / "walk_mj.npz", "mujoco")
+    qpos = np.load(path)["qpos"]
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos[0]
+    for name in g1_motion.joint_names:
+        assert data.qpos[model.jnt_qposadr[model.joint(name).id]] == \
+            g1_motion.joint_positions[0, g1_motion.joint_index(name)]
+
+
+def test_mujoco_refuses_robot_without_model(tmp_path):
+    import imesh
+
+    robot = load_test_robot("jvrc1")
+    motion = imesh.RobotMotion(q=[robot.q_nominal] * 3, fps=30.0, robot="jvrc1",
+                               joint_names=robot.joint_names)
+    with pytest.raises(ExportError, match="no known MuJoCo model.*g1.*--mjcf"):
+        write_export(motion, tmp_path / "x.npz", "mujoco")
+    assert not (tmp_path / "x.npz").exists()
+    with pytest.raises(OptionError, match=r"--format.*npz.*csv.*mujoco"):
+        write_export(motion, tmp_path / "x.npz", "bvh")
+    with pytest.raises(OptionError, match=r"\.csv"):
+        write_export(motion, tmp_path / "x.npz", "csv")
+
+
+def test_resampling_linear_and_slerp(g1_motion):
+    up = resample_robot_motion(g1_motion, 2 * g1_motion.fps)
+    assert up.n_frames == 2 * g1_motion.n_frames - 1
+    # source frames are reproduced; the way back gives the source within 1e-9
+    assert np.max(np.abs(up.q[::2] - g1_motion.q)) <= 1e-9
+    back = resample_robot_motion(up, g1_motion.fps)
+    assert np.max(np.abs(back.q - g1_motion.q)) <= 1e-9
+    # midpoints: positions and joints are the mean of their neighbours, the quaternion is
+    # half-way on the great circle (equal angles to both neighbours, on the same side)
+    mid = up.q[1::2]
+    lin = np.r_[0:3, 7:up.q.shape[1]]
+    avg = 0.5 * (g1_motion.q[:-1] + g1_motion.q[1:])
+    assert np.max(np.abs(mid[:, lin] - avg[:, lin])) <= 1e-12
+    a = np.abs(np.einsum("ij,ij->i", mid[:, 3:7], g1_motion.q[:-1, 3:7]))
+    b = np.abs(np.einsum("ij,ij->i", mid[:, 3:7], g1_motion.q[1:, 3:7]))
+    assert np.max(np.abs(a - b)) <= 1e-12
+    assert np.allclose(np.linalg.norm(mid[:, 3:7], axis=1), 1.0, atol=1e-12)
+    # 30 -> 50 fps: every joint value lies between the two source frames around it
+    fine = resample_robot_motion(g1_motion, 50.0)
+    assert fine.n_frames == int((g1_motion.n_frames - 1) * 50 / g1_motion.fps) + 1
+    k = np.minimum(np.floor(np.arange(fine.n_frames) / 50.0 * g1_motion.fps + 1e-9).astype(int),
+                   g1_motion.n_frames - 2)
+    j0, j1 = g1_motion.joint_positions[k], g1_motion.joint_positions[k + 1]
+    assert np.all(fine.joint_positions >= np.minimum(j0, j1) - 1e-12)
+    assert np.all(fine.joint_positions <= np.maximum(j0, j1) + 1e-12)
+
+
+def test_cli_export_round_trip(g1_motion, g1_mjcf, tmp_path):
+    from imesh.robot_motion import save_robot_motion
+
+    src = tmp_path / "walk.npz"
+    save_robot_motion(src, g1_motion)
+    assert main(["-q", "export", str(src), "--format", "csv", "-o", str(tmp_path / "w.csv")]) == 0
+    assert main(["-q", "export", str(tmp_path / "w.csv"), "--robot", "g1", "-o",
+                 str(tmp_path / "back.npz")]) == 0
+    back = read_export(tmp_path / "back.npz")
+    assert np.max(np.abs(back.q - g1_motion.q)) <= 1e-9
+    assert main(["-q", "export", str(src), "--format", "mujoco", "--mjcf", str(g1_mjcf),
+                 "--fps", "60", "-o", str(tmp_path / "mj.npz")]) == 0
+    assert read_export(tmp_path / "mj.npz").n_frames == 2 * g1_motion.n_frames - 1
+    # a suffix that does not fit the format: a one-line error, exit 2, nothing written
+    assert main(["-q", "export", str(src), "--format", "csv", "-o",
+                 str(tmp_path / "bad.npz")]) == 2
+    assert not (tmp_path / "bad.npz").exists()
