@@ -22,7 +22,6 @@ failed (:data:`EXIT_PARTIAL`), 2 bad usage or no clip found, 130 interrupted.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import glob
 import hashlib
@@ -249,7 +248,7 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
     import threading
 
     if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _interrupt)  # ray.init installs its own
+        signal.signal(signal.SIGTERM, interrupt)  # ray.init installs its own
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(run_clip)
         pending: dict = {}
@@ -421,62 +420,6 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
         remove_stale_temporaries(out_dir)
 
 
-# ------------------------------------------------------------------------------ command line
-def _interrupt(signum, frame):
+def interrupt(signum, frame):
     """SIGTERM ends a batch like Ctrl-C: workers stop, temporary files are removed."""
     raise KeyboardInterrupt
-
-
-
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``imesh batch`` to an argparse subparsers object."""
-    p = subparsers.add_parser(
-        "batch", help="retarget a folder or glob of clips on Ray (resumable); docs/batch.md",
-        description="Retarget every clip of a folder (or a glob pattern) to a robot, on a local "
-        "Ray runtime or a cluster. Outputs whose input and settings are unchanged are skipped. "
-        "Exit status 0 when every clip is done, 4 when some failed (see OUT_DIR/batch.jsonl).")
-    p.add_argument("inputs", metavar="IN_DIR_OR_GLOB", help="folder of clips or glob pattern")
-    p.add_argument("--robot", default="jvrc1", help="robot (jvrc1, g1, hrp4c) or a robot.toml")
-    p.add_argument("--urdf", help="model file for robots whose model the user provides (hrp4c)")
-    p.add_argument("-o", "--output", required=True, help="output folder")
-    p.add_argument("--workers", type=int, default=2, help="clips at a time (default 2)")
-    p.add_argument("--address", help="join this Ray cluster (e.g. 'auto' after `ray start "
-                   "--head`); default: a local Ray runtime")
-    p.add_argument("--backend", choices=("ray", "processes"), default="ray",
-                   help="ray (default) or local processes (no Ray needed)")
-    p.add_argument("--format", choices=("npz", "csv", "mujoco"), default="npz",
-                   help="output format (docs/exports.md; default npz)")
-    p.add_argument("--mjcf", help="MuJoCo model for --format mujoco")
-    p.add_argument("--fps", type=float, help="output frame rate (default 30)")
-    p.add_argument("--balance", choices=("wholebody", "nishiwaki", "none"), default="wholebody")
-    p.add_argument("--force", action="store_true",
-                   help="write motions that fail verification (otherwise such a clip fails)")
-    p.add_argument("--retry-failed", action="store_true",
-                   help="run clips again that failed before with the same input and settings "
-                        "(default: reported as failed again, not recomputed)")
-    return p
-
-
-def run(args) -> int:
-    """``imesh batch`` with parsed arguments; returns the exit status."""
-    from .export import _TRANSACTION
-
-    tx = _TRANSACTION.get()
-    if tx is not None:  # finished clips stay when the batch is interrupted
-        tx.created_dirs.clear()
-    settings = BatchSettings(robot=args.robot, format=args.format, fps=args.fps,
-                             balance=args.balance,
-                             mjcf=str(Path(args.mjcf).resolve()) if args.mjcf else None,
-                             urdf=str(Path(args.urdf).resolve()) if args.urdf else None,
-                             force=args.force)
-
-    previous = signal.signal(signal.SIGTERM, _interrupt)
-    try:
-        report = run_batch(args.inputs, args.output, settings, workers=args.workers,
-                           address=args.address, backend=args.backend,
-                           progress=not args.quiet, retry_failed=args.retry_failed)
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-    print(report.table())
-    print(f"log: {Path(args.output) / LOG_NAME}")
-    return EXIT_OK if report.complete else EXIT_PARTIAL

@@ -146,7 +146,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="frame rate of a headerless CSV given as input (default 30)")
     _add_format_options(p)
 
-    from .batch import add_parser as add_batch_parser
+    from .cli_batch import add_parser as add_batch_parser
 
     add_batch_parser(sub)
 
@@ -484,7 +484,7 @@ def cmd_export(args) -> int:
 
 
 def cmd_batch(args) -> int:
-    from .batch import run
+    from .cli_batch import run
 
     return run(args)
 

@@ -79,7 +79,8 @@ def test_csv_round_trip_lafan1_layout(g1_motion, tmp_path):
 
 def test_npz_round_trip(g1_motion, tmp_path):
     back = read_export(write_export(g1_motion, tmp_path / "walk.npz", "npz"))
-    assert np.array_equal(back.q, g1_motion.q) and back.fps == g1_motion.fps
+    # exact up to the re-normalization of the base quaternion on reading (last bits)
+    assert np.abs(back.q - g1_motion.q).max() <= 1e-15 and back.fps == g1_motion.fps
 
 
 def test_mujoco_export_loads_joint_by_joint(g1_motion, g1_mjcf, tmp_path):
