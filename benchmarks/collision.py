@@ -19,10 +19,9 @@ import argparse
 import dataclasses
 import logging
 import sys
-import time
 from pathlib import Path
 
-from _data import data_root, load
+from _data import data_root, load, write_and_read
 
 CLIPS = ("cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh", "cmu_141_16_wave_hello.bvh",
          "cmu_02_10_wash_self_cc3rig.bvh", "cmu_60_10_salsa_partnerA_sl_scaled.bvh")
@@ -47,11 +46,10 @@ def main(argv=None) -> int:
         return rescore(Path(args.out))
 
     from imesh.evaluate import evaluate_motion, metric_values
-    from imesh.export import load_marker_motion, save_marker_motion
+    from imesh.export import load_marker_motion
     from imesh.io import load_motion
     from imesh.metrics.collision import check_mesh_collisions
     from imesh.retarget import RetargetConfig, retarget
-    from imesh.robot_motion import load_robot_motion, save_robot_motion
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -68,17 +66,12 @@ def main(argv=None) -> int:
                 config = dataclasses.replace(base, wholebody=dataclasses.replace(
                     base.wholebody, self_collision=mode == "on"))
                 stem = f"{Path(clip).stem}_{name}_{mode}"
-                t0 = time.perf_counter()
                 try:
                     res = retarget(motion, robot, config=config)
                 except Exception as exc:  # a row per run, whatever fails
                     print(f"{clip:<38} {name:<6} {mode:<4} failed: {exc}")
                     continue
-                del t0
-                path, markers = out / f"{stem}.npz", out / f"{stem}_markers.npz"
-                save_robot_motion(path, res.motion)
-                save_marker_motion(markers, res.adapted)
-                written = load_robot_motion(path, robot)
+                written, markers = write_and_read(out, stem, res, robot)
                 adapted = load_marker_motion(markers)
                 rep = evaluate_motion(robot, written, source=adapted, adapted=adapted)
                 m = metric_values(rep)

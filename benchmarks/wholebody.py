@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from _data import data_root, load
+from _data import data_root, load, write_and_read
 
 CLIPS = ("cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh", "cmu_141_16_wave_hello.bvh",
          "cmu_02_10_wash_self_cc3rig.bvh")
@@ -39,10 +39,8 @@ def main(argv=None) -> int:
     import dataclasses
 
     from imesh.evaluate import evaluate_motion, metric_values
-    from imesh.export import save_marker_motion
     from imesh.io import load_motion
     from imesh.retarget import RetargetConfig, retarget
-    from imesh.robot_motion import load_robot_motion, save_robot_motion
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -67,10 +65,7 @@ def main(argv=None) -> int:
                 print(f"{clip:<30} {name:<6} failed: {exc}")
                 continue
             total = time.perf_counter() - t0
-            path, markers = out / f"{stem}.npz", out / f"{stem}_markers.npz"
-            save_robot_motion(path, res.motion)
-            save_marker_motion(markers, res.adapted)
-            written = load_robot_motion(path, robot)
+            written, markers = write_and_read(out, stem, res, robot)
             m = metric_values(evaluate_motion(robot, written, adapted=str(markers),
                                               physics=args.physics))
             # close-pair error against the source clip, on the clip's frames (the lead-in and
