@@ -45,13 +45,16 @@ def demo_clip() -> Path:
     return Path(str(resources.files("imesh").joinpath("data", "demo", "cmu_02_01_walk.bvh")))
 
 
-def load_robot(name: str | PathLike = "jvrc1", urdf: PathLike | None = None) -> Robot:
-    """Load a robot: a name of ``imesh robots`` (``"jvrc1"``, ``"g1"``, ``"hrp4c"``) or the path
-    of a ``robot.toml``.
+def load_robot(name: str | PathLike | None = None, urdf: PathLike | None = None) -> Robot:
+    """Load a robot: a name of ``imesh robots`` (``"jvrc1"``, ``"g1"``, ``"hrp4c"``), the path
+    of a ``robot.toml``, or any humanoid URDF alone (its configuration generated:
+    docs/byo-robot.md).
 
     Args:
-        name: robot name or ``robot.toml`` path.
-        urdf: the model file of robots whose model the user provides (HRP-4C).
+        name: robot name or ``robot.toml`` path; None: generated from ``urdf`` when given, else
+            ``"jvrc1"``.
+        urdf: the model file of robots whose model the user provides (HRP-4C), or of a robot
+            without a configuration.
 
     Returns:
         An :class:`imesh.robot.Robot` (reduced pinocchio model, joint names and limits).
@@ -67,7 +70,8 @@ def load_robot(name: str | PathLike = "jvrc1", urdf: PathLike | None = None) -> 
     """
     from .robot import load_robot as _load_robot
 
-    return _load_robot(str(name), urdf=None if urdf is None else str(urdf))
+    return _load_robot(None if name is None else str(name),
+                       urdf=None if urdf is None else str(urdf))
 
 
 def _robot(robot: Robot | str | PathLike, urdf: PathLike | None = None) -> Robot:

@@ -52,7 +52,7 @@ class BatchSettings:
     """What decides a clip's output (hashed into its stamp).
 
     Attributes:
-        robot: robot name or robot.toml path.
+        robot: robot name or robot.toml path (None: jvrc1, or generated from ``urdf``).
         format: output format (:data:`imesh.exports.FORMATS`).
         fps: output frame rate [1/s] (None: the pipeline's default, 30).
         balance: ``wholebody``, ``nishiwaki`` or ``none``.
@@ -61,7 +61,7 @@ class BatchSettings:
         force: write motions that fail verification.
     """
 
-    robot: str = "jvrc1"
+    robot: str | None = None
     format: str = "npz"
     fps: float | None = None
     balance: str = "wholebody"
@@ -398,7 +398,8 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
         if jobs:
             from tqdm import tqdm
 
-            bar = tqdm(total=len(jobs), desc=f"batch -> {settings.robot}", unit="clip",
+            target = settings.robot or settings.urdf or "jvrc1"
+            bar = tqdm(total=len(jobs), desc=f"batch -> {target}", unit="clip",
                        disable=not progress, file=sys.stderr, smoothing=0)
             results = (_ray_results(jobs, settings, workers, address) if backend == "ray"
                        else _process_results(jobs, settings, workers))

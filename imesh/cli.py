@@ -128,8 +128,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_arms_options(p)  # --mode {full,arms}, --fit {dls,sqp}, --solver, --plots
 
-    p = sub.add_parser("robots", help="list the robots imesh knows")
-    p.add_argument("name", nargs="?", help="a robot (with --collisions)")
+    p = sub.add_parser("robots", help="list the robots imesh knows; `imesh robots init "
+                       "ROBOT.urdf -o DIR` generates a configuration from a URDF")
+    p.add_argument("name", nargs="?", help="a robot (with --collisions), or init")
+    p.add_argument("path", nargs="?", help="with init: the humanoid's URDF")
+    p.add_argument("-o", "--output", help="with init: the folder to write (default: the URDF's "
+                   "stem)")
+    p.add_argument("--robot-name", help="with init: the robot's name (default: the URDF's)")
     p.add_argument("--collisions", action="store_true",
                    help="print the robot's self-collision capsules and the ignored pairs")
     p.add_argument("--write", action="store_true",
@@ -453,6 +458,10 @@ def cmd_retarget(args) -> int:
 def cmd_robots(args) -> int:
     from .robot import list_robots
 
+    if args.name == "init":
+        from .cli_robots import cmd_robots_init
+
+        return cmd_robots_init(args.path, args.output, args.robot_name)
     if args.collisions or args.name:
         from .robot import load_robot
         from .robot.capsules import describe_collisions

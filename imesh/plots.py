@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 
@@ -124,3 +125,30 @@ def plot_wholebody(robot, motion, path: str | os.PathLike, title: str = "") -> N
     plt.close(fig)
     if not os.path.getsize(path):
         raise ImeshError(f"plot {path} is empty")
+
+
+def plot_keypoints(gen, path: str | os.PathLike) -> Path:
+    """Front and side views of a generated robot (imesh.robot.generate.GeneratedConfig) in its
+    nominal pose with the chosen key points (PNG)."""
+    plt = _pyplot()
+    path = Path(path)
+    fig, axes = plt.subplots(1, 2, figsize=(8, 6))
+    pts = np.array(list(gen.keypoints_nominal_m.values()))
+    for ax, (i, label) in zip(axes, ((1, "y (front view)"), (0, "x (side view)")), strict=True):
+        for a, b in gen.segments_nominal_m:
+            ax.plot([a[i], b[i]], [a[2], b[2]], color="0.6", lw=1.5)
+        ax.scatter(pts[:, i], pts[:, 2], color="tab:red", s=14, zorder=3)
+        for mk, p in gen.keypoints_nominal_m.items():
+            if i == 1 or not mk.endswith("_r"):
+                ax.annotate(mk, (p[i], p[2]), fontsize=6, xytext=(3, 2),
+                            textcoords="offset points")
+        ax.set_aspect("equal")
+        ax.set_xlabel(f"{label} [m]")
+        ax.set_ylabel("z [m]")
+    fig.suptitle(f"{gen.name}: key points in the nominal pose")
+    fig.tight_layout()
+    tmp = path.with_name(path.stem + ".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    os.replace(tmp, path)
+    return path

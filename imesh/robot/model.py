@@ -12,6 +12,7 @@ angular velocity expressed in the *base* frame (pinocchio's convention), then jo
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import xml.etree.ElementTree as ET
@@ -168,11 +169,39 @@ def _mtime(path: Path | None) -> int:
     return path.stat().st_mtime_ns if path is not None and path.exists() else 0
 
 
+#: Collada ``<up_axis>Y_UP``: file coordinates -> z-up coordinates (x, y, z) -> (x, -z, y).
+_Y_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
+_UP_AXIS: dict[str, str] = {}
+
+
+def _collada_up_axis(path: str) -> str:
+    """The ``<up_axis>`` a Collada file declares ("" when none or not Collada; cached)."""
+    if not path.lower().endswith(".dae"):
+        return ""
+    if path not in _UP_AXIS:
+        try:
+            with open(path, "rb") as f:
+                head = f.read(65536).decode("utf-8", "replace")
+        except OSError:
+            head = ""
+        i = head.find("<up_axis>")
+        _UP_AXIS[path] = head[i + 9:head.find("</up_axis>", i)].strip() if i >= 0 else ""
+    return _UP_AXIS[path]
+
+
 def _geometry_items(pin, model, geom_model, source: str) -> list[GeometryItem]:
     items = []
     for g in geom_model.geometryObjects:
         frame = model.frames[g.parentFrame]
         T = (frame.placement.inverse() * g.placement).homogeneous
+        # A Collada mesh declaring Y_UP is meant to be turned z-up (as ROS viewers and the
+        # model's authors show it, e.g. iCub's feet); coal reads the raw coordinates, so the
+        # turn goes into the placement (vertices and coal's own geometry stay as loaded).
+        up = _collada_up_axis(getattr(g, "meshPath", "") or "")
+        if up == "Y_UP":
+            T = T @ _Y_UP
+        elif up == "X_UP":
+            log.warning("%s: Collada X_UP mesh %s used as z-up", source, g.meshPath)
         geo = g.geometry
         cls = type(geo).__name__
         verts = None
@@ -219,6 +248,23 @@ def _set_joint(model, q: np.ndarray, jid: int, value: float) -> None:
         q[j.idx_q:j.idx_q + 2] = [np.cos(value), np.sin(value)]
     else:
         raise RobotConfigError(f"joint {model.names[jid]!r} is not a 1-DOF joint")
+
+
+def _foot_items(pin, model, foot: str, link_items) -> list[GeometryItem]:
+    """Geometry of the links on the foot frame's joint, expressed in the foot frame (which may
+    be a frame on the foot link rather than the link, e.g. iCub's ``l_sole``)."""
+    fid = _find_frame(pin, model, foot)
+    joint = model.frames[fid].parentJoint
+    to_foot = model.frames[fid].placement.inverse()
+    items = []
+    for f in model.frames:
+        if f.parentJoint != joint or f.type != pin.FrameType.BODY:
+            continue
+        T = (to_foot * f.placement).homogeneous
+        items += [it if f.name == foot else dataclasses.replace(it, frame=foot,
+                                                                placement=T @ it.placement)
+                  for it in link_items(f.name, prefer_visual=False)]
+    return items
 
 
 def _build(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
@@ -344,7 +390,7 @@ def _build(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
             soles[side] = config.soles[side]
             continue
         foot = config.foot_frames[side]
-        items = link_items(foot, prefer_visual=False)
+        items = _foot_items(pin, full, foot, link_items)
         try:
             soles[side] = derive_sole(items, foot)
         except RobotConfigError as exc:
@@ -382,12 +428,19 @@ def _build(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
     return built
 
 
-def load_robot(name_or_toml: str | os.PathLike, urdf: str | os.PathLike | None = None) -> Robot:
+#: The robot of ``load_robot(None)`` and of the command line without --robot.
+DEFAULT_ROBOT = "jvrc1"
+
+
+def load_robot(name_or_toml: str | os.PathLike | None = None,
+               urdf: str | os.PathLike | None = None) -> Robot:
     """Load a robot: its configuration, its reduced pinocchio model, soles, proxies, nominal pose.
 
     Args:
         name_or_toml: a robot name (a folder of ``robots/``: see :func:`list_robots`), a robot
-            folder, or a path to a robot.toml.
+            folder, or a path to a robot.toml. None: with ``urdf``, a configuration generated
+            from the URDF alone (:func:`imesh.robot.generate.generate_for_urdf`, cached);
+            without, :data:`DEFAULT_ROBOT`.
         urdf: the model file for robots whose model the user provides (``source = "user"`` in
             robot.toml, e.g. hrp4c); for other robots it replaces the packaged file.
 
@@ -402,6 +455,13 @@ def load_robot(name_or_toml: str | os.PathLike, urdf: str | os.PathLike | None =
             parser message).
         ImeshError: pinocchio is not installed.
     """
+    if name_or_toml is None:
+        if urdf is None:
+            name_or_toml = DEFAULT_ROBOT
+        else:
+            from .generate_files import generate_for_urdf
+
+            name_or_toml = generate_for_urdf(urdf)
     toml = resolve_robot_toml(name_or_toml)
     config = load_robot_config(toml)
     markers = load_markers_config(config.markers_path) if config.markers_path else None
