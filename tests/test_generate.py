@@ -186,3 +186,16 @@ def test_cli_init_and_urdf_alone(tmp_path):
         assert run.returncode == 0, run.stderr
         assert run.stdout.split() == ["romeo", "31"]
     assert len(list((tmp_path / "cache" / "robots").iterdir())) == 1
+
+
+def test_talos_shoulder_offset_and_gripper():
+    """Talos: the first arm joint sits on the torso 14 cm inside the shoulder, and a gripper
+    joint ends each arm chain; the elbow is still the 4th joint, the shoulder key point on the
+    shoulder's own axes, the grippers fixed."""
+    gen = generate_robot_config(erd("talos_data/robots/talos_reduced.urdf"))
+    arm = gen.limbs["arm_left"]
+    assert arm.middle == "arm_left_4_joint"
+    assert arm.joints[-1] == "arm_left_7_joint"
+    assert set(gen.fixed) >= {"gripper_left_joint", "gripper_right_joint"}
+    shoulder = gen.keypoints_nominal_m["shoulder_l"]
+    assert abs(shoulder[1] - 0.294) < 0.005  # arm_left_2/3 axes, not the torso joint's

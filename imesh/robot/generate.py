@@ -16,14 +16,15 @@ link's +z up (REP-103):
 * **Sides** come from the joint names (``left``/``l_``/``L_``/``LHip``...); when the names say
   nothing, from the sign of y (REP-103: y points left). Forward = left x up.
 * **Joints of a limb.** A joint is a *twist* when its axis runs along the limb at that joint. The
-  knee (elbow) is the first non-twist joint more than a quarter of the limb from its start; the
+  knee (elbow) is the non-twist joint nearest the middle of the limb's path; the
   joints before it are the hip (shoulder), the ones after it the ankle (wrist).
 * **Key points** (the 20 standard human markers but the spine, markerset.py): a hip is the point
-  of the first hip axis closest to the other hip axes (fixed on the pelvis); shoulders, ankles,
-  wrists and the neck are the least-squares meeting points of their joints' axes; knees and
-  elbows their joint origins; toes on the ball of the foot 2 cm above the sole; hands along the
-  hand at half its length; chest 5 % of a leg below the shoulders; pelvis 12 % of a leg above the
-  hips; head at the centre of the head's geometry.
+  of the first hip axis closest to the other hip axes (fixed on the pelvis); ankles, wrists and
+  the neck are the least-squares meeting points of their joints' axes, a shoulder the point of the
+  last shoulder axis closest to the other shoulder axes; knees and elbows their joint origins;
+  toes on the ball of the foot 2 cm above the sole; hands along the hand link's axis, 48 % of the
+  hand's length beyond the wrist; chest 7.2 % of a leg below the shoulders; pelvis 11 % of a leg
+  above the hips; head at the centre of the head's geometry.
 * **Sole**: the lowest face of the foot's collision geometry (visual when the collision geometry
   is only contact spheres), in a foot frame whose z axis is vertical (the foot link, or a frame on
   it such as ``l_sole``).
@@ -251,9 +252,11 @@ def _arm_points(tree: UrdfTree, arm: Limb, leg_len: float, kp: dict,
     upper = [jid[n] for n in arm.upper]
     elbow = jid[arm.middle]
     lower = [jid[n] for n in arm.lower]
-    shoulder = meeting_point(pos[upper], axis[upper], pos[upper[0]]) if upper else pos[elbow]
-    kp[f"shoulder_{sfx}"] = (tree.link_of(upper[min(1, len(upper) - 1)] if upper else elbow),
-                             shoulder)
+    # on the last shoulder axis, nearest the others (a first joint may sit on the torso, as
+    # Talos' arm_1: its axis must not pull the point inwards)
+    shoulder = point_on_line_nearest(pos[upper[-1]], axis[upper[-1]], pos[upper[:-1]],
+                                     axis[upper[:-1]]) if upper else pos[elbow]
+    kp[f"shoulder_{sfx}"] = (tree.link_of(upper[-1] if upper else elbow), shoulder)
     kp[f"elbow_{sfx}"] = (tree.link_of(elbow), pos[elbow])
     last = lower[-1] if lower else elbow
     hand_links = sorted({m.frames[f].name for j in tree.subtree(last) for f in tree.frames_on(j)

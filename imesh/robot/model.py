@@ -207,7 +207,8 @@ def _geometry_items(pin, model, geom_model, source: str) -> list[GeometryItem]:
         verts = None
         if cls.startswith("BVHModel") or cls.startswith("Convex"):
             kind, dims = "mesh", ()
-            verts = np.array(geo.vertices(), dtype=float).reshape(-1, 3)
+            pts = geo.vertices() if hasattr(geo, "vertices") else geo.points()
+            verts = np.array(pts, dtype=float).reshape(-1, 3)
         elif cls == "Box":
             kind, dims = "box", tuple(float(2 * h) for h in geo.halfSide)
         elif cls == "Sphere":

@@ -86,6 +86,7 @@ def point_on_line_nearest(p0: np.ndarray, a0: np.ndarray, points: np.ndarray,
     return p0 + (num / den if den > 1e-12 else 0.0) * a0
 
 
+_GRIPPER = re.compile(r"gripper|finger|thumb|index|pinky|claw")
 _LEFT = re.compile(r"(^|[^a-z])(l|left|lft)([^a-z]|$)")
 _RIGHT = re.compile(r"(^|[^a-z])(r|right|rgt)([^a-z]|$)")
 
@@ -228,9 +229,11 @@ def _split_limb(tree: UrdfTree, chain: list[int], end: np.ndarray, kind: str, si
     """Upper joints, middle (knee/elbow) and lower joints of a leg or arm chain."""
     names = [tree.names[j] for j in chain]
     start = tree.pos[chain[0]]
-    length = max(np.linalg.norm(end - start), 1e-6)
     pts = np.vstack([tree.pos[chain], end])
-    middle = -1
+    # position along the chain's path (a shoulder may sit well off the torso joint, as Talos')
+    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    length = max(along[-1], 1e-6)
+    middle, best = -1, np.inf
     for i, j in enumerate(chain):
         if not tree.revolute(j):
             continue
@@ -239,14 +242,14 @@ def _split_limb(tree: UrdfTree, chain: list[int], end: np.ndarray, kind: str, si
         if np.linalg.norm(seg) < 1e-9:
             continue
         twist = abs(tree.axis[j] @ seg / np.linalg.norm(seg)) > TWIST_COS
-        along = np.linalg.norm(tree.pos[j] - start)
-        if not twist and 0.25 * length < along < 0.85 * length:
-            middle = i
-            break
+        frac = along[i] / length
+        # the bending joint nearest the middle of the limb
+        if not twist and 0.2 < frac < 0.85 and abs(frac - 0.5) < best:
+            middle, best = i, abs(frac - 0.5)
     what = "knee" if kind == "leg" else "elbow"
     if middle < 0 or middle == len(chain) - 1 and kind == "leg":
         raise NotHumanoidError(f"the {side} {kind} chain {', '.join(names)} has no {what} (a "
-                               f"joint bending the {kind} between a quarter and 85 % of its "
+                               f"joint bending the {kind} between 20 and 85 % of its "
                                f"length){' or no ankle after it' if middle >= 0 else ''}",
                                path=tree.urdf, found=found)
     return Limb(kind=kind, side=side, joints=tuple(names), upper=tuple(names[:middle]),
@@ -329,6 +332,11 @@ def find_limbs(tree: UrdfTree) -> dict[str, Limb]:
     for c, s in ((l1, s1), (l2, s2)):
         limbs[f"leg_{s}"] = _split_limb(tree, c, pos[c[-1]], "leg", s, found)
     t1, t2 = sides(a1, a2)
+    # a gripper or finger joint at the end of an arm chain (Talos) is part of the hand: fixed
+    a1, a2 = ([j for k, j in enumerate(c) if not (k > 2 and _GRIPPER.search(tree.names[j].lower())
+                                                  and all(_GRIPPER.search(tree.names[i].lower())
+                                                          for i in c[k:]))]
+              for c in (a1, a2))
     for c, s in ((a1, t1), (a2, t2)):
         limbs[f"arm_{s}"] = _split_limb(tree, c, pos[c[-1]], "arm", s, found)
     torso = tree.path_to_root(branch) if branch > 1 else []
