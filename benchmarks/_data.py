@@ -31,3 +31,24 @@ def write_and_read(out: Path, stem: str, result, robot):
     save_robot_motion(path, result.motion)
     save_marker_motion(markers, result.adapted)
     return load_robot_motion(path, robot), markers
+
+
+def score_written(robot, result, source, out: Path, stem: str, physics: bool = False):
+    """Write a retarget result, read it back and score it as ``imesh evaluate`` does; the
+    close-pair error against the source clip on the clip's own frames (the whole-body solve's
+    lead-in and lead-out are not the clip's). Returns (the motion read back, metric values)."""
+    from imesh.evaluate import evaluate_motion, metric_values
+
+    written, markers = write_and_read(out, stem, result, robot)
+    m = metric_values(evaluate_motion(robot, written, adapted=str(markers), physics=physics))
+    a, b = result.lead_frames
+    m["close_pair_error"] = metric_values(evaluate_motion(
+        robot, written.frames(a, written.n_frames - b), source=source,
+        resample=True))["close_pair_error"]
+    return written, m
+
+
+def cell(m: dict, key: str, fmt: str) -> str:
+    """A table cell: the metric formatted, or n/a when it was not measured."""
+    v = m.get(key)
+    return format(v, fmt) if isinstance(v, (int, float)) else "n/a"

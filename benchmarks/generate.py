@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from _data import data_root, load, write_and_read
+from _data import cell, data_root, load, score_written
 
 CLIPS = {"walk": "cmu_02_01_walk.bvh", "wave": "cmu_141_16_wave_hello.bvh",
          "veer": "cmu_16_11_walk_veer_left.bvh", "wash": "cmu_02_10_wash_self_cc3rig.bvh"}
@@ -66,7 +66,6 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
-    from imesh.evaluate import evaluate_motion, metric_values
     from imesh.io import load_motion
     from imesh.metrics.collision import check_mesh_collisions
     from imesh.retarget import retarget
@@ -96,13 +95,8 @@ def main(argv=None) -> int:
                     print(f"{key:<5} {name:<6} {kind:<5} failed: {exc}")
                     continue
                 total = time.perf_counter() - t0
-                written, markers = write_and_read(out, f"{key}_{name}_{kind}", res, robot)
-                m = metric_values(evaluate_motion(robot, written, adapted=str(markers),
-                                                  physics=args.physics))
-                a, b = res.lead_frames
-                m["close_pair_error"] = metric_values(evaluate_motion(
-                    robot, written.frames(a, written.n_frames - b), source=motion,
-                    resample=True))["close_pair_error"]
+                written, m = score_written(robot, res, motion, out, f"{key}_{name}_{kind}",
+                                           args.physics)
                 mesh = check_mesh_collisions(robot, written.q).n_frames
                 rms = m["marker_rms_mm"]
                 if kind == "hand":
@@ -110,8 +104,7 @@ def main(argv=None) -> int:
                 d = "-" if kind == "hand" or hand_rms is None else f"{rms - hand_rms:+.1f}"
 
                 def f(k, fmt, m=m):
-                    v = m.get(k)
-                    return format(v, fmt) if isinstance(v, (int, float)) else "n/a"
+                    return cell(m, k, fmt)
 
                 print(f"{key:<5} {name:<6} {kind:<5} {rms:>7.1f} {d:>6} "
                       f"{f('close_pair_error', '6.4f')} {f('sole_deviation_mm', '7.2f')} "

@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from _data import data_root, load, write_and_read
+from _data import cell, data_root, load, score_written
 
 CLIPS = ("cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh", "cmu_141_16_wave_hello.bvh",
          "cmu_02_10_wash_self_cc3rig.bvh")
@@ -38,7 +38,6 @@ def main(argv=None) -> int:
 
     import dataclasses
 
-    from imesh.evaluate import evaluate_motion, metric_values
     from imesh.io import load_motion
     from imesh.retarget import RetargetConfig, retarget
 
@@ -65,15 +64,7 @@ def main(argv=None) -> int:
                 print(f"{clip:<30} {name:<6} failed: {exc}")
                 continue
             total = time.perf_counter() - t0
-            written, markers = write_and_read(out, stem, res, robot)
-            m = metric_values(evaluate_motion(robot, written, adapted=str(markers),
-                                              physics=args.physics))
-            # close-pair error against the source clip, on the clip's frames (the lead-in and
-            # lead-out are the solve's own)
-            a, b = res.lead_frames
-            clip_part = written.frames(a, written.n_frames - b)
-            m["close_pair_error"] = metric_values(evaluate_motion(
-                robot, clip_part, source=motion, resample=True))["close_pair_error"]
+            written, m = score_written(robot, res, motion, out, stem, args.physics)
             wb = res.wholebody.report() if res.wholebody is not None else {}
             if args.plots:
                 from imesh.plots import plot_wholebody
@@ -82,8 +73,7 @@ def main(argv=None) -> int:
                                title=f"{clip} on {name} (written output)")
 
             def f(key, fmt, m=m):
-                v = m.get(key)
-                return format(v, fmt) if isinstance(v, (int, float)) else "n/a"
+                return cell(m, key, fmt)
 
             print(f"{clip:<30} {name:<6} {written.n_frames:>6} {f('marker_rms_mm', '7.1f')} "
                   f"{f('close_pair_error', '6.4f')} "

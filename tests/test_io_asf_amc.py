@@ -244,7 +244,7 @@ def test_rig_table(raw):
 
 
 def test_to_standard(motion):
-    markerset = pytest.importorskip("imesh.markerset")
+    from imesh import markerset
     std = markerset.to_standard(motion)
     assert std.names == markerset.STANDARD_MARKERS and len(std.names) == 21
     assert not np.isnan(std.positions_m).any()
