@@ -199,3 +199,20 @@ def test_talos_shoulder_offset_and_gripper():
     assert set(gen.fixed) >= {"gripper_left_joint", "gripper_right_joint"}
     shoulder = gen.keypoints_nominal_m["shoulder_l"]
     assert abs(shoulder[1] - 0.294) < 0.005  # arm_left_2/3 axes, not the torso joint's
+
+
+def test_icub_holds_its_nominal_pose_in_dart(tmp_path):
+    """iCub in DART: zero-mass frame links get DART's default inertia, the feet rest on their
+    sole boxes only (its foot link l_foot sits under the sole frame l_sole), and the robot
+    stands 2 s in its generated nominal pose."""
+    from imesh.physics import simulate_motion
+    from imesh.robot_motion import RobotMotion
+
+    urdf = erd("icub_description/robots/icub.urdf")
+    write_generated(generate_robot_config(urdf), tmp_path)
+    robot = load_robot(tmp_path / "robot.toml", urdf=urdf)
+    motion = RobotMotion(q=[robot.q_nominal] * 60, fps=30.0, robot=robot.name,
+                         joint_names=robot.joint_names)
+    result = simulate_motion(robot, motion)
+    assert not result.fell, result.fall_reason
+    assert result.base_drift_m < 0.1

@@ -42,6 +42,9 @@ log = logging.getLogger(__name__)
 
 #: Control steps of the reference sampled at once (bounds the memory for long motions).
 CHUNK_STEPS = 4000
+#: A base faster than this [m/s or rad/s] or this far from the origin [m] has diverged.
+DIVERGED_SPEED = 200.0
+DIVERGED_M = 1000.0
 #: Moment arm [m] that weighs the torques against the forces in the contact-wrench distribution.
 WRENCH_ARM_M = 0.05
 
@@ -267,6 +270,13 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         ratio = float(buf.max())
         if ratio != ratio:  # NaN: a non-finite state propagates into every torque
             fell, reason, fall_step = True, "simulation diverged (non-finite state)", i
+            break
+        if nb and (abs(vel[:6]).max() > DIVERGED_SPEED or abs(pos[3:6]).max() > DIVERGED_M):
+            # stop before ODE's collision space asserts (it aborts the process) on bodies
+            # thrown kilometres away
+            fell, fall_step = True, i
+            reason = (f"simulation diverged (base speed {abs(vel[:6]).max():.0f}) at "
+                      f"t = {i * dt:.2f} s")
             break
         if ratio > 1.0:
             np.clip(tau, -limit, limit, out=tau)

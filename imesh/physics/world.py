@@ -108,6 +108,10 @@ def reduced_urdf(robot) -> str:
         for tag in ("visual", "collision"):
             for e in link.findall(tag):
                 link.remove(e)
+        mass = link.find("inertial/mass")
+        if mass is not None and float(mass.get("value", "0")) <= 0:
+            # a frame link with a zero-mass <inertial> (iCub's *_dh_frame): DART's default
+            link.remove(link.find("inertial"))
     fixed = set(robot.config.fixed_joints)
     for joint in root.iter("joint"):
         for m in joint.findall("mimic"):
@@ -236,7 +240,10 @@ class DartRobot:
 
     def _add_shapes(self) -> None:
         dart, robot, cfg = self.dart, self.robot, self.config
-        feet = {robot.soles[s].frame for s in robot.soles} | set(robot.foot_frames.values())
+        # the sole boxes replace every proxy of the feet (also of links welded to a sole frame,
+        # such as iCub's l_foot under l_sole)
+        feet = {link for s in robot.soles for link in robot.rigid_links(robot.soles[s].frame)}
+        feet |= {robot.soles[s].frame for s in robot.soles} | set(robot.foot_frames.values())
         for shape in robot.collision_shapes:
             if shape.frame in feet:
                 continue

@@ -608,6 +608,14 @@ class Robot:
                                    key="joint",
                                    valid=closest_first(name, self.joint_names)) from None
 
+    def rigid_links(self, frame: int | str) -> list[str]:
+        """The links rigidly attached to a frame (the link bodies on its parent joint), e.g.
+        ``l_foot`` for iCub's sole frame ``l_sole``."""
+        pin, model = self._pin, self.model
+        j = model.frames[self._ids([frame])[0]].parentJoint
+        return [f.name for f in model.frames
+                if f.parentJoint == j and f.type == pin.FrameType.BODY]
+
     def supporting_joints(self, frame: int | str) -> np.ndarray:
         """(k,) int indices into ``q[7:]`` of the actuated joints between the base and a frame,
         from the base outwards (a leg's chain for a sole frame)."""
