@@ -119,6 +119,8 @@ def test_robots_without_configuration(tmp_path, suffix, dof, fixed, sole_mm):
 @pytest.mark.parametrize("suffix, says", [
     ("solo_description/robots/solo12.urdf", "4 leg chains found"),
     ("panda_description/urdf/panda.urdf", "no leg chain found"),
+    # a y-up human model: told why, not only that one "leg" (an arm hanging along -y) was found
+    ("human_description/robots/human.urdf", "does not stand along z"),
 ])
 def test_not_a_humanoid(suffix, says):
     with pytest.raises(NotHumanoidError, match=says) as info:

@@ -269,6 +269,13 @@ def find_limbs(tree: UrdfTree) -> dict[str, Limb]:
         raise NotHumanoidError("the URDF has no joints", path=tree.urdf)
     top, bottom = float(max(z_all.max(), 0.0)), float(min(z_all.min(), 0.0))
     height = top - bottom
+    extent = np.ptp(pos[1:], axis=0)
+    lying = ""
+    if extent[2] < 0.6 * extent[:2].max():  # even arms spread wide span about the height
+        lying = (f"; the model does not stand along z in its zero pose (its joints span "
+                 f"{extent[2]:.2f} m along z and {extent[:2].max():.2f} m along "
+                 f"{'xy'[int(np.argmax(extent[:2]))]}): a humanoid URDF needs the root link's z "
+                 "axis up (REP-103)")
 
     def named(chs):
         return [[tree.names[j] for j in c] for _, c in chs]
@@ -284,7 +291,7 @@ def find_limbs(tree: UrdfTree) -> dict[str, Limb]:
         raise NotHumanoidError(
             f"{what} found{': ' + '; '.join(', '.join(c) for c in named(legs)) if legs else ''}"
             " (a biped humanoid has exactly two joint chains reaching the ground in the zero "
-            "pose, with the root link's z axis up)", path=tree.urdf, found=found)
+            "pose, with the root link's z axis up)" + lying, path=tree.urdf, found=found)
 
     leg_ids = {j for _, c in legs for j in c}
     hip_z = min(pos[c[0], 2] for _, c in legs)
