@@ -179,7 +179,7 @@ def test_cli_init_and_urdf_alone(tmp_path):
     assert {p.name for p in out.iterdir()} == {"robot.toml", "markers.toml", "report.txt",
                                                "keypoints.png"}
     assert (out / "keypoints.png").stat().st_size > 10_000
-    env_code = ("import os, sys; os.environ['IMESH_CACHE'] = sys.argv[1];"
+    env_code = ("import os, sys; os.environ['IMESH_CACHE_DIR'] = sys.argv[1];"
                 "from imesh.robot import load_robot; r = load_robot(urdf=sys.argv[2]);"
                 "print(r.name, len(r.joint_names))")
     for _ in range(2):

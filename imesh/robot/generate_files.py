@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cache import cache_root
 from ..errors import ImeshError
 from ..markerset import STANDARD_MARKERS
 from .config import SIDES
@@ -206,11 +207,10 @@ def write_generated(gen: GeneratedConfig, directory: str | os.PathLike) -> list[
 
 def generated_dir(urdf: str | os.PathLike) -> Path:
     """Where ``--urdf`` without a configuration keeps its generated files: the user cache
-    (``$IMESH_CACHE`` or ``~/.cache/imesh``) under ``robots/<stem>-<hash of the URDF>``."""
+    (:func:`imesh.cache.cache_root`) under ``robots/<stem>-<hash of the URDF>``."""
     p = Path(urdf).expanduser()
     digest = hashlib.sha256(p.read_bytes()).hexdigest()[:12]
-    root = Path(os.environ.get("IMESH_CACHE") or Path.home() / ".cache" / "imesh")
-    return root / "robots" / f"{p.stem}-{digest}"
+    return cache_root() / "robots" / f"{p.stem}-{digest}"
 
 
 def generate_for_urdf(urdf: str | os.PathLike) -> Path:
