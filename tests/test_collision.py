@@ -180,6 +180,36 @@ def test_two_frame_solve_stops_at_the_margin():
     assert collision_violation(final, margin) < 2e-4
 
 
+def test_capsule_cache_round_trip(tmp_path, monkeypatch, caplog):
+    """The fit is stored under IMESH_CACHE_DIR, read back bit for bit, fitted again when the
+    file is damaged, and not stored when the variable is empty."""
+    from imesh.robot.capsules import CACHE_ENV, fit_robot_capsules
+
+    robot = load_test_robot("jvrc1")
+    fresh = fit_robot_capsules(robot, cache=False)
+
+    def same(a, b):
+        return len(a) == len(b) and all(
+            x.name == y.name and x.body == y.body and x.frame == y.frame
+            and np.array_equal(x.a, y.a) and np.array_equal(x.b, y.b) and x.radius == y.radius
+            for x, y in zip(a, b, strict=True))
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    assert same(fit_robot_capsules(robot), fresh)
+    files = list(tmp_path.glob("capsules-*.npz"))
+    assert len(files) == 1 and not list(tmp_path.glob("*.tmp"))
+    assert same(fit_robot_capsules(robot), fresh)  # read back
+    files[0].write_bytes(files[0].read_bytes()[:100])  # a truncated zip
+    with caplog.at_level("WARNING", logger="imesh.robot.capsules"):
+        assert same(fit_robot_capsules(robot), fresh)
+    assert "unreadable" in caplog.text
+    assert same(fit_robot_capsules(robot), fresh)  # rewritten
+    monkeypatch.setenv(CACHE_ENV, "")
+    files[0].unlink()
+    assert same(fit_robot_capsules(robot), fresh)
+    assert not list(tmp_path.glob("capsules-*.npz"))
+
+
 def test_cli_robots_collisions_prints_capsules_and_pairs(capsys):
     from imesh.cli import main
 

@@ -21,8 +21,12 @@ file equals the rule's output).
 
 from __future__ import annotations
 
+import hashlib
 import logging
+import os
+import tempfile
 import tomllib
+import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +44,14 @@ SPLIT_GAIN = 0.9
 #: a capsule's excess over the surface grows with its radius).
 SPLIT_RADIUS = 0.8
 PAIRS_FILE = "collision_pairs.toml"
+#: Up to this many capsules per body.
+MAX_CAPSULES = 3
+#: Triangles are subdivided to edges at most this long [m] before a split.
+SPLIT_MAX_EDGE_M = 0.03
+#: Bump when the fit changes, so capsules cached on disk are fitted again.
+FIT_VERSION = 1
+#: Environment variable naming the folder of fitted capsules (empty: no cache).
+CACHE_ENV = "IMESH_CACHE_DIR"
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,7 +188,7 @@ def _split(tris: np.ndarray) -> tuple[float, list, list] | None:
     return best
 
 
-def subdivide(tris: np.ndarray, max_edge: float = 0.03) -> np.ndarray:
+def subdivide(tris: np.ndarray, max_edge: float = SPLIT_MAX_EDGE_M) -> np.ndarray:
     """Triangles (F, 3, 3) split in four at their edge midpoints until no edge is longer than
     ``max_edge`` [m] (so a split between capsules can follow the surface)."""
     done = []
@@ -193,7 +205,8 @@ def subdivide(tris: np.ndarray, max_edge: float = 0.03) -> np.ndarray:
     return np.concatenate(done) if done else np.zeros((0, 3, 3))
 
 
-def fit_capsules(points: np.ndarray, max_count: int = 3, triangles: np.ndarray | None = None
+def fit_capsules(points: np.ndarray, max_count: int = MAX_CAPSULES,
+                 triangles: np.ndarray | None = None
                  ) -> list[tuple[np.ndarray, np.ndarray, float]]:
     """Capsules enclosing ``points``: one, then (when the surface ``triangles`` (F, 3, 3) of
     the points is given) greedily split a capsule's triangles in two along a principal axis
@@ -500,20 +513,94 @@ def _body_points(robot, body: str, links: list[str]) -> tuple[np.ndarray, np.nda
     return np.concatenate(pts), (np.concatenate(tris) if tris else None)
 
 
-def fit_robot_capsules(robot) -> list[Capsule]:
+def fit_robot_capsules(robot, cache: bool = True) -> list[Capsule]:
     """Capsules of every body of the robot (:func:`fit_capsules` on its URDF collision
-    geometry, in the body's frame)."""
+    geometry, in the body's frame).
+
+    The fit takes 1-6 s per robot, so its result is kept on disk (:func:`capsule_cache_dir`),
+    keyed by a hash of exactly what it is computed from: every body's name, points and
+    triangles, and the fit's settings and ``FIT_VERSION``. Another mesh, URDF origin,
+    ``use_visual``/``skip`` list or fit setting gives another key (a robot generated from a
+    URDF is cached the same way as a shipped one).
+
+    Args:
+        robot: an :class:`imesh.robot.Robot`.
+        cache: read and write the cache (when it is enabled).
+    """
     links, _ = robot_bodies(robot)
+    inputs = [(body, *_body_points(robot, body, members)) for body, members in links.items()]
+    inputs = [(body, pts, tris) for body, pts, tris in inputs if len(pts) >= 2]
+    folder = capsule_cache_dir() if cache else None
+    path = folder / f"capsules-{_fit_key(inputs)}.npz" if folder is not None else None
+    if path is not None and path.is_file():
+        try:
+            out = _read_capsules(path)
+            log.debug("robot %s: capsules read from %s", robot.name, path)
+            return out
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+            # a damaged file: fit again
+            log.warning("capsule cache %s unreadable (%s): fitting again", path, exc)
     out = []
-    for body, members in links.items():
-        pts, tris = _body_points(robot, body, members)
-        if len(pts) < 2:
-            continue
+    for body, pts, tris in inputs:
         fitted = fit_capsules(pts, triangles=tris)
         for k, (a, b, r) in enumerate(fitted):
             name = body if len(fitted) == 1 else f"{body}#{k + 1}"
             out.append(Capsule(name=name, body=body, frame=body, a=a, b=b, radius=r))
+    if path is not None:
+        try:
+            _write_capsules(path, out)
+        except OSError as exc:  # a read-only home: no cache, no failure
+            log.warning("capsule cache %s not written: %s", path, exc)
     return out
+
+
+def capsule_cache_dir() -> Path | None:
+    """The folder of fitted capsules: ``$IMESH_CACHE_DIR`` (empty: no cache), else
+    ``$XDG_CACHE_HOME/imesh/capsules`` or ``~/.cache/imesh/capsules``."""
+    env = os.environ.get(CACHE_ENV)
+    if env is not None:
+        return Path(env).expanduser() if env.strip() else None
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "imesh" / "capsules"
+
+
+def _fit_key(inputs: Sequence[tuple[str, np.ndarray, np.ndarray | None]]) -> str:
+    h = hashlib.sha256(repr((FIT_VERSION, MAX_CAPSULES, SPLIT_GAIN, SPLIT_RADIUS,
+                             SPLIT_MAX_EDGE_M)).encode())
+    for body, pts, tris in inputs:
+        h.update(body.encode() + b"\0")
+        h.update(np.ascontiguousarray(pts, dtype=np.float64).tobytes())
+        h.update(b"\0" if tris is None else
+                 np.ascontiguousarray(tris, dtype=np.float64).tobytes())
+    return h.hexdigest()[:32]
+
+
+def _write_capsules(path: Path, capsules: Sequence[Capsule]) -> None:
+    """Write atomically (a temporary file in the same folder, then a rename), so concurrent
+    processes never read a partial file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.stem, suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, name=np.array([c.name for c in capsules]),
+                     body=np.array([c.body for c in capsules]),
+                     frame=np.array([c.frame for c in capsules]),
+                     a=np.array([c.a for c in capsules]).reshape(-1, 3),
+                     b=np.array([c.b for c in capsules]).reshape(-1, 3),
+                     radius=np.array([c.radius for c in capsules], dtype=float))
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _read_capsules(path: Path) -> list[Capsule]:
+    with np.load(path, allow_pickle=False) as z:
+        return [Capsule(name=str(n), body=str(b), frame=str(f), a=a.copy(), b=e.copy(),
+                        radius=float(r))
+                for n, b, f, a, e, r in zip(z["name"], z["body"], z["frame"], z["a"], z["b"],
+                                            z["radius"], strict=True)]
 
 
 def capsule_ignore_rule(robot, capsules: Sequence[Capsule] | None = None
