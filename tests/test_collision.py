@@ -65,6 +65,32 @@ def test_fitted_capsules_enclose_the_points():
     assert d.max() <= 1e-9
 
 
+def test_split_by_excess_follows_a_tapered_body():
+    """A frustum (60 mm radius at the top, 30 mm at the bottom, like HRP-4C's shin): one
+    capsule wastes 11 mm on average around it; split by excess, the capsules still enclose
+    every point and waste at most 85 % of that."""
+    from scipy.spatial import ConvexHull
+
+    from imesh.robot.capsules import capsule_excess
+
+    angles = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    z = np.linspace(0.0, 0.3, 7)
+    pts = np.array([[(0.06 - 0.1 * h) * np.cos(t), (0.06 - 0.1 * h) * np.sin(t), h]
+                    for h in z for t in angles])
+    tris = pts[ConvexHull(pts).simplices]
+    one = fit_capsules(pts, triangles=tris)
+    assert len(one) == 1 and capsule_excess(one, pts) > 0.01
+    split = fit_capsules(pts, triangles=tris, split_excess=0.85)
+    assert len(split) >= 2
+    assert capsule_excess(split, pts) <= 0.85 * capsule_excess(one, pts)
+    d = np.full(len(pts), np.inf)
+    for a, b, r in split:
+        ab = b - a
+        t = np.clip((pts - a) @ ab / max(ab @ ab, 1e-12), 0, 1)
+        d = np.minimum(d, np.linalg.norm(pts - (a + t[:, None] * ab), axis=1) - r)
+    assert d.max() <= 1e-9
+
+
 @pytest.mark.parametrize("name", ["jvrc1", "g1"])
 def test_distance_jacobians_match_finite_differences(name):
     robot = load_test_robot(name)
@@ -219,10 +245,10 @@ def test_cli_robots_collisions_prints_capsules_and_pairs(capsys):
     assert "left_ankle_roll_link - right_ankle_roll_link: feet" in out
 
 
-@pytest.mark.parametrize("name, in_solve", [("jvrc1", True), ("g1", True), ("hrp4c", False)])
+@pytest.mark.parametrize("name, in_solve", [("jvrc1", True), ("g1", True), ("hrp4c", True)])
 def test_capsules_enter_the_solve_where_the_robot_allows(name, in_solve):
-    """HRP-4C's capsules stay out of the whole-body solve (robot.toml: collision.in_solve =
-    false, docs/collision.md); the other robots' are in it by default."""
+    """Every shipped robot's capsules are in the whole-body solve by default (a robot.toml may
+    keep them out with collision.in_solve = false, docs/collision.md)."""
     from imesh.fit.targets import compile_targets
     from imesh.solve import WholeBodyConfig
     from imesh.solve.sqp import _Frames
