@@ -659,8 +659,8 @@ def capsule_ignore_rule(robot, capsules: Sequence[Capsule] | None = None
         feet += [b for b, members in bodies.items() if foot in members]
     nominal = robot.frame_placements(robot.q_nominal, model.frames)[None]
     rule = ignore_rule(model, parent, feet, nominal)
-    # the URDF's own collision geometry touching in the nominal pose (HRP-4C's coarse thigh
-    # cylinders): never checked either, on either geometry
+    # the URDF's own geometry (as check_mesh_collisions scores it) touching in the nominal
+    # pose: never checked either, on either geometry
     from .collision import MeshCollisionChecker
 
     mesh = MeshCollisionChecker(robot, ignored=set(rule))
