@@ -133,6 +133,17 @@ def test_nominal_pose_has_no_collision(name):
     assert mesh.n_frames == 0
 
 
+def test_hrp4c_is_scored_on_its_visual_meshes():
+    """HRP-4C's URDF collision boxes are 1.4-2x its links' volume: its capsules and the mesh
+    check use the visual meshes (docs/collision.md); G1 keeps its collision elements."""
+    from imesh.robot.collision import MeshCollisionChecker
+
+    hrp4c = MeshCollisionChecker(load_test_robot("hrp4c"))
+    assert hrp4c.source == "visual"
+    assert type(hrp4c.items["BODY"][0][2]).__name__.startswith("BVHModel")  # not its box
+    assert MeshCollisionChecker(load_test_robot("g1")).source == "collision"
+
+
 def test_forearm_through_torso_has_the_right_depth():
     import coal
 
