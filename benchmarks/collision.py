@@ -8,9 +8,10 @@ the default), ``imesh.retarget`` with default settings otherwise; the motion and
 markers are written to ``--out``, read back and scored by ``imesh.evaluate.evaluate_motion``
 (``self_collision_frames`` on the capsules, ``marker_rms_mm``, ``close_pair_error`` of the
 robot's key points against the adapted markers) and by
-:func:`imesh.metrics.collision.check_mesh_collisions` (the URDF's own collision geometry with
-coal, same pairs). Columns: ``cap``/``mesh`` frames with a penetration > 5 mm and the deepest
-[mm], marker RMS [mm], close-pair error, SQP iterations, whole-body solve time [s].
+:func:`imesh.metrics.collision.check_mesh_collisions` (the URDF's own geometry with coal, same
+pairs: its collision elements; HRP-4C's visual meshes, docs/collision.md). Columns:
+``cap``/``mesh`` frames with a penetration > 5 mm and the deepest [mm], marker RMS [mm],
+close-pair error, SQP iterations, whole-body solve time [s].
 """
 
 from __future__ import annotations

@@ -65,6 +65,32 @@ def test_fitted_capsules_enclose_the_points():
     assert d.max() <= 1e-9
 
 
+def test_split_by_excess_follows_a_tapered_body():
+    """A frustum (60 mm radius at the top, 30 mm at the bottom, like HRP-4C's shin): one
+    capsule wastes 11 mm on average around it; split by excess, the capsules still enclose
+    every point and waste at most 85 % of that."""
+    from scipy.spatial import ConvexHull
+
+    from imesh.robot.capsules import capsule_excess
+
+    angles = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    z = np.linspace(0.0, 0.3, 7)
+    pts = np.array([[(0.06 - 0.1 * h) * np.cos(t), (0.06 - 0.1 * h) * np.sin(t), h]
+                    for h in z for t in angles])
+    tris = pts[ConvexHull(pts).simplices]
+    one = fit_capsules(pts, triangles=tris)
+    assert len(one) == 1 and capsule_excess(one, pts) > 0.01
+    split = fit_capsules(pts, triangles=tris, split_excess=0.85)
+    assert len(split) >= 2
+    assert capsule_excess(split, pts) <= 0.85 * capsule_excess(one, pts)
+    d = np.full(len(pts), np.inf)
+    for a, b, r in split:
+        ab = b - a
+        t = np.clip((pts - a) @ ab / max(ab @ ab, 1e-12), 0, 1)
+        d = np.minimum(d, np.linalg.norm(pts - (a + t[:, None] * ab), axis=1) - r)
+    assert d.max() <= 1e-9
+
+
 @pytest.mark.parametrize("name", ["jvrc1", "g1"])
 def test_distance_jacobians_match_finite_differences(name):
     robot = load_test_robot(name)
@@ -105,6 +131,17 @@ def test_nominal_pose_has_no_collision(name):
     assert check_capsule_collisions(robot, robot.q_nominal[None], 0.0).n_frames == 0
     mesh = check_mesh_collisions(robot, robot.q_nominal[None], 0.0)
     assert mesh.n_frames == 0
+
+
+def test_hrp4c_is_scored_on_its_visual_meshes():
+    """HRP-4C's URDF collision boxes are 1.4-2x its links' volume: its capsules and the mesh
+    check use the visual meshes (docs/collision.md); G1 keeps its collision elements."""
+    from imesh.robot.collision import MeshCollisionChecker
+
+    hrp4c = MeshCollisionChecker(load_test_robot("hrp4c"))
+    assert hrp4c.source == "visual"
+    assert type(hrp4c.items["BODY"][0][2]).__name__.startswith("BVHModel")  # not its box
+    assert MeshCollisionChecker(load_test_robot("g1")).source == "collision"
 
 
 def test_forearm_through_torso_has_the_right_depth():
@@ -180,6 +217,36 @@ def test_two_frame_solve_stops_at_the_margin():
     assert collision_violation(final, margin) < 2e-4
 
 
+def test_capsule_cache_round_trip(tmp_path, monkeypatch, caplog):
+    """The fit is stored under IMESH_CACHE_DIR, read back bit for bit, fitted again when the
+    file is damaged, and not stored when the variable is empty."""
+    from imesh.robot.capsules import CACHE_ENV, fit_robot_capsules
+
+    robot = load_test_robot("jvrc1")
+    fresh = fit_robot_capsules(robot, cache=False)
+
+    def same(a, b):
+        return len(a) == len(b) and all(
+            x.name == y.name and x.body == y.body and x.frame == y.frame
+            and np.array_equal(x.a, y.a) and np.array_equal(x.b, y.b) and x.radius == y.radius
+            for x, y in zip(a, b, strict=True))
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    assert same(fit_robot_capsules(robot), fresh)
+    files = list(tmp_path.glob("capsules-*.npz"))
+    assert len(files) == 1 and not list(tmp_path.glob("*.tmp"))
+    assert same(fit_robot_capsules(robot), fresh)  # read back
+    files[0].write_bytes(files[0].read_bytes()[:100])  # a truncated zip
+    with caplog.at_level("WARNING", logger="imesh.robot.capsules"):
+        assert same(fit_robot_capsules(robot), fresh)
+    assert "unreadable" in caplog.text
+    assert same(fit_robot_capsules(robot), fresh)  # rewritten
+    monkeypatch.setenv(CACHE_ENV, "")
+    files[0].unlink()
+    assert same(fit_robot_capsules(robot), fresh)
+    assert not list(tmp_path.glob("capsules-*.npz"))
+
+
 def test_cli_robots_collisions_prints_capsules_and_pairs(capsys):
     from imesh.cli import main
 
@@ -189,10 +256,10 @@ def test_cli_robots_collisions_prints_capsules_and_pairs(capsys):
     assert "left_ankle_roll_link - right_ankle_roll_link: feet" in out
 
 
-@pytest.mark.parametrize("name, in_solve", [("jvrc1", True), ("g1", True), ("hrp4c", False)])
+@pytest.mark.parametrize("name, in_solve", [("jvrc1", True), ("g1", True), ("hrp4c", True)])
 def test_capsules_enter_the_solve_where_the_robot_allows(name, in_solve):
-    """HRP-4C's capsules stay out of the whole-body solve (robot.toml: collision.in_solve =
-    false, docs/collision.md); the other robots' are in it by default."""
+    """Every shipped robot's capsules are in the whole-body solve by default (a robot.toml may
+    keep them out with collision.in_solve = false, docs/collision.md)."""
     from imesh.fit.targets import compile_targets
     from imesh.solve import WholeBodyConfig
     from imesh.solve.sqp import _Frames

@@ -2,8 +2,8 @@
 
 - Self-collision on the capsules (:func:`check_capsule_collisions`, what the evaluator reports
   as ``self_collision_frames``: the proxies and ignore list the whole-body solve keeps apart,
-  docs/collision.md) and on the URDF's own collision geometry with coal
-  (:func:`check_mesh_collisions`, to validate the capsules).
+  docs/collision.md) and on the URDF's own geometry with coal (:func:`check_mesh_collisions`,
+  to validate the capsules: its collision elements, or its visual meshes for HRP-4C).
 - Self-collision on the primitive proxies (python-fcl, :func:`check_self_collisions`; the
   evaluator's metric before the capsules): every pair of proxies on different links not in
   ``Robot.ignored_pairs``; a pair penetrating deeper than ``depth`` (5 mm) flags the frame;
@@ -235,9 +235,10 @@ def _report_from_distances(d: np.ndarray, keys: list, depth: float) -> SelfColli
 
 def check_mesh_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DEPTH_M,
                           broad_m: float = 0.05) -> SelfCollisionReport:
-    """Self-collisions over a motion on the URDF's own collision geometry (coal; meshes as
-    convex hulls, :class:`imesh.robot.collision.MeshCollisionChecker`), for the body pairs the
-    capsules check. Only pairs whose capsules are closer than ``broad_m`` reach coal (the
+    """Self-collisions over a motion on the URDF's own geometry (coal; its collision elements,
+    or its visual meshes for a robot whose capsules are fitted to them (HRP-4C); intersecting
+    meshes as convex hulls, :class:`imesh.robot.collision.MeshCollisionChecker`), for the body
+    pairs the capsules check. Only pairs whose capsules are closer than ``broad_m`` reach coal (the
     capsules enclose the geometry, so farther pairs cannot touch).
     """
     from ..robot.collision import MeshCollisionChecker

@@ -21,8 +21,12 @@ file equals the rule's output).
 
 from __future__ import annotations
 
+import hashlib
 import logging
+import os
+import tempfile
 import tomllib
+import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +44,14 @@ SPLIT_GAIN = 0.9
 #: a capsule's excess over the surface grows with its radius).
 SPLIT_RADIUS = 0.8
 PAIRS_FILE = "collision_pairs.toml"
+#: Up to this many capsules per body.
+MAX_CAPSULES = 3
+#: Triangles are subdivided to edges at most this long [m] before a split.
+SPLIT_MAX_EDGE_M = 0.03
+#: Bump when the fit changes, so capsules cached on disk are fitted again.
+FIT_VERSION = 1
+#: Environment variable naming the folder of fitted capsules (empty: no cache).
+CACHE_ENV = "IMESH_CACHE_DIR"
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,10 +167,11 @@ def _vol(c: tuple[np.ndarray, np.ndarray, float]) -> float:
     return capsule_volume(c[2], float(np.linalg.norm(c[1] - c[0])))
 
 
-def _split(tris: np.ndarray) -> tuple[float, list, list] | None:
-    """The best split of triangles (F, 3, 3) in two along a principal axis by their centroids:
-    (volume, two capsules, the two triangle sets), or None. Each capsule encloses whole
-    triangles, so the union of the capsules encloses the surface, not only its vertices."""
+def _split(tris: np.ndarray, by_excess: bool = False) -> tuple[float, list, list] | None:
+    """The best split of triangles (F, 3, 3) in two along a principal axis by their centroids
+    (smallest volume, or with ``by_excess`` smallest :func:`capsule_excess`): (volume, two
+    capsules, the two triangle sets), or None. Each capsule encloses whole triangles, so the
+    union of the capsules encloses the surface, not only its vertices."""
     best = None
     points = tris.reshape(-1, 3)
     centroids = tris.mean(axis=1)
@@ -171,12 +184,13 @@ def _split(tris: np.ndarray) -> tuple[float, list, list] | None:
                 continue
             two = [fit_capsule(t.reshape(-1, 3)) for t in sides]
             v = _vol(two[0]) + _vol(two[1])
-            if best is None or v < best[0]:
-                best = (v, two, sides)
-    return best
+            score = capsule_excess(two, points) if by_excess else v
+            if best is None or score < best[0]:
+                best = (score, v, two, sides)
+    return None if best is None else best[1:]
 
 
-def subdivide(tris: np.ndarray, max_edge: float = 0.03) -> np.ndarray:
+def subdivide(tris: np.ndarray, max_edge: float = SPLIT_MAX_EDGE_M) -> np.ndarray:
     """Triangles (F, 3, 3) split in four at their edge midpoints until no edge is longer than
     ``max_edge`` [m] (so a split between capsules can follow the surface)."""
     done = []
@@ -193,26 +207,49 @@ def subdivide(tris: np.ndarray, max_edge: float = 0.03) -> np.ndarray:
     return np.concatenate(done) if done else np.zeros((0, 3, 3))
 
 
-def fit_capsules(points: np.ndarray, max_count: int = 3, triangles: np.ndarray | None = None
+def capsule_excess(capsules: Sequence[tuple[np.ndarray, np.ndarray, float]],
+                   points: np.ndarray) -> float:
+    """Mean over directions of how far the union of ``capsules`` reaches beyond the convex hull
+    of ``points`` [m] (difference of their support functions over 200 directions): the room a
+    proxy wastes around its body, what keeps two bodies apart that do not touch."""
+    from .collision import _fibonacci_directions
+
+    dirs = _fibonacci_directions(200)
+    hull = (np.asarray(points, dtype=float) @ dirs.T).max(axis=0)
+    reach = np.max([np.maximum(a @ dirs.T, b @ dirs.T) + r for a, b, r in capsules], axis=0)
+    return float(np.mean(reach - hull))
+
+
+def fit_capsules(points: np.ndarray, max_count: int = MAX_CAPSULES,
+                 triangles: np.ndarray | None = None, split_excess: float | None = None
                  ) -> list[tuple[np.ndarray, np.ndarray, float]]:
     """Capsules enclosing ``points``: one, then (when the surface ``triangles`` (F, 3, 3) of
     the points is given) greedily split a capsule's triangles in two along a principal axis
     while that shrinks its volume to at most ``SPLIT_GAIN`` of it or both radii to at most
-    ``SPLIT_RADIUS`` of its radius, up to ``max_count``
-    capsules (flat hands, a torso with its head)."""
+    ``SPLIT_RADIUS`` of its radius (or, with ``split_excess``, its :func:`capsule_excess` over
+    its triangles to at most that fraction: a tapered shin whose single capsule is as wide as
+    its knee), up to ``max_count`` capsules (flat hands, a torso with its head)."""
     points = np.asarray(points, dtype=float)
     one = fit_capsule(points)
     if triangles is None or max_count < 2 or len(triangles) < 4:
         return [one]
     pieces = [(one, subdivide(np.asarray(triangles, dtype=float)))]
+
+    def thinner(cap, tris, two) -> bool:
+        if split_excess is None:
+            return False
+        pts = tris.reshape(-1, 3)
+        return capsule_excess(two, pts) <= split_excess * capsule_excess([cap], pts)
+
     while len(pieces) < max_count:
         best = None
         for k, (cap, tris) in enumerate(pieces):
             if len(tris) < 4:
                 continue
-            split = _split(tris)
+            split = _split(tris, by_excess=split_excess is not None)
             if split is not None and (split[0] <= SPLIT_GAIN * _vol(cap)
-                                      or max(c[2] for c in split[1]) <= SPLIT_RADIUS * cap[2]):
+                                      or max(c[2] for c in split[1]) <= SPLIT_RADIUS * cap[2]
+                                      or thinner(cap, tris, split[1])):
                 gain = _vol(cap) - split[0]
                 if best is None or gain > best[0]:
                     best = (gain, k, split)
@@ -400,7 +437,7 @@ def ignore_rule(model: CapsuleModel, body_parent: dict[str, str | None], feet: S
 
 
 def format_pairs_toml(robot_name: str, rule: dict[tuple[str, str], str],
-                      source: str = "collision") -> str:
+                      source: str = "collision", split_excess: float | None = None) -> str:
     lines = [f"# Body pairs of {robot_name} never checked for self-collision (capsule proxies,",
              "# imesh/robot/capsules.py): a body and its parent, both feet (their footprints",
              f"# keep them apart), pairs closer than {1e3 * NOMINAL_CLEARANCE_M:.0f} mm in the "
@@ -412,6 +449,10 @@ def format_pairs_toml(robot_name: str, rule: dict[tuple[str, str], str],
     if source != "collision":
         lines += ["# the capsules are fitted to the URDF's visual meshes (its collision geometry "
                   "is too coarse)", f'source = "{source}"', ""]
+    if split_excess is not None:
+        lines += ["# a capsule is split in two when that cuts its excess over the geometry to "
+                  "this fraction", "# (imesh.robot.capsules.fit_capsules)",
+                  f"split_excess = {split_excess}", ""]
     lines.append("ignore = [")
     for (a, b), why in sorted(rule.items()):
         lines.append(f'    ["{a}", "{b}"],  # {why}')
@@ -452,15 +493,27 @@ def robot_bodies(robot) -> tuple[dict[str, list[str]], dict[str, str | None]]:
     return links, parent
 
 
+def _pairs_settings(robot) -> dict:
+    path = pairs_file(robot)
+    if path.is_file():
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    return {}
+
+
 def capsule_source(robot) -> str:
     """``collision`` (default) or ``visual``: the geometry the capsules are fitted to, from
     ``source = "visual"`` in the robot's collision_pairs.toml (HRP-4C: its URDF collision
     geometry is a few coarse boxes and cylinders much larger than the links)."""
-    path = pairs_file(robot)
-    if path.is_file():
-        with open(path, "rb") as fh:
-            return str(tomllib.load(fh).get("source", "collision"))
-    return "collision"
+    return str(_pairs_settings(robot).get("source", "collision"))
+
+
+def capsule_split_excess(robot) -> float | None:
+    """``split_excess`` of the robot's collision_pairs.toml (:func:`fit_capsules`), or None:
+    HRP-4C's detailed visual meshes taper (knee to ankle), and single capsules as wide as
+    their widest part overlap in stances where the meshes are 30 mm apart."""
+    value = _pairs_settings(robot).get("split_excess")
+    return None if value is None else float(value)
 
 
 def _triangles(geo) -> np.ndarray | None:
@@ -500,20 +553,97 @@ def _body_points(robot, body: str, links: list[str]) -> tuple[np.ndarray, np.nda
     return np.concatenate(pts), (np.concatenate(tris) if tris else None)
 
 
-def fit_robot_capsules(robot) -> list[Capsule]:
+def fit_robot_capsules(robot, cache: bool = True) -> list[Capsule]:
     """Capsules of every body of the robot (:func:`fit_capsules` on its URDF collision
-    geometry, in the body's frame)."""
+    geometry, in the body's frame).
+
+    The fit takes 1-6 s per robot, so its result is kept on disk (:func:`capsule_cache_dir`),
+    keyed by a hash of exactly what it is computed from: every body's name, points and
+    triangles, and the fit's settings and ``FIT_VERSION``. Another mesh, URDF origin,
+    ``use_visual``/``skip`` list or fit setting gives another key (a robot generated from a
+    URDF is cached the same way as a shipped one).
+
+    Args:
+        robot: an :class:`imesh.robot.Robot`.
+        cache: read and write the cache (when it is enabled).
+    """
     links, _ = robot_bodies(robot)
+    inputs = [(body, *_body_points(robot, body, members)) for body, members in links.items()]
+    inputs = [(body, pts, tris) for body, pts, tris in inputs if len(pts) >= 2]
+    split_excess = capsule_split_excess(robot)
+    folder = capsule_cache_dir() if cache else None
+    path = (folder / f"capsules-{_fit_key(inputs, split_excess)}.npz" if folder is not None
+            else None)
+    if path is not None and path.is_file():
+        try:
+            out = _read_capsules(path)
+            log.debug("robot %s: capsules read from %s", robot.name, path)
+            return out
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+            # a damaged file: fit again
+            log.warning("capsule cache %s unreadable (%s): fitting again", path, exc)
     out = []
-    for body, members in links.items():
-        pts, tris = _body_points(robot, body, members)
-        if len(pts) < 2:
-            continue
-        fitted = fit_capsules(pts, triangles=tris)
+    for body, pts, tris in inputs:
+        fitted = fit_capsules(pts, triangles=tris, split_excess=split_excess)
         for k, (a, b, r) in enumerate(fitted):
             name = body if len(fitted) == 1 else f"{body}#{k + 1}"
             out.append(Capsule(name=name, body=body, frame=body, a=a, b=b, radius=r))
+    if path is not None:
+        try:
+            _write_capsules(path, out)
+        except OSError as exc:  # a read-only home: no cache, no failure
+            log.warning("capsule cache %s not written: %s", path, exc)
     return out
+
+
+def capsule_cache_dir() -> Path | None:
+    """The folder of fitted capsules: ``$IMESH_CACHE_DIR`` (empty: no cache), else
+    ``$XDG_CACHE_HOME/imesh/capsules`` or ``~/.cache/imesh/capsules``."""
+    env = os.environ.get(CACHE_ENV)
+    if env is not None:
+        return Path(env).expanduser() if env.strip() else None
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "imesh" / "capsules"
+
+
+def _fit_key(inputs: Sequence[tuple[str, np.ndarray, np.ndarray | None]],
+             split_excess: float | None) -> str:
+    h = hashlib.sha256(repr((FIT_VERSION, MAX_CAPSULES, SPLIT_GAIN, SPLIT_RADIUS,
+                             SPLIT_MAX_EDGE_M, split_excess)).encode())
+    for body, pts, tris in inputs:
+        h.update(body.encode() + b"\0")
+        h.update(np.ascontiguousarray(pts, dtype=np.float64).tobytes())
+        h.update(b"\0" if tris is None else
+                 np.ascontiguousarray(tris, dtype=np.float64).tobytes())
+    return h.hexdigest()[:32]
+
+
+def _write_capsules(path: Path, capsules: Sequence[Capsule]) -> None:
+    """Write atomically (a temporary file in the same folder, then a rename), so concurrent
+    processes never read a partial file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.stem, suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, name=np.array([c.name for c in capsules]),
+                     body=np.array([c.body for c in capsules]),
+                     frame=np.array([c.frame for c in capsules]),
+                     a=np.array([c.a for c in capsules]).reshape(-1, 3),
+                     b=np.array([c.b for c in capsules]).reshape(-1, 3),
+                     radius=np.array([c.radius for c in capsules], dtype=float))
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _read_capsules(path: Path) -> list[Capsule]:
+    with np.load(path, allow_pickle=False) as z:
+        return [Capsule(name=str(n), body=str(b), frame=str(f), a=a.copy(), b=e.copy(),
+                        radius=float(r))
+                for n, b, f, a, e, r in zip(z["name"], z["body"], z["frame"], z["a"], z["b"],
+                                            z["radius"], strict=True)]
 
 
 def capsule_ignore_rule(robot, capsules: Sequence[Capsule] | None = None
@@ -529,8 +659,8 @@ def capsule_ignore_rule(robot, capsules: Sequence[Capsule] | None = None
         feet += [b for b, members in bodies.items() if foot in members]
     nominal = robot.frame_placements(robot.q_nominal, model.frames)[None]
     rule = ignore_rule(model, parent, feet, nominal)
-    # the URDF's own collision geometry touching in the nominal pose (HRP-4C's coarse thigh
-    # cylinders): never checked either, on either geometry
+    # the URDF's own geometry (as check_mesh_collisions scores it) touching in the nominal
+    # pose: never checked either, on either geometry
     from .collision import MeshCollisionChecker
 
     mesh = MeshCollisionChecker(robot, ignored=set(rule))
@@ -569,7 +699,8 @@ def describe_collisions(robot, write: bool = False) -> str:
     rule = capsule_ignore_rule(robot, capsules)
     path = pairs_file(robot)
     if write:
-        path.write_text(format_pairs_toml(robot.name, rule, capsule_source(robot)))
+        path.write_text(format_pairs_toml(robot.name, rule, capsule_source(robot),
+                                          capsule_split_excess(robot)))
     model = robot.capsule_model()
     lines = [f"{robot.name}: {len(capsules)} capsules on "
              f"{len({c.body for c in capsules})} bodies, {len(model.pairs)} capsule pairs "

@@ -442,12 +442,13 @@ def pair_key(a: str, b: str) -> tuple[str, str]:
 
 
 class MeshCollisionChecker:
-    """Signed distances between the URDF's collision geometry of body pairs (coal, the library
-    pinocchio loads the geometry with). URDF primitives are exact. Meshes: the distance between
-    the triangle meshes themselves (coal's BVH distance, exact) when they are apart; when they
-    intersect, the penetration depth of their convex hulls (GJK/EPA, an upper bound of the
-    meshes' depth). Pairs are the robot's checked capsule pairs (same bodies, same ignore
-    list).
+    """Signed distances between the URDF's own geometry of body pairs (coal, the library
+    pinocchio loads the geometry with): its collision elements, or its visual meshes for a
+    robot whose ``collision_pairs.toml`` says ``source = "visual"`` (HRP-4C). URDF primitives
+    are exact. Meshes: the distance between the triangle meshes themselves (coal's BVH
+    distance, exact) when they are apart; when they intersect, the penetration depth of their
+    convex hulls (GJK/EPA, an upper bound of the meshes' depth). Pairs are the robot's checked
+    capsule pairs (same bodies, same ignore list).
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
@@ -457,7 +458,7 @@ class MeshCollisionChecker:
     def __init__(self, robot, ignored: set[tuple[str, str]] | None = None):
         import coal
 
-        from .capsules import body_key, robot_bodies
+        from .capsules import body_key, capsule_source, robot_bodies
 
         self._coal = coal
         self.robot = robot
@@ -465,11 +466,15 @@ class MeshCollisionChecker:
         ignored = self.model.ignored if ignored is None else ignored
         links, _ = robot_bodies(robot)
         geometry = robot.link_geometry()
+        #: "collision" (the URDF's collision elements) or "visual" (its visual meshes, for a
+        #: robot whose capsules are fitted to them: HRP-4C's collision boxes are much larger
+        #: than its links and overlap in the standing pose, docs/collision.md)
+        self.source = capsule_source(robot)
         # body -> [(link, placement in link, exact geometry, convex geometry)]
         self.items: dict[str, list[tuple[str, np.ndarray, object, object]]] = {}
         for body, members in links.items():
             for link in members:
-                for it in geometry[link]["collision"]:
+                for it in geometry[link][self.source] or geometry[link]["collision"]:
                     geo = it.native
                     if geo is None:
                         continue
