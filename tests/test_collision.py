@@ -218,8 +218,8 @@ def test_two_frame_solve_stops_at_the_margin():
 
 
 def test_capsule_cache_round_trip(tmp_path, monkeypatch, caplog):
-    """The fit is stored under IMESH_CACHE_DIR, read back bit for bit, fitted again when the
-    file is damaged, and not stored when the variable is empty."""
+    """The fit is stored under IMESH_CACHE_DIR/capsules, read back bit for bit, fitted again
+    when the file is damaged, and not stored when the variable is empty."""
     from imesh.robot.capsules import CACHE_ENV, fit_robot_capsules
 
     robot = load_test_robot("jvrc1")
@@ -233,8 +233,8 @@ def test_capsule_cache_round_trip(tmp_path, monkeypatch, caplog):
 
     monkeypatch.setenv(CACHE_ENV, str(tmp_path))
     assert same(fit_robot_capsules(robot), fresh)
-    files = list(tmp_path.glob("capsules-*.npz"))
-    assert len(files) == 1 and not list(tmp_path.glob("*.tmp"))
+    files = list((tmp_path / "capsules").glob("capsules-*.npz"))
+    assert len(files) == 1 and not list((tmp_path / "capsules").glob("*.tmp"))
     assert same(fit_robot_capsules(robot), fresh)  # read back
     files[0].write_bytes(files[0].read_bytes()[:100])  # a truncated zip
     with caplog.at_level("WARNING", logger="imesh.robot.capsules"):
@@ -244,7 +244,7 @@ def test_capsule_cache_round_trip(tmp_path, monkeypatch, caplog):
     monkeypatch.setenv(CACHE_ENV, "")
     files[0].unlink()
     assert same(fit_robot_capsules(robot), fresh)
-    assert not list(tmp_path.glob("capsules-*.npz"))
+    assert not list((tmp_path / "capsules").glob("capsules-*.npz"))
 
 
 def test_cli_robots_collisions_prints_capsules_and_pairs(capsys):

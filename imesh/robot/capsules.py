@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cache import CACHE_ENV, cache_root
+
 log = logging.getLogger(__name__)
 
 #: Pairs closer than this in the nominal standing pose are ignored (designed to be that close).
@@ -51,7 +53,6 @@ SPLIT_MAX_EDGE_M = 0.03
 #: Bump when the fit changes, so capsules cached on disk are fitted again.
 FIT_VERSION = 1
 #: Environment variable naming the folder of fitted capsules (empty: no cache).
-CACHE_ENV = "IMESH_CACHE_DIR"
 
 
 @dataclass(frozen=True, eq=False)
@@ -597,13 +598,12 @@ def fit_robot_capsules(robot, cache: bool = True) -> list[Capsule]:
 
 
 def capsule_cache_dir() -> Path | None:
-    """The folder of fitted capsules: ``$IMESH_CACHE_DIR`` (empty: no cache), else
-    ``$XDG_CACHE_HOME/imesh/capsules`` or ``~/.cache/imesh/capsules``."""
+    """The folder of fitted capsules: ``capsules/`` in imesh's cache folder
+    (:func:`imesh.cache.cache_root`); None (no cache) when ``$IMESH_CACHE_DIR`` is set empty."""
     env = os.environ.get(CACHE_ENV)
-    if env is not None:
-        return Path(env).expanduser() if env.strip() else None
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "imesh" / "capsules"
+    if env is not None and not env.strip():
+        return None
+    return cache_root() / "capsules"
 
 
 def _fit_key(inputs: Sequence[tuple[str, np.ndarray, np.ndarray | None]],
