@@ -602,3 +602,7 @@ def entry_point() -> None:
     except BrokenPipeError:
         status = _stdout_gone()
     sys.exit(status)
+
+
+if __name__ == "__main__":
+    entry_point()
