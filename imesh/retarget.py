@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,8 +25,9 @@ from .contacts import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_conta
 from .errors import OptionError
 from .filtering import lowpass
 from .morph.problem import MorphConfig, build_morph_problem
-from .morph.solver import MorphResult, MorphStepReport, solve_morph
+from .morph.solver import MorphResult, MorphStepReport, solve_morph, window_layout
 from .motion import MarkerMotion
+from .progress import ProgressCallback, notify
 from .solve import WholeBodyConfig
 from .support import SupportConfig, flat_support, support_blend, support_foot_targets
 
@@ -252,14 +252,16 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
 
 
 def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = None,
-             progress: Callable[[MorphStepReport], None] | None = None) -> RetargetResult:
+             progress: ProgressCallback | None = None) -> RetargetResult:
     """Adapt a human motion to ``robot`` (an :class:`imesh.robot.Robot`).
 
     Args:
         motion: any loaded human motion.
         robot: the target robot.
         config: RetargetConfig.
-        progress: called after every morph step.
+        progress: called with an :class:`imesh.progress.StageProgress` as each stage moves
+            (prepare, every morph step, fit, plan, every whole-body iteration); the command
+            line draws its bar from these (:class:`imesh.progress.JobBar`).
 
     Returns:
         RetargetResult; ``result.motion`` is the RobotMotion.
@@ -299,6 +301,17 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         hard, soft, soft_w = support_foot_targets(source, flat, heights, lengths,
                                                   config.support)
     seconds["prepare"] = time.perf_counter() - t0
+    n_work = source.n_frames
+    notify(progress, "prepare", 1, 1, n_work)
+    # the morph reports every step of every window (its re-linearizations too): counted
+    n_morph = config.morph.steps * len(window_layout(n_work, config.morph.window_frames,
+                                                     config.morph.window_lookahead))
+    morph_calls = [0]
+
+    def morph_step(report: MorphStepReport) -> None:
+        morph_calls[0] += 1
+        notify(progress, "morph", min(morph_calls[0], n_morph), n_morph, n_work,
+               f"step {report.step}, window {report.window + 1}")
 
     fit_config = config.fit if config.fit is not None else FitConfig()
     blend = (support_blend(flat, config.support.ramp_s) if config.support is not None
@@ -317,7 +330,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                                       target_lengths_m=arrangement.target_lengths_m,
                                       hard_positions_m=hard, soft_positions_m=soft_m,
                                       soft_weights=soft_wm, config=config.morph)
-        morph = solve_morph(problem, progress=progress)
+        morph = solve_morph(problem, progress=morph_step if progress is not None else None)
         adapted = source.with_positions(morph.positions_m, source=f"adapted:{source.source}")
         t2 = time.perf_counter()
         fit_markers, extra_dirs = orientation_targets(adapted, robot, arrangement,
@@ -328,6 +341,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                          q_init=q_init)
         seconds["morph"] = seconds.get("morph", 0.0) + t2 - t1
         seconds["fit"] = seconds.get("fit", 0.0) + time.perf_counter() - t2
+        notify(progress, "fit", 1, 1, n_work)
         return morph, adapted, fit_markers, fit, arrangement.directions + extra_dirs
 
     morph, adapted, fit_markers, fit, directions = morph_and_fit()
@@ -383,8 +397,15 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                                            source.fps, limits, config.wholebody,
                                            rest_frames=3 if n_lead >= 3 else 0)
         seconds["plan"] = time.perf_counter() - t3
+        n_out = len(ext.q)
+        notify(progress, "plan", 1, 1, n_out)
         t4 = time.perf_counter()
-        solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody)
+
+        def sqp_step(done: int, total: int) -> None:
+            notify(progress, "wholebody", done, total, n_out, f"SQP iteration {done}")
+
+        solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody,
+                                    progress=sqp_step)
         seconds["wholebody"] = time.perf_counter() - t4
         q_out = solution.q
         lead = (n_lead, n_lead)

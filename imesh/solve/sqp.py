@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -348,8 +349,12 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
 
 
 def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: CompiledTargets,
-                     config: WholeBodyConfig | None = None) -> WholeBodySolution:
+                     config: WholeBodyConfig | None = None,
+                     progress: Callable[[int, int], None] | None = None) -> WholeBodySolution:
     """Sequential QP from ``plan.q_init`` (see the module docstring).
+
+    ``progress(iteration, config.iterations)`` is called after every SQP iteration (the solve
+    may stop earlier).
 
     Raises:
         SolverError: a QP failed (infeasible linearization, non-finite result).
@@ -403,6 +408,8 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             phi_new = max(phi_new, phi) if deeper else phi_new
         seconds["linearize"] += time.perf_counter() - t0
         step = float(alpha * np.abs(dq).max())
+        if progress is not None:
+            progress(it + 1, config.iterations)
         if phi_new >= phi:  # no decrease along the step: a smaller trust region next time
             trust *= 0.25
             log.info("whole-body iteration %d: no merit decrease (%.6g >= %.6g); trust region "

@@ -1,0 +1,128 @@
+"""Speed work: one progress bar over every stage, with frame totals, silenced by --quiet."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import pytest
+from conftest import load_test_robot
+
+from imesh import load_motion
+from imesh.progress import JobBar, StageProgress, retarget_bar
+from imesh.retarget import RetargetConfig, retarget
+from imesh.solve import WholeBodyConfig
+
+
+def test_job_bar_moves_forward_through_the_stages_and_ends_full(monkeypatch):
+    """Each stage fills its share of the bar in order; a stage reported again (the Nishiwaki
+    loop re-runs the morph) never moves it back; finish() fills it."""
+    stream = io.StringIO()
+    monkeypatch.setattr("sys.stderr", stream)
+    bar = JobBar(False, "job", 100, ["load", "morph", "wholebody", "write"])
+    positions = []
+    bar.stage("load")
+    positions.append(bar.position)
+    for k in range(1, 11):
+        bar(StageProgress("morph", k, 10, 80))
+        positions.append(bar.position)
+    for k in range(1, 21):
+        bar(StageProgress("wholebody", k, 20, 100, f"SQP iteration {k}"))
+        positions.append(bar.position)
+    bar(StageProgress("morph", 1, 10, 80))
+    positions.append(bar.position)
+    bar.stage("write")
+    positions.append(bar.position)
+    bar.finish()
+    assert positions == sorted(positions)
+    # the whole-body solve is 0.1 s a frame against 1.5 ms for the morph: most of the bar
+    assert bar.share["wholebody"] > 0.7
+    assert positions[11 + 19] == pytest.approx(100 * (bar.start["wholebody"]
+                                                      + bar.share["wholebody"]))
+    assert bar.position == 100
+    text = stream.getvalue()
+    # tqdm draws at most every 0.1 s: the last state is drawn, with the elapsed<ETA field
+    assert text.rstrip().endswith("job: write (100 frames): 100%|##########| 100/100 frames "
+                                  "[00:00<00:00]")
+
+
+def test_quiet_bar_draws_nothing(monkeypatch):
+    stream = io.StringIO()
+    monkeypatch.setattr("sys.stderr", stream)
+    bar = JobBar(True, "job", 50, ["load", "wholebody"])
+    bar.stage("load")
+    bar(StageProgress("wholebody", 3, 20, 50))
+    bar.finish()
+    assert stream.getvalue() == ""
+
+
+def test_retarget_reports_every_stage_in_order(mocap):
+    """The library reports prepare, every morph step, fit, plan and every SQP iteration to the
+    callback, in this order, with the frame counts of each stage (the bar's totals)."""
+    robot = load_test_robot("g1")
+    motion = load_motion(mocap("cmu_02_01_walk.bvh"))
+    config = RetargetConfig(wholebody=WholeBodyConfig(iterations=2))
+    events: list[StageProgress] = []
+    res = retarget(motion, robot, config=config, progress=events.append)
+    stages = [e.stage for e in events]
+    order = ["prepare", "morph", "fit", "plan", "wholebody"]
+    assert sorted(set(stages), key=order.index) == order
+    assert [order.index(s) for s in stages] == sorted(order.index(s) for s in stages)
+    assert stages.count("morph") >= config.morph.steps
+    assert [e.done for e in events if e.stage == "wholebody"] == [1, 2]
+    n_work = res.adapted.n_frames - sum(res.lead_frames)
+    assert {e.frames for e in events if e.stage in ("prepare", "morph", "fit")} == {n_work}
+    assert {e.frames for e in events if e.stage in ("plan", "wholebody")} == {
+        res.motion.n_frames}
+    # the CLI's bar counts the same output frames
+    assert retarget_bar(True, "walk", motion, config).frames == res.motion.n_frames
+
+
+@pytest.mark.parametrize("clip", ["cmu_02_01_walk.bvh", "reactidle_003_acted_idle_long.bvh",
+                                  "cmu_60_10_salsa_partnerA_sl_scaled.bvh"])
+def test_streamed_bvh_reader_equals_the_full_parser(mocap, clip, monkeypatch):
+    """The bounded-memory reader (frames parsed and put through forward kinematics 8192 at a
+    time) gives bit-identical positions and the same metadata as the whole-file parser."""
+    import numpy as np
+
+    import imesh.io.bvh as bvh
+
+    monkeypatch.setattr(bvh, "STREAM_FRAMES", 100)  # several blocks on a short clip
+    assert bvh._read_streamed(str(mocap(clip)), mocap(clip)) is not None
+    streamed = bvh.read_bvh(mocap(clip))
+    monkeypatch.setattr(bvh, "_read_streamed", lambda p, path: None)
+    full = bvh.read_bvh(mocap(clip))
+    assert np.array_equal(streamed.positions, full.positions)
+    assert (streamed.names, streamed.fps, streamed.rig) == (full.names, full.fps, full.rig)
+    assert streamed.meta == full.meta
+
+
+def _concatenated(source, n_frames: int, path):
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from speed import concatenated_bvh
+
+    return concatenated_bvh(source, n_frames, path)
+
+
+def test_inspect_of_a_30_minute_clip_stays_within_500_mb(mocap, tmp_path):
+    """216,000 frames at 120 Hz (the walk forwards and backwards, 200 MB of text): `imesh
+    inspect` read it whole in 4.2 GB before the streamed reader; the bound is 500 MB."""
+    import subprocess
+    import sys
+
+    clip = _concatenated(mocap("cmu_02_01_walk.bvh"), 216000, tmp_path / "long.bvh")
+    probe = ("import resource, subprocess, sys; "
+             "r = subprocess.run([sys.executable, '-m', 'imesh.cli', 'inspect', '--json', "
+             "sys.argv[1]], capture_output=True, text=True); "
+             "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss); "
+             "print(r.stdout)")
+    out = subprocess.run([sys.executable, "-c", probe, str(clip)], capture_output=True,
+                         text=True, check=True, cwd=Path(__file__).resolve().parents[1])
+    status, peak_kb = (int(x) for x in out.stdout.split("\n")[0].split())
+    summary = json.loads(out.stdout.split("\n", 1)[1])
+    assert status == 0 and summary["frames"] == 216000
+    assert summary["rig"]["table"] == "recognized"
+    assert peak_kb / 1024 <= 500, f"peak {peak_kb / 1024:.0f} MB"
