@@ -22,9 +22,11 @@ Tables (each printed as it is measured; docs/speed.md quotes them):
 * ``inspect``: ``imesh inspect`` on a long clip built in a temporary folder by concatenating a
   shared BVH forwards and backwards (positions stay continuous) to ``--inspect-frames`` frames:
   wall seconds and peak memory.
-* ``scaling``: ``imesh retarget`` on such concatenated clips of ``--scaling-frames`` frames:
-  the pipeline's own time (the report's ``seconds.total``, without start-up and robot load),
-  peak memory, and the exponent of a least-squares fit ``time ~ frames^k``.
+* ``scaling``: ``imesh retarget`` on such concatenated clips of ``--scaling-frames`` frames
+  (source frames at 120 Hz; "solved" counts the working frames at 30 fps with the lead-in
+  and lead-out, "windows" the whole-body windows): the pipeline's own time (the report's
+  ``seconds.total``, without start-up and robot load), peak memory, and the exponent of a
+  least-squares fit ``time ~ frames^k``.
 
 Single runs: on a shared machine quote ``farm-bench`` medians for any claim (docs/speed.md).
 """
@@ -205,7 +207,8 @@ def table_scaling(source: Path, sizes: list[int], robot: str, tmp: Path) -> None
     import numpy as np
 
     print(f"\n## scaling: imesh retarget --robot {robot} on {source.name} concatenated\n")
-    head = f"{'frames':>7} {'pipeline s':>11} {'ms/frame':>9} {'wall s':>8} {'peak MB':>8}"
+    head = (f"{'frames':>7} {'solved':>7} {'windows':>7} {'pipeline s':>11} {'ms/frame':>9} "
+            f"{'wall s':>8} {'peak MB':>8}")
     print(head)
     print("-" * len(head))
     xs, ys = [], []
@@ -215,11 +218,14 @@ def table_scaling(source: Path, sizes: list[int], robot: str, tmp: Path) -> None
         wall, peak, _ = _timed(_imesh("-q", "retarget", str(clip), "--robot", robot, "-o",
                                       str(tmp / f"scale_{n}.npz"), "--json", str(report),
                                       "--force"), _env())
-        total = json.loads(report.read_text())["seconds"]["total"]
+        rep = json.loads(report.read_text())
+        total = rep["seconds"]["total"]
+        windows = int(rep["wholebody"]["seconds"].get("windows", 1))
+        solved = rep["frames"]
         xs.append(n)
         ys.append(total)
-        print(f"{n:>7} {total:>11.2f} {1e3 * total / n:>9.2f} {wall:>8.2f} {peak:>8.0f}",
-              flush=True)
+        print(f"{n:>7} {solved:>7} {windows:>7} {total:>11.2f} {1e3 * total / n:>9.2f} "
+              f"{wall:>8.2f} {peak:>8.0f}", flush=True)
     if len(xs) >= 2:
         k = np.polyfit(np.log(xs), np.log(ys), 1)[0]
         print(f"fitted exponent (time ~ frames^k): k = {k:.3f}")

@@ -72,6 +72,12 @@ class RetargetConfig:
             fit, relative to the markers.toml weights.
         lowpass_hz: cut-off of the zero-phase low-pass applied to the human markers first
             (``imesh.filtering``); None keeps them as recorded.
+        window_frames: a whole-body solve longer than this many frames (lead-in/out included)
+            is made in overlapping windows of at most this length
+            (:mod:`imesh.solve.windows`): memory stays that of one window and time grows
+            linearly; 900 frames (30 s at 30 fps) keeps every shared clip but the long idle in
+            one window.
+        window_overlap_frames: frames at the end of a window solved again by the next.
     """
 
     fps: float | None = 30.0
@@ -88,6 +94,8 @@ class RetargetConfig:
     lowpass_hz: float | None = 8.0
     foot_weight: float = 10.0
     pelvis_weight: float = 3.0
+    window_frames: int = 900
+    window_overlap_frames: int = 60
 
     def __post_init__(self) -> None:
         if self.balance not in BALANCE_MODES:
@@ -96,6 +104,14 @@ class RetargetConfig:
             raise OptionError("fps", self.fps, "a positive number or None")
         if not (np.isfinite(self.lead_s) and self.lead_s >= 0):
             raise OptionError("lead_s", self.lead_s, "a number of seconds >= 0")
+        if not (isinstance(self.window_overlap_frames, int) and self.window_overlap_frames >= 2):
+            raise OptionError("window_overlap_frames", self.window_overlap_frames,
+                              "an integer >= 2")
+        if not (isinstance(self.window_frames, int)
+                and self.window_frames >= 2 * (self.window_overlap_frames + 4)):
+            raise OptionError("window_frames", self.window_frames,
+                              f"an integer >= {2 * (self.window_overlap_frames + 4)} (twice "
+                              "the overlap and the 4 frames held at the previous window)")
         if self.balance == "wholebody" and self.support is None:
             raise OptionError("support", None, "a SupportConfig: the whole-body solve plans "
                               "footprints from the support phases")
@@ -404,8 +420,18 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         def sqp_step(done: int, total: int) -> None:
             notify(progress, "wholebody", done, total, n_out, f"SQP iteration {done}")
 
-        solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody,
-                                    progress=sqp_step)
+        if n_out > config.window_frames:
+            from .solve.windows import solve_windowed
+
+            def window_step(done: int, total: int, text: str) -> None:
+                notify(progress, "wholebody", done, total, n_out, text)
+
+            solution = solve_windowed(robot, plan, footprints, targets, config.wholebody,
+                                      config.window_frames, config.window_overlap_frames,
+                                      progress=window_step)
+        else:
+            solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody,
+                                        progress=sqp_step)
         seconds["wholebody"] = time.perf_counter() - t4
         q_out = solution.q
         lead = (n_lead, n_lead)

@@ -241,6 +241,12 @@ class Plan:
             starts and ends at rest: zero velocity and acceleration for a controller); 0: free.
         clearance: (T, 2) [m] height the swing feet's ground points keep per frame (None:
             ``config.clearance_m`` everywhere).
+        fixed_frames: the first this many frames do not move (a window of a long clip starts
+            on the previous window's solution: :mod:`imesh.solve.windows`).
+        rest_ends: whether the rest rows (``rest_frames``) hold at the (start, end): a window
+            has them only where it is the clip's start or end.
+        q_start: (T, nq) the SQP's starting trajectory (None: ``q_init``, which stays the
+            initializer the joints are pulled towards).
     """
 
     marker_points: np.ndarray
@@ -260,6 +266,9 @@ class Plan:
     fps: float
     rest_frames: int = 0
     clearance: np.ndarray | None = None
+    fixed_frames: int = 0
+    rest_ends: tuple[bool, bool] = (True, True)
+    q_start: np.ndarray | None = None
 
 
 def gradient_operator(n: int, h: float) -> sp.csr_matrix:
@@ -454,7 +463,8 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         Sb = world_map(Rb, nv)
         y = world_coordinates(q, Rb)
         k = plan.rest_frames - 1
-        for t in [*range(k), *range(T - 1 - k, T - 1)]:
+        start, end = plan.rest_ends
+        for t in [*range(k if start else 0), *range(T - 1 - k, T - 1 if end else T - 1 - k)]:
             rows_now = _rows_at(np.full(nv, t), Sb[t], nx, T)
             rows_next = _rows_at(np.full(nv, t + 1), Sb[t + 1], nx, T)
             eq.append(rows_next - rows_now)
@@ -594,6 +604,8 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     x_l[:, 6:nv] = np.maximum(plan.lower - qj, -config.trust_region)
     x_u[:, 6:nv] = np.minimum(plan.upper - qj, config.trust_region)
     x_l[:, S0:] = 0.0
+    # frames held at the previous window's solution
+    x_l[:plan.fixed_frames, :nv] = x_u[:plan.fixed_frames, :nv] = 0.0
     P = ((P + P.T) * 0.5).tocsc()
     return QpProblem(P=P, c=np.asarray(c).ravel(), A=A, b=b, G=G,
                      l=np.concatenate(lo) if lo else np.zeros(0),

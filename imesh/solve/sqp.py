@@ -334,6 +334,9 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
     lowest = lin.corners[sw_t, sw_k, :, 2].min(initial=np.inf)
     hp_frame, hp_n, hp_b = plan.halfplanes
     outside = (hp_b + margin - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1))
+    # a window's first two (fixed) frames have one-sided differences: their ZMP is the
+    # previous window's business
+    outside = outside[hp_frame >= min(plan.fixed_frames, 2)]
     # distance outside a convex polygon >= largest violated half-plane distance
     zmp_out = float(np.maximum(outside, 0).max(initial=0.0))
     qj = q[:, 7:]
@@ -361,7 +364,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     """
     config = config or WholeBodyConfig()
     frames = _Frames(robot, targets, config)
-    q = plan.q_init.copy()
+    q = (plan.q_init if plan.q_start is None else plan.q_start).copy()
     seconds = {"linearize": 0.0, "build": 0.0, "qp": 0.0}
     t_all = time.perf_counter()
     t0 = time.perf_counter()
