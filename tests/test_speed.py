@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import sys
 from pathlib import Path
 
 import pytest
@@ -99,8 +100,6 @@ def test_streamed_bvh_reader_equals_the_full_parser(mocap, clip, monkeypatch):
 
 
 def _concatenated(source, n_frames: int, path):
-    import sys
-
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
     from speed import concatenated_bvh
 
@@ -111,7 +110,6 @@ def test_inspect_of_a_30_minute_clip_stays_within_500_mb(mocap, tmp_path):
     """216,000 frames at 120 Hz (the walk forwards and backwards, 200 MB of text): `imesh
     inspect` read it whole in 4.2 GB before the streamed reader; the bound is 500 MB."""
     import subprocess
-    import sys
 
     clip = _concatenated(mocap("cmu_02_01_walk.bvh"), 216000, tmp_path / "long.bvh")
     probe = ("import resource, subprocess, sys; "
@@ -175,3 +173,24 @@ def test_windows_hold_soles_limits_and_zmp_across_their_borders(mocap, tmp_path)
         near = np.arange(keep - 6, keep + 6)
         assert zmp.inside[near][zmp.support_frames[near]].all()
         assert acc[near - 1].max() <= 1.0
+
+
+def test_evaluator_in_blocks_of_frames_gives_the_same_report(mocap, monkeypatch):
+    """The capsule distances and the inverse dynamics run over blocks of frames (9 GB on a
+    30-minute clip at once): the report is the same to the last digit."""
+    import imesh.evaluate  # noqa: F401  (the module, not the top-level function)
+
+    ev = sys.modules["imesh.evaluate"]
+    robot = load_test_robot("g1")
+    res = retarget(load_motion(mocap("cmu_02_10_wash_self_cc3rig.bvh")), robot,
+                   config=RetargetConfig(balance="none"))
+    monkeypatch.setattr(ev, "EVAL_BLOCK_FRAMES", 10 ** 9)
+    whole = ev.evaluate_motion(robot, res.motion, adapted=res.adapted)
+    monkeypatch.setattr(ev, "EVAL_BLOCK_FRAMES", 50)
+    blocked = ev.evaluate_motion(robot, res.motion, adapted=res.adapted)
+    assert res.motion.n_frames > 4 * 50
+    assert whole["self_collision_frames"]["value"] > 0  # the wash: hands on the body
+    for report in (whole, blocked):
+        report.pop("seconds_per_frame")  # the evaluator's own timing
+    assert json.dumps(whole, sort_keys=True, default=str) == json.dumps(
+        blocked, sort_keys=True, default=str)
