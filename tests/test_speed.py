@@ -194,3 +194,17 @@ def test_evaluator_in_blocks_of_frames_gives_the_same_report(mocap, monkeypatch)
         report.pop("seconds_per_frame")  # the evaluator's own timing
     assert json.dumps(whole, sort_keys=True, default=str) == json.dumps(
         blocked, sort_keys=True, default=str)
+
+
+def test_keypoint_laplacians_in_blocks_equal_all_at_once(mocap, monkeypatch):
+    """The whole-body plan's interaction meshes are built 2048 frames at a time (1 GB at once
+    on a 30-minute clip); each frame's mesh is its own, so blocks change nothing."""
+    import numpy as np
+
+    import imesh.solve.sqp as sqp
+
+    points = load_motion(mocap("cmu_02_01_walk.bvh")).positions_m[:, :15]
+    whole = sqp.keypoint_laplacians(points)
+    monkeypatch.setattr(sqp, "LAPLACIAN_BLOCK_FRAMES", 50)
+    assert np.array_equal(sqp.keypoint_laplacians(points), whole)
+    assert np.count_nonzero(whole) > 15 * len(points)

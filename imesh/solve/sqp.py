@@ -253,10 +253,17 @@ def keypoint_laplacians(marker_points: np.ndarray) -> np.ndarray:
     markers (:func:`imesh.mesh.interaction.build_interaction_mesh`, inverse-distance
     weights)."""
     T, K, _ = marker_points.shape
-    lap = build_interaction_mesh(marker_points).laplacian.tocoo()
     out = np.zeros((T, K, K))
-    out[lap.row // K, lap.row % K, lap.col % K] = lap.data
+    # in blocks of frames (each frame's mesh is its own): at once, a 30-minute clip's meshes
+    # took 1 GB
+    for a in range(0, T, LAPLACIAN_BLOCK_FRAMES):
+        lap = build_interaction_mesh(marker_points[a:a + LAPLACIAN_BLOCK_FRAMES]).laplacian.tocoo()
+        out[a + lap.row // K, lap.row % K, lap.col % K] = lap.data
     return out
+
+
+#: Frames whose interaction meshes :func:`keypoint_laplacians` builds at a time.
+LAPLACIAN_BLOCK_FRAMES = 2048
 
 
 def swing_clearance(support: np.ndarray, base_m: float, lift_m: float, edge_m: float
