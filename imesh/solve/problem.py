@@ -469,6 +469,12 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
             rows_next = _rows_at(np.full(nv, t + 1), Sb[t + 1], nx, T)
             eq.append(rows_next - rows_now)
             rhs.append(y[t] - y[t + 1])
+    # frames held at the previous window's solution: dq_t = 0 as equality rows (as equal
+    # bounds they cost the interior point 60-250 iterations instead of 25)
+    if plan.fixed_frames:
+        fixed = np.arange(min(plan.fixed_frames, T))
+        eq.append(_rows_at(np.repeat(fixed, nv), np.tile(np.eye(nv), (len(fixed), 1)), nx, T))
+        rhs.append(np.zeros(len(fixed) * nv))
     A = sp.vstack(eq, format="csc")
     b = np.concatenate(rhs)
 
@@ -604,12 +610,16 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     x_l[:, 6:nv] = np.maximum(plan.lower - qj, -config.trust_region)
     x_u[:, 6:nv] = np.minimum(plan.upper - qj, config.trust_region)
     x_l[:, S0:] = 0.0
-    # frames held at the previous window's solution
-    x_l[:plan.fixed_frames, :nv] = x_u[:plan.fixed_frames, :nv] = 0.0
     P = ((P + P.T) * 0.5).tocsc()
-    return QpProblem(P=P, c=np.asarray(c).ravel(), A=A, b=b, G=G,
-                     l=np.concatenate(lo) if lo else np.zeros(0),
-                     u=np.concatenate(hi) if hi else np.zeros(0),
+    low = np.concatenate(lo) if lo else np.zeros(0)
+    high = np.concatenate(hi) if hi else np.zeros(0)
+    if plan.fixed_frames and G.shape[0]:
+        # rows in the fixed frames' unknowns only are constants (their one-sided differences
+        # met by slack, at a constant price): without them the interior point takes 25
+        # iterations instead of 60-250
+        touches = (abs(G) @ (np.arange(N) >= plan.fixed_frames * nx).astype(float)) > 0
+        G, low, high = G[touches], low[touches], high[touches]
+    return QpProblem(P=P, c=np.asarray(c).ravel(), A=A, b=b, G=G, l=low, u=high,
                      x_l=x_l.ravel(), x_u=x_u.ravel())
 
 
