@@ -364,29 +364,21 @@ def _arms_config(args):
     return dataclasses.replace(REFINE_CONFIG, solver=args.solver)
 
 
-def _retarget(args, motion, robot, steps: int, window_frames: int = 2000, support: bool = True,
-              balance: str = "wholebody"):
+def _retarget_config(args, steps: int, window_frames: int = 2000, support: bool = True,
+                     balance: str = "wholebody"):
     import dataclasses
 
-    from .retarget import RetargetConfig, retarget
+    from .retarget import RetargetConfig
     from .support import SupportConfig
 
     base = RetargetConfig()
-    config = RetargetConfig(morph=dataclasses.replace(base.morph, steps=steps,
-                                                      window_frames=window_frames),
-                            support=SupportConfig() if support else None, balance=balance,
-                            fps=getattr(args, "fps", None) or base.fps,
-                            allow_flight=getattr(args, "allow_flight", False),
-                            lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s,
-                            arms=_arms_config(args))
-    from .cli_view import StageBar, retarget_stages, retarget_steps
-
-    bar = StageBar(args.quiet, retarget_steps(config), f"retarget to {robot.name}")
-    try:
-        with retarget_stages(bar, motion, config, robot.name) as progress:
-            return retarget(motion, robot, config=config, progress=progress)
-    finally:
-        bar.close()
+    return RetargetConfig(morph=dataclasses.replace(base.morph, steps=steps,
+                                                    window_frames=window_frames),
+                          support=SupportConfig() if support else None, balance=balance,
+                          fps=getattr(args, "fps", None) or base.fps,
+                          allow_flight=getattr(args, "allow_flight", False),
+                          lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s,
+                          arms=_arms_config(args))
 
 
 def cmd_retarget(args) -> int:
@@ -394,11 +386,11 @@ def cmd_retarget(args) -> int:
     from .robot import load_robot
     from .robot_motion import save_robot_motion
 
-    robot = load_robot(args.robot, urdf=args.urdf)
-    motion = _load(args)
     if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
         from .arms.cli import run_arms
 
+        robot = load_robot(args.robot, urdf=args.urdf)
+        motion = _load(args)
         status = run_arms(args, robot, motion)
         if args.report_html:
             from .viz.report import write_report
@@ -406,46 +398,61 @@ def cmd_retarget(args) -> int:
             write_report(args.report_html, robot, args.output, source=motion, balanced=False,
                          facts={"source clip": args.clip, "mode": "arms (Kim 2005)"})
         return status
-    result = _retarget(args, motion, robot, args.steps, args.window_frames,
-                       support=not args.no_support, balance=args.balance)
-    report = result.report()
-    if args.plots and result.balance is not None:
-        from .balance.plots import plot_balance
+    motion = _load(args)
+    config = _retarget_config(args, args.steps, args.window_frames, support=not args.no_support,
+                              balance=args.balance)
+    from .progress import retarget_bar
 
-        report["balance_plots"] = plot_balance(result.balance, args.plots, robot.name)
-    robot_motion = result.motion
-    # verify before writing: the summary and the gates are the evaluator's report of the
-    # motion as it will be written (the file holds exactly these float64 configurations)
-    from .errors import VerificationError
-    from .evaluate import evaluate_motion, format_table
-    from .verify import failed_gates
+    bar = retarget_bar(args.quiet, f"{Path(args.clip).name} -> {args.robot}", motion, config)
+    try:
+        bar.stage("load", detail=f"robot {args.robot}")
+        robot = load_robot(args.robot, urdf=args.urdf)
+        from .retarget import retarget
 
-    metrics = evaluate_motion(robot, robot_motion, adapted=result.adapted,
-                              seconds=result.seconds)
-    report["metrics"] = metrics
-    failed = failed_gates(metrics, balanced=args.balance != "none")
-    report["verification"] = {"passed": not failed,
-                              "failed": {k: {"value": v[0], "gate": v[1]}
-                                         for k, v in failed.items()}}
-    if failed and not args.force:
-        raise VerificationError(f"retargeted motion of {args.clip} for {robot.name}", failed)
-    if args.format in (None, "npz"):
-        save_robot_motion(args.output, robot_motion, markers=result.adapted)
-    else:
-        from .exports import write_export
+        result = retarget(motion, robot, config=config, progress=bar)
+        report = result.report()
+        if args.plots and result.balance is not None:
+            from .balance.plots import plot_balance
 
-        write_export(robot_motion, args.output, args.format, mjcf=args.mjcf)
-    if args.markers:
-        save_marker_motion(args.markers, result.adapted)
-    if args.report:
-        write_json(args.report, report)
-    if args.report_html:
-        from .viz.report import write_report
+            report["balance_plots"] = plot_balance(result.balance, args.plots, robot.name)
+        robot_motion = result.motion
+        # verify before writing: the summary and the gates are the evaluator's report of the
+        # motion as it will be written (the file holds exactly these float64 configurations)
+        from .errors import VerificationError
+        from .evaluate import evaluate_motion, format_table
+        from .verify import failed_gates
 
-        write_report(args.report_html, robot, args.output, source=motion,
-                     balanced=args.balance != "none",
-                     facts={"source clip": args.clip,
-                            "retarget time": f"{report['seconds']['total']:.1f} s"})
+        bar.stage("verify", robot_motion.n_frames)
+        metrics = evaluate_motion(robot, robot_motion, adapted=result.adapted,
+                                  seconds=result.seconds)
+        report["metrics"] = metrics
+        failed = failed_gates(metrics, balanced=args.balance != "none")
+        report["verification"] = {"passed": not failed,
+                                  "failed": {k: {"value": v[0], "gate": v[1]}
+                                             for k, v in failed.items()}}
+        if failed and not args.force:
+            raise VerificationError(f"retargeted motion of {args.clip} for {robot.name}", failed)
+        bar.stage("write", robot_motion.n_frames)
+        if args.format in (None, "npz"):
+            save_robot_motion(args.output, robot_motion, markers=result.adapted)
+        else:
+            from .exports import write_export
+
+            write_export(robot_motion, args.output, args.format, mjcf=args.mjcf)
+        if args.markers:
+            save_marker_motion(args.markers, result.adapted)
+        if args.report:
+            write_json(args.report, report)
+        if args.report_html:
+            from .viz.report import write_report
+
+            write_report(args.report_html, robot, args.output, source=motion,
+                         balanced=args.balance != "none",
+                         facts={"source clip": args.clip,
+                                "retarget time": f"{report['seconds']['total']:.1f} s"})
+        bar.finish()
+    finally:
+        bar.close()
     print(f"retargeted {report['frames']} frames to {robot.name} in "
           f"{report['seconds']['total']:.2f} s -> {args.output}")
     if report["unconstrained_frames"]:
@@ -611,3 +618,7 @@ def entry_point() -> None:
     except BrokenPipeError:
         status = _stdout_gone()
     sys.exit(status)
+
+
+if __name__ == "__main__":
+    entry_point()

@@ -9,9 +9,7 @@ the HTML report and the viewer page.
 from __future__ import annotations
 
 import logging
-import sys
 import time
-from contextlib import contextmanager
 from importlib import resources
 from pathlib import Path
 
@@ -60,128 +58,6 @@ def add_parsers(sub) -> None:
 
 # ----------------------------------------------------------------------------------------------
 # progress
-
-
-class StageBar:
-    """One tqdm bar over the stages of a job (weights in steps), with the stage and its frame
-    count as the description; None-safe when quiet."""
-
-    def __init__(self, quiet: bool, total: int, desc: str):
-        self.bar = None
-        self.done = 0
-        if not quiet:
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=total, desc=desc, unit="step", file=sys.stderr,
-                            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} "
-                                       "[{elapsed}<{remaining}]")
-        self.total = total
-
-    def stage(self, text: str) -> None:
-        if self.bar is not None:
-            self.bar.set_description_str(text)
-            self.bar.refresh()
-
-    def advance(self, n: int = 1) -> None:
-        n = max(0, min(n, self.total - self.done))
-        self.done += n
-        if self.bar is not None and n:
-            self.bar.update(n)
-
-    def reach(self, mark: int) -> None:
-        """Advance to ``mark`` steps done (end of a stage that took fewer than planned)."""
-        self.advance(mark - self.done)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-
-class _IterationHandler(logging.Handler):
-    """Calls ``tick`` on every whole-body SQP iteration record (``imesh.solve.sqp``); with
-    ``forward``, passes WARNING and above on to the parent loggers."""
-
-    def __init__(self, tick, forward: bool):
-        super().__init__(logging.DEBUG)
-        self.tick, self.forward = tick, forward
-
-    def emit(self, record: logging.LogRecord) -> None:
-        if str(record.msg).startswith("whole-body iteration"):
-            self.tick()
-        if self.forward and record.levelno >= logging.WARNING:
-            logging.getLogger("imesh.solve").handle(record)
-
-
-@contextmanager
-def _sqp_iterations(tick):
-    """Route the SQP's per-iteration log records to ``tick``; they are still printed with -v,
-    and not without it."""
-    logger = logging.getLogger("imesh.solve.sqp")
-    shown = logger.isEnabledFor(logging.INFO)
-    handler = _IterationHandler(tick, forward=not shown)
-    old = logger.level, logger.propagate
-    logger.addHandler(handler)
-    if not shown:
-        logger.setLevel(logging.INFO)
-        logger.propagate = False
-    try:
-        yield
-    finally:
-        logger.removeHandler(handler)
-        logger.setLevel(old[0])
-        logger.propagate = old[1]
-
-
-def retarget_steps(config) -> int:
-    """Bar steps of :func:`retarget_stages`: morph steps, the fit, the SQP iterations."""
-    sqp = config.wholebody.iterations if config.balance == "wholebody" else 0
-    return config.morph.steps + 1 + sqp
-
-
-@contextmanager
-def retarget_stages(bar: StageBar, motion, config, robot_name: str):
-    """Drive ``bar`` through :func:`imesh.retarget.retarget`'s stages: yields the morph-step
-    callback; SQP iterations are counted from the solver's log records. The bar ends the block
-    :func:`retarget_steps` further on, whatever the SQP's iteration count.
-
-    Args:
-        bar: the job's StageBar.
-        motion: the loaded human motion (MarkerMotion).
-        config: the RetargetConfig.
-        robot_name: for the descriptions.
-    """
-    fps = config.fps or motion.fps
-    n_work = int(round(motion.n_frames / motion.fps * fps))
-    wholebody = config.balance == "wholebody"
-    n_out = n_work + (2 * int(round(config.lead_s * fps)) if wholebody else 0)
-    start = bar.done
-    morph_done = start + config.morph.steps
-    end = start + retarget_steps(config)
-    sqp_max = config.wholebody.iterations
-    bar.stage(f"morph for {robot_name} ({n_work} frames, {config.morph.steps} steps)")
-    sqp = {"it": 0}
-
-    def morph_step(_report) -> None:
-        if bar.done < morph_done:
-            bar.advance()
-        if bar.done >= morph_done and not sqp["it"]:
-            bar.stage(f"fit + whole-body solve ({n_out} frames, SQP up to {sqp_max} iterations)"
-                      if wholebody else f"fit ({n_work} frames)")
-
-    def sqp_tick() -> None:
-        if sqp["it"] == 0:
-            bar.reach(morph_done + 1)  # the fit is done when the SQP iterates
-        sqp["it"] += 1
-        if bar.done < end:
-            bar.advance()
-        bar.stage(f"whole-body solve ({n_out} frames, iteration {sqp['it']})")
-
-    if wholebody:
-        with _sqp_iterations(sqp_tick):
-            yield morph_step
-    else:
-        yield morph_step
-    bar.reach(end)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -237,6 +113,7 @@ def run_demo(args) -> int:
     from .evaluate import evaluate_motion, format_table, load_motion_file
     from .export import write_json
     from .io import load_motion
+    from .progress import retarget_bar
     from .retarget import RetargetConfig, retarget
     from .robot import load_robot
     from .robot_motion import save_robot_motion
@@ -251,23 +128,19 @@ def run_demo(args) -> int:
     clip = Path(args.clip) if args.clip else demo_clip()
     base = RetargetConfig()
     config = dataclasses.replace(base, morph=dataclasses.replace(base.morph, steps=args.steps))
-    # steps: load 1, the retarget's (morph, fit, SQP iterations), verify, write, viewer, report
-    bar = StageBar(args.quiet, 1 + retarget_steps(config) + 4, "demo")
+    motion = load_motion(clip)
+    bar = retarget_bar(args.quiet, "demo", motion, config, extra=("viewer", "report"))
     try:
-        bar.stage(f"load {clip.name}")
-        motion = load_motion(clip)
+        bar.stage("load", detail=f"robot {args.robot}")
         robot = load_robot(args.robot, urdf=args.urdf)
-        bar.advance()
-        with retarget_stages(bar, motion, config, robot.name) as morph_step:
-            result = retarget(motion, robot, config=config, progress=morph_step)
+        result = retarget(motion, robot, config=config, progress=bar)
 
-        bar.stage(f"verify ({result.motion.n_frames} frames)")
+        bar.stage("verify", result.motion.n_frames)
         run_metrics = evaluate_motion(robot, result.motion, adapted=result.adapted,
                                       seconds=result.seconds)
         failed = failed_gates(run_metrics)
-        bar.advance()
 
-        bar.stage("write motion")
+        bar.stage("write", result.motion.n_frames)
         motion_path, json_path = out / "motion.npz", out / "report.json"
         save_robot_motion(motion_path, result.motion, markers=result.adapted)
         report = result.report()
@@ -276,16 +149,14 @@ def run_demo(args) -> int:
                                   "failed": {k: {"value": v[0], "gate": v[1]}
                                              for k, v in failed.items()}}
         write_json(json_path, report)
-        bar.advance()
 
-        bar.stage(f"viewer page ({result.motion.n_frames} frames)")
+        bar.stage("viewer", result.motion.n_frames)
         written = load_motion_file(motion_path, robot)  # the page shows the file as written
         scene = build_scene(robot, written, source=clip,
                             title=f"{clip.name} -> {robot.name}")
         viewer_path = write_viewer(out / "viewer.html", scene)
-        bar.advance()
 
-        bar.stage("report")
+        bar.stage("report", result.motion.n_frames)
         seconds = result.seconds
         facts = {"source clip": f"{clip} ({motion.n_frames} frames at {motion.fps:g} fps)",
                  "retarget time": f"{seconds['total']:.1f} s (" + ", ".join(
@@ -294,7 +165,7 @@ def run_demo(args) -> int:
                          "funded by NSF EIA-0196217" if not args.clip else str(clip)}
         report_path = write_report(out / "report.html", robot, motion_path, source=clip,
                                    facts=facts, scene=scene)
-        bar.advance()
+        bar.finish()
     finally:
         bar.close()
     elapsed = time.perf_counter() - t_start

@@ -43,6 +43,7 @@ from .errors import (
 from .export import load_npz
 from .metrics.collision import (
     SELF_COLLISION_DEPTH_M,
+    PairHit,
     check_capsule_collisions,
     check_ground,
 )
@@ -292,6 +293,59 @@ def _missing(name: str, reason: str, **details) -> dict:
     return {"value": None, "unit": UNITS[name], "reason": reason, **details}
 
 
+#: Frames the evaluator's memory-hungry checks (capsule distances, inverse dynamics with the
+#: soles' Jacobians) take at a time; all frames at once took 9 GB on a 30-minute clip.
+EVAL_BLOCK_FRAMES = 2048
+
+
+def _self_collisions_blocked(robot, q: np.ndarray, depth: float):
+    """:func:`check_capsule_collisions` over blocks of :data:`EVAL_BLOCK_FRAMES` frames, merged
+    into one report (the same as one call: every figure is per frame or a max/sum/first)."""
+    B = EVAL_BLOCK_FRAMES
+    if len(q) <= B:
+        return check_capsule_collisions(robot, q, depth)
+    parts = [(a, check_capsule_collisions(robot, q[a:a + B], depth)) for a in range(0, len(q), B)]
+    stats: dict = {}
+    for a, r in parts:
+        for hit in r.pairs:
+            s = stats.get(hit.frames)
+            if s is None:
+                stats[hit.frames] = [hit.max_depth_m, hit.worst_frame + a, hit.n_frames,
+                                     hit.first_frame + a]
+                continue
+            if hit.max_depth_m > s[0]:
+                s[0], s[1] = hit.max_depth_m, hit.worst_frame + a
+            s[2] += hit.n_frames
+    pairs = sorted((PairHit(frames=k, max_depth_m=v[0], worst_frame=v[1], n_frames=v[2],
+                            first_frame=v[3]) for k, v in stats.items()),
+                   key=lambda p: -p.max_depth_m)
+    return dataclasses.replace(
+        parts[0][1], colliding=np.concatenate([r.colliding for _, r in parts]), pairs=pairs,
+        max_depth_m=np.concatenate([r.max_depth_m for _, r in parts]))
+
+
+def _reference_dynamics_blocked(robot, q, v, a, support):
+    """:func:`reference_dynamics` over blocks of :data:`EVAL_BLOCK_FRAMES` frames (its figures
+    are per frame; the velocities and accelerations are the whole motion's), merged."""
+    B = EVAL_BLOCK_FRAMES
+    if len(q) <= B:
+        return reference_dynamics(robot, q, v, a, support)
+    parts = [(s, reference_dynamics(robot, q[s:s + B], v[s:s + B], a[s:s + B],
+                                    support[s:s + B])) for s in range(0, len(q), B)]
+    start, best = parts[0]
+    for s, r in parts[1:]:
+        if r.torque_ratio > best.torque_ratio:
+            start, best = s, r
+    friction = np.concatenate([r.friction_ratios for _, r in parts])
+    sup = support.any(axis=1)
+    ft = int(np.argmax(np.where(sup, friction, -1.0))) if sup.any() else -1
+    return dataclasses.replace(
+        best, torque_frame=best.torque_frame + start,
+        friction_ratio=float(friction[ft]) if ft >= 0 else float("nan"), friction_frame=ft,
+        torque_ratios=np.concatenate([r.torque_ratios for _, r in parts]),
+        friction_ratios=friction)
+
+
 def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = False, *,
                     adapted=None, seconds: Mapping[str, float] | None = None,
                     physics_config=None, support_config: SupportDetection | None = None,
@@ -371,7 +425,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
 
     # --- collisions and ground ----------------------------------------------------------------
     t0 = time.perf_counter()
-    selfc = check_capsule_collisions(robot, q, SELF_COLLISION_DEPTH_M)
+    selfc = _self_collisions_blocked(robot, q, SELF_COLLISION_DEPTH_M)
     out["self_collision_frames"] = _metric(
         "self_collision_frames", selfc.n_frames, frames_total=T,
         depth_threshold_mm=1e3 * selfc.depth_m, worst_pairs=selfc.summary()["worst_pairs"],
@@ -421,7 +475,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         acceleration_joints=lim.acceleration_joints)
     v, a = motion_derivatives(q, fps)
     if sup_frames:
-        dyn = reference_dynamics(robot, q, v, a, support)
+        dyn = _reference_dynamics_blocked(robot, q, v, a, support)
         out["torque_ratio_ref"] = _metric("torque_ratio_ref", dyn.torque_ratio,
                                           joint=dyn.torque_joint, frame=dyn.torque_frame,
                                           note="inverse dynamics, sole wrenches least-norm")

@@ -233,8 +233,12 @@ def to_standard(motion: MarkerMotion, rig: str | os.PathLike | None = None) -> M
             missing=never, available=[n for n in motion.names if n not in never],
         )
     used = weights != 0
-    valid = (~(used[None, :, :] & ~motion.valid[:, None, :])).all(axis=2)
-    filled = np.where(motion.valid[..., None], motion.positions_m, 0.0)
+    # valid where none of the used sources is missing: a count by one product, not a
+    # (T, 21, M) mask (370 MB on a 30-minute clip); no copy when nothing is missing
+    missing = ~motion.valid
+    valid = (missing.astype(np.float32) @ used.T.astype(np.float32)) == 0
+    filled = (np.where(motion.valid[..., None], motion.positions_m, 0.0) if missing.any()
+              else motion.positions_m)
     pos = np.einsum("km,tmc->tkc", weights, filled)
     pos[~valid] = np.nan
     meta = dict(motion.meta)

@@ -81,7 +81,8 @@ class MarkerMotion:
             )
         finite = np.isfinite(pos).all(axis=2)
         valid = valid & finite
-        pos = np.where(valid[..., None], pos, np.nan)
+        if not (_frozen(pos) and valid.all()):  # a frozen array with nothing missing is kept
+            pos = np.where(valid[..., None], pos, np.nan)
         bones = np.asarray(self.bones, dtype=np.int64).reshape(-1, 2)
         if bones.size and (bones.min() < 0 or bones.max() >= n_markers):
             raise InvalidMotionError(
@@ -247,6 +248,16 @@ class MarkerMotion:
         }
 
 
+def _frozen(a: np.ndarray) -> bool:
+    """No one can write to ``a``: it and every array it is a view of are read-only (so a
+    MarkerMotion may keep it without a copy: a 30-minute clip's positions are 200 MB)."""
+    while isinstance(a, np.ndarray):
+        if a.flags.writeable:
+            return False
+        a = a.base
+    return True
+
+
 # ---------------------------------------------------------------------------------------------
 # plausibility: is this a recording of a person? (checked once, when a file is loaded)
 
@@ -299,36 +310,57 @@ def check_plausible(motion: MarkerMotion) -> None:
         hint = f" (units {units}: wrong units? pass --units)" if units else ""
         raise ImplausibleMotionError(src, "height", f"body height {height:.4g} m{hint}",
                                      valid=f"{lo:g} to {hi:g} m", value=height)
-    pos = motion.positions_m
-    far = motion.valid & (np.abs(np.where(motion.valid[..., None], pos, 0.0)) >
-                          PLAUSIBLE_POSITION_M).any(axis=2)
-    if far.any():
-        t, j = (int(i[0]) for i in np.nonzero(far))
-        value = float(np.abs(pos[t, j]).max())
-        raise ImplausibleMotionError(
-            src, "position range", f"coordinate {value:.4g} m ({int(far.sum())} samples beyond "
-            f"{PLAUSIBLE_POSITION_M:g} m)", valid=f"|coordinate| <= {PLAUSIBLE_POSITION_M:g} m",
-            frame=t, marker=motion.names[j], value=value)
+    pos, valid = motion.positions_m, motion.valid
+    # in blocks of frames: a 30-minute clip's (T, M, 3) temporaries would be 200 MB each
+    for a in range(0, motion.n_frames, _CHECK_BLOCK):
+        p_, v_ = pos[a:a + _CHECK_BLOCK], valid[a:a + _CHECK_BLOCK]
+        far = v_ & (np.abs(np.where(v_[..., None], p_, 0.0)) > PLAUSIBLE_POSITION_M).any(axis=2)
+        if far.any():
+            t, j = (int(i[0]) for i in np.nonzero(far))
+            t += a
+            n_far = int(sum((valid[b:b + _CHECK_BLOCK] & (np.abs(np.where(
+                valid[b:b + _CHECK_BLOCK, :, None], pos[b:b + _CHECK_BLOCK], 0.0))
+                > PLAUSIBLE_POSITION_M).any(axis=2)).sum()
+                for b in range(a, motion.n_frames, _CHECK_BLOCK)))
+            value = float(np.abs(pos[t, j]).max())
+            raise ImplausibleMotionError(
+                src, "position range", f"coordinate {value:.4g} m ({n_far} samples beyond "
+                f"{PLAUSIBLE_POSITION_M:g} m)", valid=f"|coordinate| <= {PLAUSIBLE_POSITION_M:g} m",
+                frame=t, marker=motion.names[j], value=value)
     if motion.n_frames < 2:
         return
-    both = motion.valid[1:] & motion.valid[:-1]
-    step = np.linalg.norm(np.diff(pos, axis=0), axis=2)
-    speed = np.where(both, step, 0.0) * motion.fps  # (T-1, M) [m/s]
-    fast = speed > MAX_MARKER_SPEED_M_S
-    if fast.any():
-        t = int(np.flatnonzero(fast.any(axis=1))[0])  # first step t -> t+1 too fast
-        j = int(np.flatnonzero(speed[t] >= 0.99 * speed[t].max())[0])  # root before its kids
-        others = int(fast[t].sum()) - 1
-        spike = t + 1 < len(fast) and fast[t + 1, j]  # out and back: sample t+1 is corrupt
+
+    def speeds(a: int, b: int) -> np.ndarray:  # (b - a, M) [m/s] of the steps t -> t+1
+        both = valid[a + 1:b + 1] & valid[a:b]
+        step = np.linalg.norm(np.diff(pos[a:b + 1], axis=0), axis=2)
+        return np.where(both, step, 0.0) * motion.fps
+
+    n_steps = motion.n_frames - 1
+    for a in range(0, n_steps, _CHECK_BLOCK):
+        speed = speeds(a, min(a + _CHECK_BLOCK, n_steps))
+        fast = speed > MAX_MARKER_SPEED_M_S
+        if not fast.any():
+            continue
+        k = int(np.flatnonzero(fast.any(axis=1))[0])  # first step t -> t+1 too fast
+        t = a + k
+        j = int(np.flatnonzero(speed[k] >= 0.99 * speed[k].max())[0])  # root before its kids
+        others = int(fast[k].sum()) - 1
+        # out and back: sample t+1 is corrupt
+        spike = t + 1 < n_steps and bool(speeds(t + 1, t + 2)[0, j] > MAX_MARKER_SPEED_M_S)
         frame = t + 1 if spike else t
         also = f" (and {others} other markers)" if others else ""
         what = ("jumps there and back" if spike else
                 f"jumps between frames {t} and {t + 1}")
+        step_m = speed[k, j] / motion.fps
         raise ImplausibleMotionError(
             src, "marker speed", f"corrupted sample: the marker {what}{also}, "
-            f"{step[t, j]:.3g} m in one frame = {speed[t, j]:.3g} m/s",
+            f"{step_m:.3g} m in one frame = {speed[k, j]:.3g} m/s",
             valid=f"at most {MAX_MARKER_SPEED_M_S:g} m/s between frames", frame=frame,
-            marker=motion.names[j], value=float(speed[t, j]))
+            marker=motion.names[j], value=float(speed[k, j]))
+
+
+#: Frames checked at a time by :func:`check_plausible`.
+_CHECK_BLOCK = 16384
 
 
 def require_frames(motion: MarkerMotion, needed: int, method: str) -> None:

@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,8 +25,9 @@ from .contacts import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_conta
 from .errors import OptionError
 from .filtering import lowpass
 from .morph.problem import MorphConfig, build_morph_problem
-from .morph.solver import MorphResult, MorphStepReport, solve_morph
+from .morph.solver import MorphResult, MorphStepReport, solve_morph, window_layout
 from .motion import MarkerMotion
+from .progress import ProgressCallback, notify
 from .solve import WholeBodyConfig
 from .support import SupportConfig, flat_support, support_blend, support_foot_targets
 
@@ -72,6 +72,12 @@ class RetargetConfig:
             fit, relative to the markers.toml weights.
         lowpass_hz: cut-off of the zero-phase low-pass applied to the human markers first
             (``imesh.filtering``); None keeps them as recorded.
+        window_frames: a whole-body solve longer than this many frames (lead-in/out included)
+            is made in overlapping windows of at most this length
+            (:mod:`imesh.solve.windows`): memory stays that of one window and time grows
+            linearly; 900 frames (30 s at 30 fps) keeps every shared clip but the long idle in
+            one window.
+        window_overlap_frames: frames at the end of a window solved again by the next.
     """
 
     fps: float | None = 30.0
@@ -88,6 +94,8 @@ class RetargetConfig:
     lowpass_hz: float | None = 8.0
     foot_weight: float = 10.0
     pelvis_weight: float = 3.0
+    window_frames: int = 900
+    window_overlap_frames: int = 60
 
     def __post_init__(self) -> None:
         if self.balance not in BALANCE_MODES:
@@ -96,6 +104,14 @@ class RetargetConfig:
             raise OptionError("fps", self.fps, "a positive number or None")
         if not (np.isfinite(self.lead_s) and self.lead_s >= 0):
             raise OptionError("lead_s", self.lead_s, "a number of seconds >= 0")
+        if not (isinstance(self.window_overlap_frames, int) and self.window_overlap_frames >= 2):
+            raise OptionError("window_overlap_frames", self.window_overlap_frames,
+                              "an integer >= 2")
+        if not (isinstance(self.window_frames, int)
+                and self.window_frames >= 2 * (self.window_overlap_frames + 4)):
+            raise OptionError("window_frames", self.window_frames,
+                              f"an integer >= {2 * (self.window_overlap_frames + 4)} (twice "
+                              "the overlap and the 4 frames held at the previous window)")
         if self.balance == "wholebody" and self.support is None:
             raise OptionError("support", None, "a SupportConfig: the whole-body solve plans "
                               "footprints from the support phases")
@@ -252,14 +268,16 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
 
 
 def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = None,
-             progress: Callable[[MorphStepReport], None] | None = None) -> RetargetResult:
+             progress: ProgressCallback | None = None) -> RetargetResult:
     """Adapt a human motion to ``robot`` (an :class:`imesh.robot.Robot`).
 
     Args:
         motion: any loaded human motion.
         robot: the target robot.
         config: RetargetConfig.
-        progress: called after every morph step.
+        progress: called with an :class:`imesh.progress.StageProgress` as each stage moves
+            (prepare, every morph step, fit, plan, every whole-body iteration); the command
+            line draws its bar from these (:class:`imesh.progress.JobBar`).
 
     Returns:
         RetargetResult; ``result.motion`` is the RobotMotion.
@@ -299,6 +317,17 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         hard, soft, soft_w = support_foot_targets(source, flat, heights, lengths,
                                                   config.support)
     seconds["prepare"] = time.perf_counter() - t0
+    n_work = source.n_frames
+    notify(progress, "prepare", 1, 1, n_work)
+    # the morph reports every step of every window (its re-linearizations too): counted
+    n_morph = config.morph.steps * len(window_layout(n_work, config.morph.window_frames,
+                                                     config.morph.window_lookahead))
+    morph_calls = [0]
+
+    def morph_step(report: MorphStepReport) -> None:
+        morph_calls[0] += 1
+        notify(progress, "morph", min(morph_calls[0], n_morph), n_morph, n_work,
+               f"step {report.step}, window {report.window + 1}")
 
     fit_config = config.fit if config.fit is not None else FitConfig()
     blend = (support_blend(flat, config.support.ramp_s) if config.support is not None
@@ -317,7 +346,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                                       target_lengths_m=arrangement.target_lengths_m,
                                       hard_positions_m=hard, soft_positions_m=soft_m,
                                       soft_weights=soft_wm, config=config.morph)
-        morph = solve_morph(problem, progress=progress)
+        morph = solve_morph(problem, progress=morph_step if progress is not None else None)
         adapted = source.with_positions(morph.positions_m, source=f"adapted:{source.source}")
         t2 = time.perf_counter()
         fit_markers, extra_dirs = orientation_targets(adapted, robot, arrangement,
@@ -328,6 +357,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                          q_init=q_init)
         seconds["morph"] = seconds.get("morph", 0.0) + t2 - t1
         seconds["fit"] = seconds.get("fit", 0.0) + time.perf_counter() - t2
+        notify(progress, "fit", 1, 1, n_work)
         return morph, adapted, fit_markers, fit, arrangement.directions + extra_dirs
 
     morph, adapted, fit_markers, fit, directions = morph_and_fit()
@@ -383,8 +413,25 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                                            source.fps, limits, config.wholebody,
                                            rest_frames=3 if n_lead >= 3 else 0)
         seconds["plan"] = time.perf_counter() - t3
+        n_out = len(ext.q)
+        notify(progress, "plan", 1, 1, n_out)
         t4 = time.perf_counter()
-        solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody)
+
+        def sqp_step(done: int, total: int) -> None:
+            notify(progress, "wholebody", done, total, n_out, f"SQP iteration {done}")
+
+        if n_out > config.window_frames:
+            from .solve.windows import solve_windowed
+
+            def window_step(done: int, total: int, text: str) -> None:
+                notify(progress, "wholebody", done, total, n_out, text)
+
+            solution = solve_windowed(robot, plan, footprints, targets, config.wholebody,
+                                      config.window_frames, config.window_overlap_frames,
+                                      progress=window_step)
+        else:
+            solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody,
+                                        progress=sqp_step)
         seconds["wholebody"] = time.perf_counter() - t4
         q_out = solution.q
         lead = (n_lead, n_lead)

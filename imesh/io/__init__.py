@@ -77,4 +77,5 @@ def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
             frame and marker, and the valid range).
     """
     raw = read_raw(path, asf=asf, fps=fps)
-    return finalize(raw, units=units, up_axis=up_axis, ground=ground, check=check)
+    return finalize(raw, units=units, up_axis=up_axis, ground=ground, check=check,
+                    consume=True)

@@ -242,6 +242,12 @@ def read_bvh(path: str | Path) -> RawMotion:
     """
     p = str(path)
     try:
+        streamed = _read_streamed(p, path)
+    except OSError as exc:
+        raise MotionFileError(p, f"cannot read file: {exc.strerror or exc}") from None
+    if streamed is not None:
+        return streamed
+    try:
         raw_bytes = Path(path).read_bytes()
     except OSError as exc:
         raise MotionFileError(p, f"cannot read file: {exc.strerror or exc}") from None
@@ -331,6 +337,41 @@ def read_bvh(path: str | Path) -> RawMotion:
             line=_line_of_token(data, k, data_line), frame=t)
 
     # ------------------------------------------------------------------ forward kinematics
+    positions, replaced, orders = _positions(nodes, names, chan_start, values)
+
+    return _raw_motion(p, nodes, names, n_chan, frame_time, positions, replaced, orders)
+
+
+def _raw_motion(p: str, nodes: list[_Node], names: list[str], n_chan: int, frame_time: float,
+                positions: np.ndarray, replaced: list[str], orders: dict) -> RawMotion:
+    n_frames, n_nodes = positions.shape[:2]
+    bones = np.array([(n.parent, j) for j, n in enumerate(nodes) if n.parent >= 0],
+                     dtype=np.int64).reshape(-1, 2)
+    rig = detect_rig(names)
+    hint = _unit_hint(nodes)
+    n_end = sum(n.end_site for n in nodes)
+    fps = 1.0 / frame_time
+    if replaced:
+        log.info("%s: position channels of %d non-root joints replace their OFFSET (%s)", p,
+                 len(replaced), ", ".join(replaced[:6]) + (" ..." if len(replaced) > 6 else ""))
+    log.info("%s: %d frames at %.4g fps, %d joints + %d end sites, %d channels, rotation orders "
+             "%s, rig %s", p, n_frames, fps, n_nodes - n_end, n_end, n_chan, orders, rig or "?")
+    return RawMotion(
+        positions=positions, fps=fps, names=tuple(names),
+        valid=np.ones((n_frames, n_nodes), dtype=bool), path=p, format="bvh", bones=bones,
+        declared_units=None, declared_scale_m=None, declared_up="+Y", rig=rig,
+        meta={"frame_time": frame_time, "channels": n_chan, "joints": n_nodes - n_end,
+              "end_sites": n_end, "rotation_orders": orders,
+              "position_channel_joints": tuple(replaced), **hint},
+    )
+
+
+def _positions(nodes: list[_Node], names: list[str], chan_start: np.ndarray,
+               values: np.ndarray) -> tuple[np.ndarray, list[str], dict[str, int]]:
+    """World positions (T, J, 3) of every node from the channel values (T, C) by forward
+    kinematics; also the non-root joints whose position channels replace their OFFSET and the
+    count of joints per rotation order."""
+    n_frames = len(values)
     parents = np.array([n.parent for n in nodes], dtype=np.int64)
     n_nodes = len(nodes)
     offsets = np.broadcast_to(np.stack([n.offset for n in nodes]), (n_frames, n_nodes, 3)).copy()
@@ -355,26 +396,90 @@ def read_bvh(path: str | Path) -> RawMotion:
         if node.parent >= 0 and any(c.endswith("position") for c in node.channels):
             replaced.append(names[j])
     positions, _ = forward_kinematics(parents, offsets, rotations)
+    return positions, replaced, orders
 
-    bones = np.array([(n.parent, j) for j, n in enumerate(nodes) if n.parent >= 0],
-                     dtype=np.int64).reshape(-1, 2)
-    rig = detect_rig(names)
-    hint = _unit_hint(nodes)
-    n_end = sum(n.end_site for n in nodes)
-    fps = 1.0 / frame_time
-    if replaced:
-        log.info("%s: position channels of %d non-root joints replace their OFFSET (%s)", p,
-                 len(replaced), ", ".join(replaced[:6]) + (" ..." if len(replaced) > 6 else ""))
-    log.info("%s: %d frames at %.4g fps, %d joints + %d end sites, %d channels, rotation orders "
-             "%s, rig %s", p, n_frames, fps, n_nodes - n_end, n_end, n_chan, orders, rig or "?")
-    return RawMotion(
-        positions=positions, fps=fps, names=tuple(names),
-        valid=np.ones((n_frames, n_nodes), dtype=bool), path=p, format="bvh", bones=bones,
-        declared_units=None, declared_scale_m=None, declared_up="+Y", rig=rig,
-        meta={"frame_time": frame_time, "channels": n_chan, "joints": n_nodes - n_end,
-              "end_sites": n_end, "rotation_orders": orders,
-              "position_channel_joints": tuple(replaced), **hint},
-    )
+
+#: End of the header: MOTION, ``Frames: N`` and ``Frame Time: s`` on their own lines.
+_HEAD_END = re.compile(rb"^[ \t]*MOTION[ \t]*\r?\n\s*Frames[ \t]*:[ \t]*\S+[ \t]*\r?\n"
+                       rb"\s*Frame[ \t]+Time[ \t]*:[ \t]*\S+[ \t]*\r?\n",
+                       flags=re.MULTILINE | re.IGNORECASE)
+#: Frames parsed and put through forward kinematics at a time by the streamed reader.
+STREAM_FRAMES = 8192
+
+
+def _read_streamed(p: str, path) -> RawMotion | None:
+    """The reader for well-formed files of one frame per line, in bounded memory: the frame
+    lines are parsed and put through forward kinematics :data:`STREAM_FRAMES` at a time, so a
+    file is never held whole (a 30-minute 120 Hz clip is 200 MB of text; held whole with its
+    words, channel values and rotations it took 4 GB). Returns None for anything unusual (a
+    malformed header, a bad number, a line that is not one frame, a count that differs): the
+    full parser then reads the file and names the problem."""
+    import io
+    import warnings
+
+    with open(path, "rb") as f:
+        head = b""
+        m = None
+        while m is None and len(head) < (64 << 20):
+            block = f.read(1 << 20)
+            if not block:
+                break
+            head += block
+            m = _HEAD_END.search(head)
+        if m is None:
+            return None
+        text = head[:m.end()].decode("utf-8", errors="replace")
+        mm = re.search(r"^[ \t]*MOTION\b", text, flags=re.MULTILINE | re.IGNORECASE)
+        tail = text[mm.end():].split()
+        try:
+            n_frames, frame_time = int(tail[1]), float(tail[-1])
+        except (ValueError, IndexError):
+            return None
+        if n_frames <= 0 or not (np.isfinite(frame_time) and frame_time > 0):
+            return None
+        motion_line = text.count("\n", 0, mm.start()) + 1
+        tokens = [(tok, i) for i, ln in enumerate(text[:mm.start()].splitlines(), 1)
+                  for tok in _TOKEN.findall(ln)]
+        try:
+            nodes = _HierarchyParser(p, tokens, motion_line).parse()
+        except (MotionFileError, RecursionError):
+            return None
+        names = _unique_names(nodes)
+        chan_start = np.cumsum([0] + [len(n.channels) for n in nodes])[:-1].astype(np.int64)
+        n_chan = sum(len(n.channels) for n in nodes)
+        if n_chan == 0:
+            return None
+        positions = np.empty((n_frames, len(nodes), 3))
+        replaced: list[str] = []
+        orders: dict[str, int] = {}
+        done = 0
+        rest = head[m.end():]
+        eof = False
+        while not eof:
+            while rest.count(b"\n") < STREAM_FRAMES and not eof:
+                block = f.read(1 << 22)
+                eof = not block
+                rest += block
+            cut = len(rest) if eof else rest.rindex(b"\n") + 1
+            chunk, rest = rest[:cut], rest[cut:]
+            if not chunk.strip():
+                continue
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error")
+                    values = np.loadtxt(io.BytesIO(chunk), dtype=np.float64, comments=None,
+                                        ndmin=2)
+            except ValueError:
+                return None
+            if values.shape[1] != n_chan or done + len(values) > n_frames \
+                    or not np.isfinite(values).all():
+                return None
+            pos, replaced, orders = _positions(nodes, names, chan_start, values)
+            positions[done:done + len(values)] = pos
+            done += len(values)
+    if done != n_frames:
+        return None
+    return _raw_motion(p, nodes, names, n_chan, frame_time, positions, replaced, orders)
 
 
 def _unit_hint(nodes: list[_Node]) -> dict:

@@ -177,8 +177,13 @@ def _check_raw(raw: RawMotion) -> None:
             "cannot be measured", valid=f"frames with at least {need} markers present")
 
 
+#: Frames converted at a time when ``finalize`` works in place.
+_BLOCK_FRAMES = 16384
+
+
 def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str | None = None,
-             ground: str | float = "auto", check: bool = True) -> MarkerMotion:
+             ground: str | float = "auto", check: bool = True,
+             consume: bool = False) -> MarkerMotion:
     """Convert a RawMotion to a MarkerMotion in metres, Z up, floor at z = 0.
 
     A skeleton is recognized as a human body first; ``meta`` then holds the recognition
@@ -193,6 +198,8 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
             file's vertical origin; a number shifts by that many metres (up).
         check: run the plausibility checks (:func:`imesh.motion.check_plausible`: frame rate,
             body height, position range, marker speed); on by default.
+        consume: the caller gives ``raw`` up: its positions array is converted in place and
+            becomes the motion's (no second copy: a 30-minute clip's positions are 200 MB).
 
     Raises:
         ImplausibleMotionError: every marker missing, positions that overflow when converted to
@@ -218,7 +225,12 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
         up, up_why = detect_up_axis(raw)
     rot = rotation_to_z_up(up)
     with np.errstate(over="ignore", invalid="ignore"):
-        pos = raw.positions @ rot.T
+        if consume:  # in place, a block of frames at a time
+            pos = raw.positions
+            for a in range(0, len(pos), _BLOCK_FRAMES):
+                pos[a:a + _BLOCK_FRAMES] = pos[a:a + _BLOCK_FRAMES] @ rot.T
+        else:
+            pos = raw.positions @ rot.T
     if body is not None:
         height_units, what = body.height, "standing height"
     else:
@@ -240,12 +252,13 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
         raise OptionError("units", units if units is not None else unit_name,
                           "a unit name (m, cm, mm, in, cmu) or a positive number of metres")
     with np.errstate(over="ignore", invalid="ignore"):
-        pos = pos * scale
+        pos *= scale
     overflow = raw.valid & ~np.isfinite(pos).all(axis=2)
     if overflow.any():
         t, j = (int(i[0]) for i in np.nonzero(overflow))
+        shown = (pos[t, j] / scale) @ rot if consume else raw.positions[t, j]
         raise ImplausibleMotionError(
-            raw.path, "non-finite", f"position {raw.positions[t, j].tolist()} (file units) is "
+            raw.path, "non-finite", f"position {shown.tolist()} (file units) is "
             f"not a finite number in metres ({int(overflow.sum())} samples)",
             valid="finite positions", frame=t, marker=raw.names[j])
 
@@ -269,6 +282,8 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
             raise OptionError("ground", ground, "'auto', 'none' or a number of metres") from None
         ground_why = "given by the user"
     pos[..., 2] -= floor
+    if consume:
+        pos.setflags(write=False)  # the motion keeps it as it is (imesh.motion._frozen)
 
     log.info("%s: units %s (%.6g m/unit; %s); up axis %s (%s); floor %s", raw.path, unit_name,
              scale, unit_why, up, up_why, ground_why)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -252,10 +253,17 @@ def keypoint_laplacians(marker_points: np.ndarray) -> np.ndarray:
     markers (:func:`imesh.mesh.interaction.build_interaction_mesh`, inverse-distance
     weights)."""
     T, K, _ = marker_points.shape
-    lap = build_interaction_mesh(marker_points).laplacian.tocoo()
     out = np.zeros((T, K, K))
-    out[lap.row // K, lap.row % K, lap.col % K] = lap.data
+    # in blocks of frames (each frame's mesh is its own): at once, a 30-minute clip's meshes
+    # took 1 GB
+    for a in range(0, T, LAPLACIAN_BLOCK_FRAMES):
+        lap = build_interaction_mesh(marker_points[a:a + LAPLACIAN_BLOCK_FRAMES]).laplacian.tocoo()
+        out[a + lap.row // K, lap.row % K, lap.col % K] = lap.data
     return out
+
+
+#: Frames whose interaction meshes :func:`keypoint_laplacians` builds at a time.
+LAPLACIAN_BLOCK_FRAMES = 2048
 
 
 def swing_clearance(support: np.ndarray, base_m: float, lift_m: float, edge_m: float
@@ -333,6 +341,9 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
     lowest = lin.corners[sw_t, sw_k, :, 2].min(initial=np.inf)
     hp_frame, hp_n, hp_b = plan.halfplanes
     outside = (hp_b + margin - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1))
+    # a window's first two (fixed) frames have one-sided differences: their ZMP is the
+    # previous window's business
+    outside = outside[hp_frame >= min(plan.fixed_frames, 2)]
     # distance outside a convex polygon >= largest violated half-plane distance
     zmp_out = float(np.maximum(outside, 0).max(initial=0.0))
     qj = q[:, 7:]
@@ -348,15 +359,19 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
 
 
 def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: CompiledTargets,
-                     config: WholeBodyConfig | None = None) -> WholeBodySolution:
+                     config: WholeBodyConfig | None = None,
+                     progress: Callable[[int, int], None] | None = None) -> WholeBodySolution:
     """Sequential QP from ``plan.q_init`` (see the module docstring).
+
+    ``progress(iteration, config.iterations)`` is called after every SQP iteration (the solve
+    may stop earlier).
 
     Raises:
         SolverError: a QP failed (infeasible linearization, non-finite result).
     """
     config = config or WholeBodyConfig()
     frames = _Frames(robot, targets, config)
-    q = plan.q_init.copy()
+    q = (plan.q_init if plan.q_start is None else plan.q_start).copy()
     seconds = {"linearize": 0.0, "build": 0.0, "qp": 0.0}
     t_all = time.perf_counter()
     t0 = time.perf_counter()
@@ -374,7 +389,9 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         qp = build_qp(lin, plan, q, dataclasses.replace(config, trust_region=trust))
         seconds["build"] += time.perf_counter() - t0
         try:
-            sol = solve_qp(qp, config.solver, config.qp_tolerance)
+            # a window's QP (fixed first frames): PIQP's duality-gap test stalls there
+            sol = solve_qp(qp, config.solver, config.qp_tolerance,
+                           gap_check=plan.fixed_frames == 0)
         except SolverError as exc:
             if config.solver == "clarabel":
                 raise SolverError(f"whole-body solve, iteration {it + 1}: {exc}",
@@ -403,6 +420,8 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             phi_new = max(phi_new, phi) if deeper else phi_new
         seconds["linearize"] += time.perf_counter() - t0
         step = float(alpha * np.abs(dq).max())
+        if progress is not None:
+            progress(it + 1, config.iterations)
         if phi_new >= phi:  # no decrease along the step: a smaller trust region next time
             trust *= 0.25
             log.info("whole-body iteration %d: no merit decrease (%.6g >= %.6g); trust region "

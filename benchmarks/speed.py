@@ -1,0 +1,268 @@
+"""Speed of the whole process: where the time goes, frames per second, memory, start-up.
+
+    python benchmarks/speed.py [--tables profile whole startup inspect scaling]
+                               [--robot g1] [--clips cmu_02_01_walk.bvh cmu_141_16_wave_hello.bvh]
+                               [--inspect-frames 216000] [--scaling-frames 500 1000 2000]
+                               [--out DIR]
+
+Tables (each printed as it is measured; docs/speed.md quotes them):
+
+* ``profile``: ``imesh retarget CLIP --robot ROBOT`` (default settings, no ``--physics``) run
+  under cProfile; the wall time split by stage from the cumulative times of the
+  stage functions: read the clip, load the robot, prepare (resample, low-pass, arrangement,
+  contacts), morph, fit, plan, capsule fit, the whole-body SQP split into assemble
+  (``build_qp``), QP (``solve_qp``) and linearize + line search (the rest of
+  ``solve_whole_body``), verify (the evaluator), write; "other" is imports and the CLI.
+  Each clip in a process of its own (``python -m cProfile -m imesh.cli``).
+  Then the functions of largest own time.
+* ``whole``: the same command as a separate process (``python -m imesh.cli``), timed from
+  outside with ``/usr/bin/time -v``: wall seconds, source frames per second (the clip's frames
+  at its own rate over the wall time, as per-frame IK tools count) and peak memory.
+* ``startup``: ``imesh --help`` wall time (median of 5 runs).
+* ``inspect``: ``imesh inspect`` on a long clip built in a temporary folder by concatenating a
+  shared BVH forwards and backwards (positions stay continuous) to ``--inspect-frames`` frames:
+  wall seconds and peak memory.
+* ``scaling``: ``imesh retarget`` on such concatenated clips of ``--scaling-frames`` frames
+  (source frames at 120 Hz; "solved" counts the working frames at 30 fps with the lead-in
+  and lead-out, "windows" the whole-body windows): the pipeline's own time (the report's
+  ``seconds.total``, without start-up and robot load), peak memory, and the exponent of a
+  least-squares fit ``time ~ frames^k``.
+
+Single runs: on a shared machine quote ``farm-bench`` medians for any claim (docs/speed.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pstats
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from _data import ROOT, data_root
+
+CLIPS = ("cmu_02_01_walk.bvh", "cmu_141_16_wave_hello.bvh")
+
+#: Stage -> the functions (module path suffix, name) whose cumulative times make it up.
+STAGES = {
+    "read clip": [("imesh/io/__init__.py", "load_motion")],
+    "load robot": [("imesh/robot/model.py", "load_robot")],
+    "prepare": [("imesh/adapt.py", "prepare_markers"), ("imesh/filtering.py", "lowpass"),
+                ("imesh/arrange.py", "arrange_for_robot"), ("imesh/contacts.py", "detect_contacts"),
+                ("imesh/support.py", "flat_support"), ("imesh/support.py", "support_foot_targets")],
+    "morph": [("imesh/morph/problem.py", "build_morph_problem"),
+              ("imesh/morph/solver.py", "solve_morph")],
+    "fit": [("imesh/retarget.py", "orientation_targets"), ("imesh/fit/dls.py", "fit_motion")],
+    "plan": [("imesh/solve/initial.py", "smooth_initializer"), ("imesh/solve/lead.py", "add_lead"),
+             ("imesh/fit/targets.py", "compile_targets"),
+             ("imesh/solve/sqp.py", "plan_whole_body")],
+    "capsule fit": [("imesh/robot/model.py", "capsule_model")],
+    "SQP assemble": [("imesh/solve/problem.py", "build_qp")],
+    "SQP QP": [("imesh/solve/qp.py", "solve_qp")],
+    "SQP linearize + line search": [],  # solve_whole_body minus the three above
+    "verify (evaluator)": [("imesh/evaluate.py", "evaluate_motion")],
+    "write": [("imesh/robot_motion.py", "save_robot_motion"), ("imesh/export.py", "write_json")],
+}
+
+
+def _cumulative(stats: pstats.Stats, path: str, name: str) -> float:
+    return sum(v[3] for (f, _, n), v in stats.stats.items()
+               if n == name and f.replace(os.sep, "/").endswith(path))
+
+
+def profile_stages(clip: Path, robot: str, out: Path) -> tuple[dict[str, float], pstats.Stats]:
+    """Run ``imesh retarget`` as its own process under cProfile (``python -m cProfile -m
+    imesh.cli``: imports included, nothing cached from another run); seconds per stage
+    (``STAGES``)."""
+    prof = out / f"{clip.stem}.prof"
+    argv = [sys.executable, "-m", "cProfile", "-o", str(prof), "-m", "imesh.cli", "-q",
+            "retarget", str(clip), "--robot", robot, "-o", str(out / "profile.npz"),
+            "--json", str(out / "profile.json")]
+    proc = subprocess.run(argv, capture_output=True, text=True, env=_env())
+    if proc.returncode != 0:
+        raise SystemExit(f"imesh retarget {clip.name} exited {proc.returncode}:\n"
+                         f"{proc.stderr[-2000:]}")
+    stats = pstats.Stats(str(prof))
+    total = stats.total_tt
+    row = {stage: sum(_cumulative(stats, p, n) for p, n in fns) for stage, fns in STAGES.items()}
+    sqp = _cumulative(stats, "imesh/solve/sqp.py", "solve_whole_body")
+    row["SQP linearize + line search"] = max(
+        0.0, sqp - row["SQP assemble"] - row["SQP QP"] - row["capsule fit"])
+    row["other (imports, CLI)"] = total - sum(row.values())
+    row["total"] = total
+    return row, stats
+
+
+def table_profile(clips: list[Path], robot: str, out: Path) -> None:
+    rows, stats = {}, {}
+    for clip in clips:
+        rows[clip], stats[clip] = profile_stages(clip, robot, out)
+    head = f"{'stage':<30}" + "".join(f"{c.stem[:22]:>24}" for c in clips)
+    print(f"\n## profile: imesh retarget --robot {robot} (cProfile, one process per clip)\n")
+    print(head)
+    print("-" * len(head))
+    for stage in rows[clips[0]]:
+        cells = []
+        for c in clips:
+            s, tot = rows[c][stage], rows[c]["total"]
+            cells.append(f"{s:>10.2f} s {100 * s / tot:>5.1f} %    ")
+        print(f"{stage:<30}" + "".join(f"{x:>24}" for x in cells))
+    for clip in clips:
+        print(f"\nlargest own time, {clip.name}:")
+        entries = sorted(stats[clip].stats.items(), key=lambda kv: -kv[1][2])[:12]
+        for (f, line, name), (_, ncalls, tt, ct, _) in entries:
+            where = f"{Path(f).parent.name}/{Path(f).name}:{line}" if line else f
+            print(f"  {tt:8.2f} s own {ct:8.2f} s cum {ncalls:>8} calls  {name} ({where})")
+
+
+def _timed(argv: list[str], env: dict | None = None) -> tuple[float, float, str]:
+    """Run a command under ``/usr/bin/time -v``: (wall s, peak MB, its stdout)."""
+    cmd = ["/usr/bin/time", "-v", *argv]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(argv)} exited {proc.returncode}:\n{proc.stderr[-2000:]}")
+    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)", proc.stderr)
+    parts = [float(x) for x in wall.group(1).split(":")]
+    seconds = sum(p * 60 ** k for k, p in enumerate(reversed(parts)))
+    peak = float(re.search(r"Maximum resident set size \(kbytes\): (\d+)", proc.stderr).group(1))
+    return seconds, peak / 1024.0, proc.stdout
+
+
+def _env() -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+def _imesh(*args: str) -> list[str]:
+    return [sys.executable, "-m", "imesh.cli", *args]
+
+
+def _source_frames(clip: Path) -> int:
+    from imesh.io import load_motion
+
+    return load_motion(clip).n_frames
+
+
+def table_whole(clips: list[Path], robot: str, out: Path) -> None:
+    print(f"\n## whole process: imesh -q retarget CLIP --robot {robot} (default settings)\n")
+    head = f"{'clip':<30} {'frames':>7} {'wall s':>8} {'frames/s':>9} {'peak MB':>8} {'solve s':>8}"
+    print(head)
+    print("-" * len(head))
+    for clip in clips:
+        report = out / f"{clip.stem}.json"
+        wall, peak, _ = _timed(_imesh("-q", "retarget", str(clip), "--robot", robot, "-o",
+                                      str(out / f"{clip.stem}.npz"), "--json", str(report)),
+                               _env())
+        n = _source_frames(clip)
+        solve = json.loads(report.read_text())["seconds"]["total"]
+        print(f"{clip.name:<30} {n:>7} {wall:>8.2f} {n / wall:>9.1f} {peak:>8.0f} {solve:>8.2f}")
+
+
+def table_startup() -> None:
+    times = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        subprocess.run(_imesh("--help"), capture_output=True, env=_env(), check=True)
+        times.append(time.perf_counter() - t0)
+    times.sort()
+    print(f"\n## start-up: imesh --help: median {times[2]:.3f} s (min {times[0]:.3f}, max "
+          f"{times[-1]:.3f}; 5 runs)")
+
+
+def concatenated_bvh(source: Path, n_frames: int, path: Path) -> Path:
+    """Write a BVH of ``n_frames`` frames: ``source``'s frames forwards, then backwards, and so
+    on (the positions stay continuous; a walk turns into a walk backwards)."""
+    text = source.read_text()
+    head, _, rest = text.partition("MOTION")
+    lines = [ln for ln in rest.splitlines() if ln.strip()]
+    frame_time, frames = lines[1], lines[2:]
+    cycle = frames + frames[::-1]
+    with open(path, "w") as f:
+        f.write(f"{head}MOTION\nFrames: {n_frames}\n{frame_time}\n")
+        done = 0
+        while done < n_frames:
+            chunk = cycle[:n_frames - done]
+            f.write("\n".join(chunk) + "\n")
+            done += len(chunk)
+    return path
+
+
+def table_inspect(source: Path, n_frames: int, tmp: Path) -> None:
+    clip = concatenated_bvh(source, n_frames, tmp / f"long_{n_frames}.bvh")
+    wall, peak, _ = _timed(_imesh("inspect", str(clip)), _env())
+    size = clip.stat().st_size / 2 ** 20
+    clip.unlink()
+    print(f"\n## inspect on a long clip ({source.name} concatenated to {n_frames} frames, "
+          f"{size:.0f} MB)\n")
+    print(f"wall {wall:.2f} s, peak {peak:.0f} MB")
+
+
+def table_scaling(source: Path, sizes: list[int], robot: str, tmp: Path) -> None:
+    import numpy as np
+
+    print(f"\n## scaling: imesh retarget --robot {robot} on {source.name} concatenated\n")
+    head = (f"{'frames':>7} {'solved':>7} {'windows':>7} {'pipeline s':>11} {'ms/frame':>9} "
+            f"{'wall s':>8} {'peak MB':>8}")
+    print(head)
+    print("-" * len(head))
+    xs, ys = [], []
+    for n in sizes:
+        clip = concatenated_bvh(source, n, tmp / f"scale_{n}.bvh")
+        report = tmp / f"scale_{n}.json"
+        wall, peak, _ = _timed(_imesh("-q", "retarget", str(clip), "--robot", robot, "-o",
+                                      str(tmp / f"scale_{n}.npz"), "--json", str(report),
+                                      "--force"), _env())
+        rep = json.loads(report.read_text())
+        total = rep["seconds"]["total"]
+        windows = int(rep["wholebody"]["seconds"].get("windows", 1))
+        solved = rep["frames"]
+        xs.append(n)
+        ys.append(total)
+        print(f"{n:>7} {solved:>7} {windows:>7} {total:>11.2f} {1e3 * total / n:>9.2f} "
+              f"{wall:>8.2f} {peak:>8.0f}", flush=True)
+    if len(xs) >= 2:
+        k = np.polyfit(np.log(xs), np.log(ys), 1)[0]
+        print(f"fitted exponent (time ~ frames^k): k = {k:.3f}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tables", nargs="+", default=["profile", "whole", "startup", "inspect"],
+                    choices=("profile", "whole", "startup", "inspect", "scaling"))
+    ap.add_argument("--robot", default="g1")
+    ap.add_argument("--clips", nargs="+", default=list(CLIPS))
+    ap.add_argument("--inspect-frames", type=int, default=216000)
+    ap.add_argument("--scaling-frames", type=int, nargs="+", default=[500, 1000, 2000])
+    ap.add_argument("--out", help="folder of the written motions (default: a temporary one)")
+    args = ap.parse_args(argv)
+    clips = [data_root() / "mocap" / c for c in args.clips]
+    with tempfile.TemporaryDirectory(prefix="imesh-speed-") as tmp_name:
+        tmp = Path(tmp_name)
+        out = Path(args.out) if args.out else tmp
+        out.mkdir(parents=True, exist_ok=True)
+        load = os.getloadavg()
+        print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, "
+              f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
+        for table in args.tables:
+            if table == "profile":
+                table_profile(clips, args.robot, out)
+            elif table == "whole":
+                table_whole(clips, args.robot, out)
+            elif table == "startup":
+                table_startup()
+            elif table == "inspect":
+                table_inspect(clips[0], args.inspect_frames, tmp)
+            elif table == "scaling":
+                table_scaling(clips[0], args.scaling_frames, args.robot, tmp)
+            sys.stdout.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,210 @@
+"""Speed work: one progress bar over every stage, with frame totals, silenced by --quiet."""
+
+from __future__ import annotations
+
+import io
+import json
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import load_test_robot
+
+from imesh import load_motion
+from imesh.progress import JobBar, StageProgress, retarget_bar
+from imesh.retarget import RetargetConfig, retarget
+from imesh.solve import WholeBodyConfig
+
+
+def test_job_bar_moves_forward_through_the_stages_and_ends_full(monkeypatch):
+    """Each stage fills its share of the bar in order; a stage reported again (the Nishiwaki
+    loop re-runs the morph) never moves it back; finish() fills it."""
+    stream = io.StringIO()
+    monkeypatch.setattr("sys.stderr", stream)
+    bar = JobBar(False, "job", 100, ["load", "morph", "wholebody", "write"])
+    positions = []
+    bar.stage("load")
+    positions.append(bar.position)
+    for k in range(1, 11):
+        bar(StageProgress("morph", k, 10, 80))
+        positions.append(bar.position)
+    for k in range(1, 21):
+        bar(StageProgress("wholebody", k, 20, 100, f"SQP iteration {k}"))
+        positions.append(bar.position)
+    bar(StageProgress("morph", 1, 10, 80))
+    positions.append(bar.position)
+    bar.stage("write")
+    positions.append(bar.position)
+    bar.finish()
+    assert positions == sorted(positions)
+    # the whole-body solve is 0.1 s a frame against 1.5 ms for the morph: most of the bar
+    assert bar.share["wholebody"] > 0.7
+    assert positions[11 + 19] == pytest.approx(100 * (bar.start["wholebody"]
+                                                      + bar.share["wholebody"]))
+    assert bar.position == 100
+    text = stream.getvalue()
+    # tqdm draws at most every 0.1 s: the last state is drawn, with the elapsed<ETA field
+    assert text.rstrip().endswith("job: write (100 frames): 100%|##########| 100/100 frames "
+                                  "[00:00<00:00]")
+
+
+def test_quiet_bar_draws_nothing(monkeypatch):
+    stream = io.StringIO()
+    monkeypatch.setattr("sys.stderr", stream)
+    bar = JobBar(True, "job", 50, ["load", "wholebody"])
+    bar.stage("load")
+    bar(StageProgress("wholebody", 3, 20, 50))
+    bar.finish()
+    assert stream.getvalue() == ""
+
+
+def test_retarget_reports_every_stage_in_order(mocap):
+    """The library reports prepare, every morph step, fit, plan and every SQP iteration to the
+    callback, in this order, with the frame counts of each stage (the bar's totals)."""
+    robot = load_test_robot("g1")
+    motion = load_motion(mocap("cmu_02_01_walk.bvh"))
+    config = RetargetConfig(wholebody=WholeBodyConfig(iterations=2))
+    events: list[StageProgress] = []
+    res = retarget(motion, robot, config=config, progress=events.append)
+    stages = [e.stage for e in events]
+    order = ["prepare", "morph", "fit", "plan", "wholebody"]
+    assert sorted(set(stages), key=order.index) == order
+    assert [order.index(s) for s in stages] == sorted(order.index(s) for s in stages)
+    assert stages.count("morph") >= config.morph.steps
+    assert [e.done for e in events if e.stage == "wholebody"] == [1, 2]
+    n_work = res.adapted.n_frames - sum(res.lead_frames)
+    assert {e.frames for e in events if e.stage in ("prepare", "morph", "fit")} == {n_work}
+    assert {e.frames for e in events if e.stage in ("plan", "wholebody")} == {
+        res.motion.n_frames}
+    # the CLI's bar counts the same output frames
+    assert retarget_bar(True, "walk", motion, config).frames == res.motion.n_frames
+
+
+@pytest.mark.parametrize("clip", ["cmu_02_01_walk.bvh", "reactidle_003_acted_idle_long.bvh",
+                                  "cmu_60_10_salsa_partnerA_sl_scaled.bvh"])
+def test_streamed_bvh_reader_equals_the_full_parser(mocap, clip, monkeypatch):
+    """The bounded-memory reader (frames parsed and put through forward kinematics 8192 at a
+    time) gives bit-identical positions and the same metadata as the whole-file parser."""
+    import numpy as np
+
+    import imesh.io.bvh as bvh
+
+    monkeypatch.setattr(bvh, "STREAM_FRAMES", 100)  # several blocks on a short clip
+    assert bvh._read_streamed(str(mocap(clip)), mocap(clip)) is not None
+    streamed = bvh.read_bvh(mocap(clip))
+    monkeypatch.setattr(bvh, "_read_streamed", lambda p, path: None)
+    full = bvh.read_bvh(mocap(clip))
+    assert np.array_equal(streamed.positions, full.positions)
+    assert (streamed.names, streamed.fps, streamed.rig) == (full.names, full.fps, full.rig)
+    assert streamed.meta == full.meta
+
+
+def _concatenated(source, n_frames: int, path):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from speed import concatenated_bvh
+
+    return concatenated_bvh(source, n_frames, path)
+
+
+def test_inspect_of_a_30_minute_clip_stays_within_500_mb(mocap, tmp_path):
+    """216,000 frames at 120 Hz (the walk forwards and backwards, 200 MB of text): `imesh
+    inspect` read it whole in 4.2 GB before the streamed reader; the bound is 500 MB."""
+    import subprocess
+
+    clip = _concatenated(mocap("cmu_02_01_walk.bvh"), 216000, tmp_path / "long.bvh")
+    probe = ("import resource, subprocess, sys; "
+             "r = subprocess.run([sys.executable, '-m', 'imesh.cli', 'inspect', '--json', "
+             "sys.argv[1]], capture_output=True, text=True); "
+             "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss); "
+             "print(r.stdout)")
+    out = subprocess.run([sys.executable, "-c", probe, str(clip)], capture_output=True,
+                         text=True, check=True, cwd=Path(__file__).resolve().parents[1])
+    status, peak_kb = (int(x) for x in out.stdout.split("\n")[0].split())
+    summary = json.loads(out.stdout.split("\n", 1)[1])
+    assert status == 0 and summary["frames"] == 216000
+    assert summary["rig"]["table"] == "recognized"
+    assert peak_kb / 1024 <= 500, f"peak {peak_kb / 1024:.0f} MB"
+
+
+def test_windows_hold_soles_limits_and_zmp_across_their_borders(mocap, tmp_path):
+    """The G1 walk (146 frames with the lead-in/out) solved in three windows of 62 frames:
+    the evaluator, on the written file, finds the soles on their footprints, no limit
+    violation, no self-collision and the ZMP inside the support polygon at every frame, the
+    frames around each border included; the result stays that of one window (46.6 mm marker
+    RMS, 41.6 mm ZMP error, measured)."""
+    import numpy as np
+
+    from imesh.evaluate import evaluate_motion, load_motion_file, metric_values
+    from imesh.export import save_marker_motion
+    from imesh.metrics.kinematics import (
+        detect_support,
+        motion_derivatives,
+        sole_tracks,
+        zmp_report,
+        zmp_trajectory,
+    )
+    from imesh.robot_motion import save_robot_motion
+    from imesh.solve.windows import window_layout
+
+    robot = load_test_robot("g1")
+    motion = load_motion(mocap("cmu_02_01_walk.bvh"))
+    config = RetargetConfig(window_frames=80, window_overlap_frames=16)
+    res = retarget(motion, robot, config=config)
+    layout = window_layout(res.motion.n_frames, 80, 16)
+    assert len(layout) == 3 and res.wholebody.seconds["windows"] == 3
+    path, markers = tmp_path / "walk.npz", tmp_path / "walk_markers.npz"
+    save_robot_motion(path, res.motion)
+    save_marker_motion(markers, res.adapted)
+    written = load_motion_file(path, robot)
+    m = metric_values(evaluate_motion(robot, written, adapted=str(markers)))
+    assert m["limit_violation_frames"] == 0
+    assert m["self_collision_frames"] == 0
+    assert m["zmp_inside_fraction"] == 1.0
+    assert m["sole_deviation_mm"] <= 1.0 and m["foot_skid_mm_per_frame"] <= 0.1
+    assert m["marker_rms_mm"] <= 48.0 and m["zmp_error_mm"] <= 44.0
+    # the borders themselves: ZMP inside and accelerations within the limits on either side
+    q, fps = written.q, written.fps
+    soles = sole_tracks(robot, q, fps)
+    support = detect_support(soles).support
+    v, a = motion_derivatives(q, fps)
+    zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
+    acc = np.abs(np.diff(q[:, 7:], 2, axis=0)) * fps ** 2 / robot.a_max
+    for _, _, keep in layout[:-1]:
+        near = np.arange(keep - 6, keep + 6)
+        assert zmp.inside[near][zmp.support_frames[near]].all()
+        assert acc[near - 1].max() <= 1.0
+
+
+def test_evaluator_in_blocks_of_frames_gives_the_same_report(mocap, monkeypatch):
+    """The capsule distances and the inverse dynamics run over blocks of frames (9 GB on a
+    30-minute clip at once): the report is the same to the last digit."""
+    import imesh.evaluate  # noqa: F401  (the module, not the top-level function)
+
+    ev = sys.modules["imesh.evaluate"]
+    robot = load_test_robot("g1")
+    res = retarget(load_motion(mocap("cmu_02_10_wash_self_cc3rig.bvh")), robot,
+                   config=RetargetConfig(balance="none"))
+    monkeypatch.setattr(ev, "EVAL_BLOCK_FRAMES", 10 ** 9)
+    whole = ev.evaluate_motion(robot, res.motion, adapted=res.adapted)
+    monkeypatch.setattr(ev, "EVAL_BLOCK_FRAMES", 50)
+    blocked = ev.evaluate_motion(robot, res.motion, adapted=res.adapted)
+    assert res.motion.n_frames > 4 * 50
+    assert whole["self_collision_frames"]["value"] > 0  # the wash: hands on the body
+    for report in (whole, blocked):
+        report.pop("seconds_per_frame")  # the evaluator's own timing
+    assert json.dumps(whole, sort_keys=True, default=str) == json.dumps(
+        blocked, sort_keys=True, default=str)
+
+
+def test_keypoint_laplacians_in_blocks_equal_all_at_once(mocap, monkeypatch):
+    """The whole-body plan's interaction meshes are built 2048 frames at a time (1 GB at once
+    on a 30-minute clip); each frame's mesh is its own, so blocks change nothing."""
+    import numpy as np
+
+    import imesh.solve.sqp as sqp
+
+    points = load_motion(mocap("cmu_02_01_walk.bvh")).positions_m[:, :15]
+    whole = sqp.keypoint_laplacians(points)
+    monkeypatch.setattr(sqp, "LAPLACIAN_BLOCK_FRAMES", 50)
+    assert np.array_equal(sqp.keypoint_laplacians(points), whole)
+    assert np.count_nonzero(whole) > 15 * len(points)
