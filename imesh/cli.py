@@ -483,6 +483,7 @@ def cmd_robots(args) -> int:
     for r in rows:
         dof = r.get("dof", "?")
         print(f"{r['name']:<8} {dof!s:>4}  {r.get('licence', ''):<14} {r.get('source', '')}")
+    print("any other humanoid: imesh robots init ROBOT.urdf -o DIR (docs/byo-robot.md)")
     return 0
 
 
