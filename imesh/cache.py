@@ -16,3 +16,36 @@ def cache_root() -> Path:
     if env:
         return Path(env).expanduser()
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "imesh"
+
+
+def read_cached(kind: str, key: str) -> dict | None:
+    """The arrays stored under ``<cache>/<kind>/<key>.npz``, or None when absent or unreadable
+    (a damaged file is then simply computed and written again)."""
+    import numpy as np
+
+    path = cache_root() / kind / f"{key}.npz"
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    except (OSError, ValueError, KeyError, EOFError):
+        return None
+
+
+def write_cached(kind: str, key: str, **arrays) -> None:
+    """Store arrays under ``<cache>/<kind>/<key>.npz`` atomically; a read-only cache folder is
+    no error (the next run computes again)."""
+    import tempfile
+
+    import numpy as np
+
+    folder = cache_root() / kind
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **arrays)
+        os.replace(tmp, folder / f"{key}.npz")
+    except OSError:
+        return

@@ -282,3 +282,30 @@ def test_in_solve_must_be_a_boolean(tmp_path):
     bad.write_text(text)
     with pytest.raises(RobotConfigError, match="collision.in_solve must be true or false"):
         load_robot_config(bad)
+
+
+def test_proxy_fits_cached_bit_for_bit(tmp_path, monkeypatch):
+    """The primitive proxies fitted to meshes come back from imesh's cache folder identical,
+    and a damaged cache file is fitted again."""
+    from imesh.robot import load_robot
+    from imesh.robot import model as robot_model
+
+    monkeypatch.setenv("IMESH_CACHE_DIR", str(tmp_path))
+    # load_robot keeps built models per process: a fresh build each time
+    monkeypatch.setattr(robot_model, "_CACHE", {})
+
+    def shapes():
+        robot_model._CACHE.clear()
+        return load_robot("jvrc1").collision_shapes
+
+    fresh = shapes()
+    files = list((tmp_path / "proxies").glob("*.npz"))
+    assert len(files) == 1
+    for damaged in (False, True):
+        if damaged:
+            files[0].write_bytes(b"not a zip")
+        again = shapes()
+        assert [(s.frame, s.kind, s.dims) for s in again] == \
+            [(s.frame, s.kind, s.dims) for s in fresh]
+        assert all(np.array_equal(a.placement, b.placement)
+                   for a, b in zip(again, fresh, strict=True))

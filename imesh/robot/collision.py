@@ -16,6 +16,7 @@ Shape conventions (``CollisionShape.dims``, metres; the shape's own frame is ``p
 
 from __future__ import annotations
 
+import hashlib
 import logging
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..cache import read_cached, write_cached
 from ..errors import ImeshError
 from .config import RobotConfigError, SoleRectangle
 
@@ -278,6 +280,36 @@ def fit_primitive(points: np.ndarray) -> tuple[str, tuple[float, ...], np.ndarra
     return best
 
 
+#: Bump when fit_primitive changes: cached fits of an older version are not used.
+PROXY_FIT_VERSION = 1
+
+
+def _fit_meshes(points: dict[str, np.ndarray]) -> dict[str, tuple[str, tuple[float, ...],
+                                                                np.ndarray]]:
+    """:func:`fit_primitive` of each frame's mesh points, kept in imesh's cache folder
+    (``proxies/``, keyed by a hash of every frame's points): the fits cost about 1 s per robot
+    and every command loads a robot."""
+    h = hashlib.sha256(f"proxies {PROXY_FIT_VERSION}".encode())
+    for frame, pts in points.items():
+        h.update(frame.encode() + b"\0")
+        h.update(np.ascontiguousarray(pts, dtype=np.float64).tobytes())
+    key = h.hexdigest()[:32]
+    frames = list(points)
+    data = read_cached("proxies", key)
+    if data is not None and list(data["frames"]) == frames:
+        return {f: (str(k), tuple(float(x) for x in d[:int(n)]), p) for f, k, d, n, p in zip(
+            frames, data["kinds"], data["dims"], data["ndims"], data["poses"], strict=True)}
+    fits = {f: fit_primitive(points[f]) for f in frames}
+    if frames:
+        dims = np.zeros((len(frames), 3))
+        for i, f in enumerate(frames):
+            dims[i, :len(fits[f][1])] = fits[f][1]
+        write_cached("proxies", key, frames=np.array(frames), kinds=np.array(
+            [fits[f][0] for f in frames]), dims=dims, ndims=np.array(
+            [len(fits[f][1]) for f in frames]), poses=np.array([fits[f][2] for f in frames]))
+    return fits
+
+
 def build_proxies(items: Iterable[GeometryItem]) -> list[CollisionShape]:
     """Primitive proxies from geometry elements: primitives kept, each link's meshes merged and
     replaced by one fitted primitive.
@@ -299,10 +331,8 @@ def build_proxies(items: Iterable[GeometryItem]) -> list[CollisionShape]:
                 meshes.setdefault(it.frame, []).append(it.points_in_frame())
         else:
             shapes.append(CollisionShape(it.frame, it.kind, tuple(it.dims), it.placement))
-    for frame in order:
-        if frame in meshes:
-            kind, dims, pose = fit_primitive(np.concatenate(meshes[frame]))
-            shapes.append(CollisionShape(frame, kind, dims, pose))
+    fitted = _fit_meshes({f: np.concatenate(meshes[f]) for f in order if f in meshes})
+    shapes += [CollisionShape(f, *fitted[f]) for f in order if f in fitted]
     rank = {f: i for i, f in enumerate(order)}
     shapes.sort(key=lambda s: rank[s.frame])
     return shapes
