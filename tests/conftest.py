@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -30,6 +32,15 @@ def hrp4c_urdf() -> Path:
 
 
 _ROBOTS: dict = {}
+
+
+def modules_after(statement: str, predicate: str) -> list[str]:
+    """The modules a fresh interpreter has loaded after ``statement`` for which the Python
+    expression ``predicate`` (of ``m``, a module name) holds, sorted."""
+    code = f"import sys; {statement}; print(sorted(m for m in sys.modules if {predicate}))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT).stdout.strip()
+    return eval(out)  # noqa: S307 - a list of names printed by our own child process
 
 
 def load_test_robot(name: str):

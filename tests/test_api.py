@@ -5,11 +5,10 @@ from __future__ import annotations
 import doctest
 import importlib
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from conftest import modules_after
 
 import imesh
 from imesh.cli import main
@@ -50,12 +49,8 @@ def test_typed_package():
 
 
 def test_import_stays_light():
-    code = ("import sys, imesh; imesh.__version__; "
-            "print(sorted(m for m in ('scipy', 'pinocchio', 'ray', 'mujoco', 'mkdocs') "
-            "if m in sys.modules))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True, cwd=ROOT).stdout.strip()
-    assert out == "[]"
+    assert modules_after("import imesh; imesh.__version__",
+                         "m in ('scipy', 'pinocchio', 'ray', 'mujoco', 'mkdocs')") == []
 
 
 @pytest.mark.parametrize("name", ["demo_clip", "load_robot", "load_robot_motion", "evaluate",

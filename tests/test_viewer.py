@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import modules_after
 
 from imesh.cli import main
 
@@ -237,12 +238,9 @@ def test_scene_arrays_round_trip_and_lead_frames():
 
 
 def test_solvers_do_not_import_the_viewer():
-    code = ("import sys, imesh.retarget, imesh.solve, imesh.fit, imesh.morph; "
-            "print(sorted(m for m in sys.modules if m.startswith('imesh.viz') or "
-            "m in ('playwright', 'imageio_ffmpeg')))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         cwd=ROOT, check=True).stdout.strip()
-    assert out == "[]"
+    assert modules_after("import imesh.retarget, imesh.solve, imesh.fit, imesh.morph",
+                         "m.startswith('imesh.viz') or m in ('playwright', 'imageio_ffmpeg')"
+                         ) == []
 
 
 def test_decimation_keeps_the_shape():

@@ -175,6 +175,7 @@ def write_generated(gen: GeneratedConfig, directory: str | os.PathLike) -> list[
         RobotConfigError: the written configuration does not load (nothing is left behind).
     """
     from ..arms.geometry import suggest_hand_points
+    from .config import load_markers_config
     from .model import load_robot
 
     out = Path(directory)
@@ -194,7 +195,7 @@ def write_generated(gen: GeneratedConfig, directory: str | os.PathLike) -> list[
             arms += [f"{k} = {_fmt(p)}"
                      for k, p in zip(("wrist", "hand", "thumb"), pts, strict=True)]
         _atomic_write(markers_toml, markers_toml_text(gen, "\n".join(arms) + "\n"))
-        load_robot(robot_toml, urdf=gen.urdf)
+        load_markers_config(markers_toml)  # the [arms] tables parse (their frames are checked)
     except ImeshError:
         for p in written:
             p.unlink(missing_ok=True)
