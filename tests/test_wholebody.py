@@ -128,6 +128,28 @@ def test_qp_solution_meets_kkt_and_constraints(robot):
     assert max(sol.residuals.values()) < 1e-7
 
 
+
+def test_qp_stalled_at_the_iteration_limit_is_solved_again(robot, monkeypatch):
+    """A PIQP run stopped at its first iteration limit is solved again without preconditioning
+    (the HRP-4C wash's stalled QP, docs/collision.md): the result converges (KKT residual,
+    constraints) to the same point as an unlimited solve."""
+    import piqp
+
+    import imesh.solve.qp as qpmod
+
+    q = _sway(robot, T=20)
+    plan, _, targets = _plan(robot, q)
+    lin = linearize(robot, q, _Frames(robot, targets), FPS)
+    qp = build_qp(lin, plan, q, WholeBodyConfig())
+    full = solve_qp(qp, "piqp", 1e-8)
+    monkeypatch.setattr(qpmod, "PIQP_MAX_ITER", 3)
+    sol = solve_qp(qp, "piqp", 1e-8)
+    assert sol.status == str(piqp.PIQP_SOLVED)
+    assert sol.iterations > 3  # the capped attempt and the retry
+    assert sol.kkt_residual < 1e-5
+    assert max(sol.residuals.values()) < 1e-7
+    assert np.abs(sol.x - full.x).max() < 1e-5
+
 def test_standing_stays_standing(robot):
     """The nominal pose held still: the solution stands still (every frame the same pose,
     within 1e-6), the feet exactly where they were, the ZMP inside the polygon (the CoM may
