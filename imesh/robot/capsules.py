@@ -351,9 +351,11 @@ class CapsuleModel:
         seg = self.world_segments(placements)
         i, j = pairs[:, 0], pairs[:, 1]
         T, P = len(seg), len(pairs)
+        tt: np.ndarray
+        pp: np.ndarray
         if cutoff is None:
-            tt, pp = np.meshgrid(np.arange(T), np.arange(P), indexing="ij")
-            tt, pp = tt.ravel(), pp.ravel()
+            grid_t, grid_p = np.meshgrid(np.arange(T), np.arange(P), indexing="ij")
+            tt, pp = grid_t.ravel(), grid_p.ravel()
         else:
             mid = seg.mean(axis=2)  # (T, C, 3)
             bound = np.linalg.norm(self.ends[:, 1] - self.ends[:, 0], axis=1) / 2 + self.radius
