@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from importlib import import_module, metadata
 from pathlib import Path
 from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -45,6 +46,11 @@ from .config import (
     load_robot_config,
 )
 from .registry import resolve_robot_toml
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    import pinocchio  # no type information: its classes are Any to mypy
+
+    from .capsules import CapsuleModel
 
 log = logging.getLogger(__name__)
 
@@ -107,7 +113,8 @@ def resolve_urdf(config: RobotConfig, urdf: str | os.PathLike | None) -> tuple[P
             mod = None
             tried.append(f"import {m.package}")
         if mod is not None:
-            pkg_dir = Path(mod.__file__).parent if getattr(mod, "__file__", None) else None
+            mod_file = getattr(mod, "__file__", None)
+            pkg_dir = Path(mod_file).parent if mod_file else None
             attr = getattr(mod, m.urdf, None) if m.urdf.isidentifier() else None
             candidates = [Path(attr)] if isinstance(attr, str | os.PathLike) else []
             if pkg_dir is not None:
@@ -127,7 +134,8 @@ def resolve_urdf(config: RobotConfig, urdf: str | os.PathLike | None) -> tuple[P
             suffix = m.urdf.replace("\\", "/").lstrip("/")
             for f in dist.files or ():
                 if str(f).replace("\\", "/").endswith(suffix):
-                    path = Path(dist.locate_file(f))
+                    # typed as a SimplePath: a pathlib.Path for an installed distribution
+                    path = Path(str(dist.locate_file(f)))
                     if path.is_file():
                         return path, _package_dirs(path)
             tried.append(f"{m.distribution} files ending with {suffix}")
@@ -147,7 +155,7 @@ class _Built:
     config: RobotConfig
     markers: MarkerConfig | None
     urdf: Path
-    model: object
+    model: pinocchio.Model
     q_nominal: np.ndarray
     q_lower: np.ndarray
     q_upper: np.ndarray
@@ -159,7 +167,7 @@ class _Built:
     ignored: set[tuple[str, str]]
     adjacent: set[tuple[str, str]] = field(default_factory=set)
     geometry: dict = field(default_factory=dict)  # link -> {"collision": [...], "visual": [...]}
-    capsules: object = None  # the CapsuleModel, built on first use
+    capsules: CapsuleModel | None = None  # built on first use
 
 
 _CACHE: dict[tuple, _Built] = {}
@@ -205,6 +213,7 @@ def _geometry_items(pin, model, geom_model, source: str) -> list[GeometryItem]:
         geo = g.geometry
         cls = type(geo).__name__
         verts = None
+        dims: tuple[float, ...]
         if cls.startswith("BVHModel") or cls.startswith("Convex"):
             kind, dims = "mesh", ()
             pts = geo.vertices() if hasattr(geo, "vertices") else geo.points()
@@ -1059,7 +1068,7 @@ class Robot:
         hits = [(a, b, -d) for (a, b), d in self.shape_pair_distances(q).items() if -d > depth]
         return sorted(hits, key=lambda h: -h[2])
 
-    def capsule_model(self):
+    def capsule_model(self) -> CapsuleModel:
         """The self-collision capsules and the pairs checked
         (:class:`imesh.robot.capsules.CapsuleModel`), built on first use and shared by the
         Robots of the same files."""
