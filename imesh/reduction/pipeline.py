@@ -26,7 +26,7 @@ from .cyclic import CyclicMotion, make_cyclic
 from .dynamics import ChainDynamics, chain_from_robot, planar_biped_chain
 from .optimize import IterationRecord, MotionOptimizer, OptimizationResult, ReductionConfig
 
-if TYPE_CHECKING:  # pragma: no cover - typing only (the robot package imports pinocchio)
+if TYPE_CHECKING:  # pragma: no cover - typing only (imported lazily at run time)
     from ..robot import Robot
 
 log = logging.getLogger(__name__)
