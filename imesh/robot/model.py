@@ -56,6 +56,9 @@ log = logging.getLogger(__name__)
 
 GRAVITY = 9.81
 
+#: Frames as names or indices: a sequence, or an int array of indices.
+FrameRefs = Sequence[int | str] | np.ndarray
+
 
 def _pinocchio() -> ModuleType:
     try:
@@ -651,7 +654,7 @@ class Robot:
                 np.array([k.offset for k in kp.values()], dtype=float).reshape(-1, 3),
                 np.array([k.weight for k in kp.values()], dtype=float))
 
-    def _ids(self, frames: Sequence[int | str]) -> list[int]:
+    def _ids(self, frames: FrameRefs) -> list[int]:
         return [self.frame_id(f) if isinstance(f, str) else int(f) for f in frames]
 
     # --- kinematics --------------------------------------------------------------------------
@@ -700,7 +703,7 @@ class Robot:
         elif not self._jac_valid:
             self.forward(self._q)
 
-    def frame_placements(self, q, frames: Sequence[int | str]) -> np.ndarray:
+    def frame_placements(self, q, frames: FrameRefs) -> np.ndarray:
         """(F, 4, 4) float world poses of frames.
 
         Args:
@@ -710,7 +713,7 @@ class Robot:
         self._fk(q)
         return np.array([self.data.oMf[i].homogeneous for i in self._ids(frames)])
 
-    def frame_positions(self, q, frames: Sequence[int | str],
+    def frame_positions(self, q, frames: FrameRefs,
                         offsets: np.ndarray | None = None) -> np.ndarray:
         """(F, 3) float [m] world positions of points fixed in frames.
 
@@ -727,12 +730,12 @@ class Robot:
             out[k] = M.translation if offsets is None else M.rotation @ offsets[k] + M.translation
         return out
 
-    def frame_rotations(self, q, frames: Sequence[int | str]) -> np.ndarray:
+    def frame_rotations(self, q, frames: FrameRefs) -> np.ndarray:
         """(F, 3, 3) float world rotations of frames (columns = frame axes in the world)."""
         self._fk(q)
         return np.array([self.data.oMf[i].rotation for i in self._ids(frames)])
 
-    def point_jacobians(self, q, frames: Sequence[int | str],
+    def point_jacobians(self, q, frames: FrameRefs,
                         offsets: np.ndarray | None = None) -> np.ndarray:
         """(F, 3, nv) float world-aligned linear Jacobians of points fixed in frames.
 
@@ -757,7 +760,7 @@ class Robot:
                 out[k] = J[:3] - _skew(r) @ J[3:]
         return out
 
-    def frame_jacobians(self, q, frames: Sequence[int | str]) -> np.ndarray:
+    def frame_jacobians(self, q, frames: FrameRefs) -> np.ndarray:
         """(F, 6, nv) float world-aligned Jacobians of frames: rows 0-2 the frame origin's
         linear velocity, rows 3-5 the angular velocity (one pinocchio call per frame, where
         :meth:`point_jacobians` and :meth:`frame_angular_jacobians` make one each)."""
@@ -768,7 +771,7 @@ class Robot:
             out[k] = pin.getFrameJacobian(self.model, self.data, i, pin.LOCAL_WORLD_ALIGNED)
         return out
 
-    def trajectory_kinematics(self, q: np.ndarray, frames: Sequence[int | str]
+    def trajectory_kinematics(self, q: np.ndarray, frames: FrameRefs
                               ) -> TrajectoryKinematics:
         """Placements and world-aligned Jacobians of frames, CoM and its Jacobian, at every
         configuration of a trajectory (one pass of pinocchio calls per configuration: joint
@@ -855,7 +858,7 @@ class Robot:
         self._jac_valid = False
         return tau, dtau
 
-    def frame_angular_jacobians(self, q, frames: Sequence[int | str]) -> np.ndarray:
+    def frame_angular_jacobians(self, q, frames: FrameRefs) -> np.ndarray:
         """(F, 3, nv) float world angular-velocity Jacobians of frames (``omega = J @ v``)."""
         self._jac(q)
         pin = self._pin
