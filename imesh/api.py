@@ -19,7 +19,7 @@ import dataclasses
 import logging
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from .motion import MarkerMotion
@@ -132,8 +132,8 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
     robot = _robot(robot, urdf)
     human = _human(clip)
     config = config or RetargetConfig()
-    changes = {"balance": balance} if balance != "wholebody" or config.balance == "wholebody" \
-        else {}
+    changes: dict[str, Any] = ({"balance": balance} if balance != "wholebody"
+                               or config.balance == "wholebody" else {})
     if fps is not None:
         changes["fps"] = float(fps)
     config = dataclasses.replace(config, **changes)

@@ -14,9 +14,13 @@ import logging
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .cli_args import add_robot_arguments
 from .errors import ImeshError
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (the commands import lazily)
+    from .motion import MarkerMotion
 
 log = logging.getLogger("imesh")
 
@@ -173,7 +177,7 @@ def build_parser() -> argparse.ArgumentParser:
 PIPELINE_MIN_FRAMES = 16
 
 
-def _load(args, *, apply_rig: bool = True) -> object:
+def _load(args, *, apply_rig: bool = True) -> MarkerMotion:
     from .io import load_motion
     from .motion import require_frames
 

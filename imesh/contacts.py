@@ -63,12 +63,12 @@ class Contacts:
 
     @property
     def double_support(self) -> np.ndarray:
-        return self.support.all(axis=1)
+        return np.asarray(self.support.all(axis=1))
 
     @property
     def flight(self) -> np.ndarray:
         """(T,) bool, no foot on the ground."""
-        return ~self.support.any(axis=1)
+        return ~np.asarray(self.support.any(axis=1))
 
     def phases(self, side: str) -> list[tuple[int, int]]:
         """Support phases [start, stop) of one foot."""

@@ -11,6 +11,7 @@ for an output that was written but failed its verification.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable
 
 
@@ -168,7 +169,8 @@ class OutputPathError(ImeshError):
         valid: what would be valid.
     """
 
-    def __init__(self, path: str, reason: str, *, option: str = "", valid: str = ""):
+    def __init__(self, path: str | os.PathLike, reason: str, *, option: str = "",
+                 valid: str = ""):
         what = f"output {option} {str(path)!r}" if option else f"output {str(path)!r}"
         text = f"{what}: {reason}"
         if valid:

@@ -135,7 +135,9 @@ def _stored_markers(path: Path, arrays: Mapping[str, np.ndarray]) -> MarkerMotio
         pos = np.asarray(arrays["adapted_positions_m"], dtype=np.float64)
         names = tuple(str(n) for n in np.asarray(arrays["adapted_marker_names"]).reshape(-1))
         return MarkerMotion(positions_m=pos, fps=float(arrays["fps"]), names=names,
-                            valid=np.isfinite(pos).all(axis=-1) if pos.ndim == 3 else pos,
+                            # any array when pos is not (T, M, 3): MarkerMotion rejects pos
+                            valid=np.asarray(np.isfinite(pos).all(axis=-1)) if pos.ndim == 3
+                            else pos,
                             source=f"{path}:adapted_positions_m")
     except (KeyError, TypeError, ValueError, ImeshError) as exc:
         raise MotionFileError(str(path), f"unreadable adapted markers ({exc})") from None

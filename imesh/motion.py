@@ -251,10 +251,11 @@ class MarkerMotion:
 def _frozen(a: np.ndarray) -> bool:
     """No one can write to ``a``: it and every array it is a view of are read-only (so a
     MarkerMotion may keep it without a copy: a 30-minute clip's positions are 200 MB)."""
-    while isinstance(a, np.ndarray):
-        if a.flags.writeable:
+    view: object = a  # the bases: arrays, then whatever owns the memory (bytes, mmap, None)
+    while isinstance(view, np.ndarray):
+        if view.flags.writeable:
             return False
-        a = a.base
+        view = view.base
     return True
 
 

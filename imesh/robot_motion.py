@@ -358,7 +358,10 @@ def _read_csv(path: Path, robot: RobotLike | str | None):
     while row < len(lines) and lines[row].lstrip().startswith("#"):
         match = _COMMENT.match(lines[row].strip())
         if match:
-            meta.update(kv.split("=", 1) for kv in match["fields"].split() if "=" in kv)
+            for kv in match["fields"].split():
+                if "=" in kv:
+                    key, value = kv.split("=", 1)
+                    meta[key] = value
         row += 1
     if row >= len(lines):
         raise MotionFileError(str(path), "no header row", line=row + 1)

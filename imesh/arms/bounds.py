@@ -121,7 +121,7 @@ def check_limits(theta: np.ndarray, limits: JointLimits, fps: float,
     dt = 1.0 / fps
     theta = np.asarray(theta, dtype=float)
     T = len(theta)
-    pos = ((theta < limits.lower - tol) | (theta > limits.upper + tol)).any(axis=1)
+    pos = np.asarray(((theta < limits.lower - tol) | (theta > limits.upper + tol)).any(axis=1))
     vel = np.zeros(T, dtype=bool)
     acc = np.zeros(T, dtype=bool)
     vr = ar = 0.0

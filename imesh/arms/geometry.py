@@ -11,11 +11,15 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..robot.config import SIDES, closest_first
 from .errors import ArmsError
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from ..robot import Robot
 
 log = logging.getLogger(__name__)
 
@@ -128,7 +132,7 @@ class ArmModel:
         hand_length_m: (3,) float [m] distance of each hand point from the wrist point.
     """
 
-    robot: object
+    robot: Robot
     side: str
     joints: tuple[str, ...]
     joint_index: np.ndarray

@@ -202,7 +202,7 @@ def zmp_state(robot, q: np.ndarray, fps: float, support: np.ndarray,
 
 def check_flight(source: str, support: np.ndarray, fps: float, config: BalanceConfig) -> None:
     """Raise FlightPhaseError when no foot supports in some frames (unless allowed)."""
-    flight = ~np.asarray(support, dtype=bool).any(axis=1)
+    flight = ~np.asarray(np.asarray(support, dtype=bool).any(axis=1))
     phases = runs(flight)
     if phases and not config.allow_flight:
         raise FlightPhaseError(source, phases, fps)
@@ -229,7 +229,7 @@ def balance_loop(robot, q: np.ndarray, fps: float, support: np.ndarray, waist_xy
     """
     config = config or BalanceConfig()
     support = np.asarray(support, dtype=bool)
-    free = ~support.any(axis=1)
+    free = ~np.asarray(support.any(axis=1))
     state0 = zmp_state(robot, q, fps, support, config.transition_s)
     states = [state0]
     qs = [q]

@@ -561,7 +561,7 @@ def _solve_frame(robot, kin: _Kinematics, q: np.ndarray, lo: np.ndarray, hi: np.
     active = None
     while it < max_it and cost > 0.0:
         fresh = a_rows is None
-        if fresh:
+        if a_rows is None:  # (fresh; spelled out so the type checker narrows a_rows)
             chords = 0
             jp, jw = kin.jacobians(q)
             a_rows = jp.reshape(-1, nv) * w_p[:, None]
@@ -576,7 +576,7 @@ def _solve_frame(robot, kin: _Kinematics, q: np.ndarray, lo: np.ndarray, hi: np.
         if mu2:
             g[6:] -= mu2 * dev
         base_lo, base_hi = -unbounded, unbounded
-        if q_prev is not None:
+        if q_prev is not None and base_reach is not None:
             # first-order: the base displacement so far plus this step stays in the box
             moved = robot.difference(q_prev, q)[:6]
             base_lo = np.maximum(base_lo, np.minimum(-base_reach - moved, 0.0))

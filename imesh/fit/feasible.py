@@ -218,9 +218,9 @@ def project_joint_trajectory(reference: np.ndarray, fps: float, lower: np.ndarra
     gap = n_constraints / t / n_frames
     while steps < _MAX_NEWTON:
         for _ in range(50):  # centering: Newton on t/2 |q - r|^2 + barrier
-            bar, bgrad, weights = _barrier_terms(q, bounds)
+            bar, bgrad, barrier_w = _barrier_terms(q, bounds)
             grad = t * w * (q - r) + bgrad
-            band = _newton_band(t, weights, n_frames, n, w)
+            band = _newton_band(t, barrier_w, n_frames, n, w)
             factor = cholesky_banded(band, lower=False, check_finite=False)
             dq = -cho_solve_banded((factor, False), grad.T.reshape(-1),
                                    check_finite=False).reshape(n, n_frames).T

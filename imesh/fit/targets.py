@@ -18,12 +18,15 @@ import logging
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from ..errors import MissingMarkerError
 from .errors import FitError, UnknownFrameError
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (imported lazily at run time)
+    from ..robot.config import MarkerConfig
 
 log = logging.getLogger(__name__)
 
@@ -147,6 +150,7 @@ def robot_targets(robot, markers_toml: str | os.PathLike | None = None
         FitError: the robot has no markers.toml and none was given.
         RobotConfigError: the file is invalid (from imesh.robot).
     """
+    config: MarkerConfig | None
     if markers_toml is not None:
         from ..robot.config import load_markers_config
 

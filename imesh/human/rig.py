@@ -296,8 +296,9 @@ class _Tree:
                                    self.names)
 
 
-def skeleton_tree(names: Sequence[str], parents: Sequence[int],
-                  lengths: Sequence[float] | None = None, max_lines: int = 400) -> str:
+def skeleton_tree(names: Sequence[str], parents: Sequence[int] | np.ndarray,
+                  lengths: Sequence[float] | np.ndarray | None = None, max_lines: int = 400
+                  ) -> str:
     """The skeleton as an indented tree, one joint a line with its bone length."""
     parents = list(parents)
     children: list[list[int]] = [[] for _ in names]
@@ -500,6 +501,7 @@ def _spine_marker(tree: _Tree, pelvis: int, chest: int, neck: int
     seg = np.array([tree.dist(path[k], path[k + 1]) for k in range(len(path) - 1)])
     f = np.concatenate([[0.0], np.cumsum(seg)]) / seg.sum()
     f_chest = f[path.index(chest)] if chest in path else f[-2]
+    candidates: list[tuple[float, tuple[tuple[int, float], ...]]]
     candidates = [(abs(f[k] - SPINE_FRACTION), ((path[k], 1.0),))
                   for k in range(1, len(path) - 1) if f[k] <= f_chest + 1e-9]
     candidates += [(abs(0.5 * (f[k] + f[k + 1]) - SPINE_FRACTION),
@@ -640,7 +642,8 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
     result = Recognition(
         names=names, parents=tuple(int(p) for p in parents), source=source, pelvis=pelvis,
         spine=spine, chest_branch=chest, neck=neck, head=head, legs=(legs[0], legs[1]),
-        arms=(arms[0], arms[1]), up=tuple(float(x) for x in up), up_axis=_up_axis(up),
+        arms=(arms[0], arms[1]), up=(float(up[0]), float(up[1]), float(up[2])),
+        up_axis=_up_axis(up),
         shoulder_height=shoulder_h, neck_height=neck_h, height=height,
         confidence={k: round(max(0.0, min(1.0, v)), 3) for k, v in confidence.items()},
         notes=tuple(notes), ignored=ignored)

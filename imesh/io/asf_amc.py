@@ -19,6 +19,7 @@ knee, ``ltibia`` the ankle, ``head`` the top of the head).
 from __future__ import annotations
 
 import logging
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -275,10 +276,12 @@ def _parse_amc(path: Path, skel: _Skeleton) -> tuple[dict[str, np.ndarray], int,
     names = set(re.findall(r"^[ \t]*([A-Za-z_][^\s]*)", text, re.M))
     unknown = sorted(n for n in names if n != "root" and n not in skel.bones)
     if unknown:
-        pos = re.search(rf"^[ \t]*{re.escape(unknown[0])}(?=\s|$)", text, re.M).start()
+        found = re.search(rf"^[ \t]*{re.escape(unknown[0])}(?=\s|$)", text, re.M)
+        assert found is not None  # the name was read from the start of a line of this text
+        at = found.start()
         raise MotionFileError(p, f"unknown bone {unknown[0]!r} (skeleton {skel.path} has "
-                              f"{', '.join(['root', *skel.bones])})", line=line_at(pos),
-                              frame=int(np.searchsorted(starts, pos)) - 1)
+                              f"{', '.join(['root', *skel.bones])})", line=line_at(at),
+                              frame=int(np.searchsorted(starts, at)) - 1)
 
     first_frame = int(frame_marks[0].group(1))
     numbers = np.array([int(m.group(1)) for m in frame_marks])
@@ -336,7 +339,7 @@ def _is_float(word: str) -> bool:
     return True
 
 
-def read_asf_amc(amc_path: str | Path, asf_path: str | Path | None = None,
+def read_asf_amc(amc_path: str | os.PathLike[str], asf_path: str | os.PathLike[str] | None = None,
                  fps: float | None = None) -> RawMotion:
     """Read a CMU Acclaim motion (.amc) with its skeleton (.asf).
 
@@ -376,7 +379,12 @@ def read_asf_amc(amc_path: str | Path, asf_path: str | Path | None = None,
     names = ["root", *skel.order]
     index = {n: i for i, n in enumerate(names)}
     n_nodes = len(names)
-    parents = np.array([-1] + [index[skel.bones[b].parent] for b in skel.order], dtype=np.int64)
+    parent_index = [-1]
+    for b in skel.order:
+        parent = skel.bones[b].parent
+        assert parent is not None  # _link gave every bone of the order its parent
+        parent_index.append(index[parent])
+    parents = np.array(parent_index, dtype=np.int64)
     offsets = np.zeros((n_frames, n_nodes, 3))
     rotations = np.broadcast_to(np.eye(3), (n_frames, n_nodes, 3, 3)).copy()
 
@@ -397,6 +405,8 @@ def read_asf_amc(amc_path: str | Path, asf_path: str | Path | None = None,
 
     for j, name in enumerate(skel.order, start=1):
         bone = skel.bones[name]
+        # _finish_bone rejected a bone without a direction or a length
+        assert bone.direction is not None and bone.length is not None
         offsets[:, j] = bone.length * bone.direction
         if bone.dofs:
             c = euler_to_matrix(bone.axis * to_rad, bone.axis_order, applied=True)

@@ -430,6 +430,7 @@ def _read_streamed(p: str, path) -> RawMotion | None:
             return None
         text = head[:m.end()].decode("utf-8", errors="replace")
         mm = re.search(r"^[ \t]*MOTION\b", text, flags=re.MULTILINE | re.IGNORECASE)
+        assert mm is not None  # the header's end _HEAD_END matched starts with a MOTION line
         tail = text[mm.end():].split()
         try:
             n_frames, frame_time = int(tail[1]), float(tail[-1])

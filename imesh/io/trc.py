@@ -197,7 +197,7 @@ def read_trc(path: str | os.PathLike) -> RawMotion:
                               f"({what})", line=int(line_no[row])) from None
 
     positions = table[:, 2:].reshape(-1, n_markers, 3)
-    valid = np.isfinite(positions).all(axis=2)
+    valid = np.asarray(np.isfinite(positions).all(axis=2))
     positions[~valid] = np.nan
     times = table[:, 1]
     rig = detect_rig(names)

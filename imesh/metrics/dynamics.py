@@ -98,11 +98,11 @@ def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                 r = np.where(fz > 0, tang / (mu * np.maximum(fz, 1e-12)), np.inf)
             friction[t] = r.max()
         ratio[t] = np.abs(tau) / robot.effort_max
-    t, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    tw, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)   # the worst frame, joint
     sup = support.any(axis=1)
     ft = int(np.argmax(np.where(sup, friction, -1.0))) if sup.any() else -1
-    return ReferenceDynamics(torque_ratio=float(ratio[t, j]), torque_joint=robot.joint_names[j],
-                             torque_frame=int(t),
+    return ReferenceDynamics(torque_ratio=float(ratio[tw, j]), torque_joint=robot.joint_names[j],
+                             torque_frame=int(tw),
                              friction_ratio=float(friction[ft]) if ft >= 0 else float("nan"),
                              friction_frame=ft, torque_ratios=ratio.max(axis=1),
                              friction_ratios=friction)

@@ -145,12 +145,13 @@ def sole_tracks(robot, q: np.ndarray, fps: float) -> SoleTracks:
     q = np.asarray(q, dtype=float)
     corners = {s: np.empty((len(q), 4, 3)) for s in SIDES}
     centers = {s: np.empty((len(q), 3)) for s in SIDES}
-    frames, offsets = [], []
+    frames: list[str] = []
+    points: list[np.ndarray] = []
     for s in SIDES:
         sole = robot.soles[s]
         frames += [sole.frame] * 5
-        offsets += [*sole.corners(), sole.center]
-    offsets = np.asarray(offsets)
+        points += [*sole.corners(), sole.center]
+    offsets = np.asarray(points)
     for t, qt in enumerate(q):
         pts = robot.frame_positions(qt, frames, offsets)
         for k, s in enumerate(SIDES):
@@ -275,7 +276,12 @@ def desired_zmp(soles: SoleTracks, support: np.ndarray, transition_s: float = 0.
         raw[sel] = soles.centers[s][sel, :2]
     width = max(1, int(round(transition_s * soles.fps)))
     for a, b in runs(n_support == 2):
-        centre = np.array([polygon_centroid(polys[t]) for t in range(a, b)])
+        centres = []
+        for frame in range(a, b):
+            poly = polys[frame]
+            assert poly is not None  # double support: both soles' corners
+            centres.append(polygon_centroid(poly))
+        centre = np.array(centres)
         t = np.arange(a, b)
         w = max(1.0, min(width, (b - a) / 2.0))
         d = centre
@@ -354,7 +360,7 @@ def zmp_report(zmp: np.ndarray, soles: SoleTracks, support: np.ndarray,
         inside[t] = inside_polygon(zmp[t], poly)
         if not inside[t]:
             worst = max(worst, _distance_to_polygon(zmp[t], poly))
-    sup = support.any(axis=1)
+    sup = np.asarray(support.any(axis=1))
     desired = desired_zmp(soles, support, transition_s)
     if sup.any():
         err = np.linalg.norm(zmp[sup] - desired[sup], axis=1)
@@ -500,7 +506,8 @@ def limit_violations(robot, q: np.ndarray, fps: float, position_tol: float = 1e-
         return {names[j]: int(mask[:, j].sum()) for j in np.flatnonzero(mask.any(0))}
 
     return LimitReport(
-        position=pos.any(axis=1), velocity=vel.any(axis=1), acceleration=acc.any(axis=1),
+        position=pos.any(axis=1), velocity=np.asarray(vel.any(axis=1)),
+        acceleration=np.asarray(acc.any(axis=1)),
         position_joints=per_joint(pos), velocity_joints=per_joint(vel),
         acceleration_joints=per_joint(acc),
         worst_position_rad=float(max(over.max(initial=0.0), 0.0)),

@@ -111,7 +111,7 @@ class BandedKKT:
         self._col_idx = np.concatenate([bone_cols.reshape(-1), self.pos_cols])
         self._soft_row_idx = np.repeat(np.arange(self.n_soft_rows), 6)
         self._factor = None
-        self._a = None
+        self._a: sp.csr_matrix | None = None  # by factor()
         self._s = sp.csr_matrix((0, self.n))
 
     def factor(self, directions: np.ndarray, soft_directions: np.ndarray | None = None,
@@ -145,6 +145,8 @@ class BandedKKT:
         self._a = sp.csr_matrix((vals_a, (self._row_idx, self._col_idx)),
                                 shape=(self.n_rows, self.n))
         if self.n_soft_rows:
+            assert soft_directions is not None and soft_weights is not None, \
+                "soft pair rows need their directions and weights"
             root = np.sqrt(soft_weights)[:, None] * soft_directions
             vals_s = np.concatenate([root, -root], axis=1).reshape(-1)
             self._s = sp.csr_matrix(
@@ -181,6 +183,7 @@ class BandedKKT:
             SolverError: the residual stayed above ``fail_tolerance`` (conflicting constraints).
         """
         a, rho = self._a, self.rho
+        assert a is not None, "factor() before solve()"
         lam = np.zeros(self.n_rows) if multipliers is None else multipliers.copy()
         residual = np.inf
         for it in range(1, max_iterations + 1):

@@ -266,6 +266,7 @@ def _run_window(problem: MorphProblem, index: int, seams: list | None, keep_fram
         a = win.kkt.constraint_matrix
         rhs = win.residual_gradient(x, alpha)
         if u_soft is not None:
+            assert w_soft is not None and gap_soft is not None  # all three or none
             rhs += win.kkt.soft_matrix.T @ (np.sqrt(w_soft) * gap_soft)
         # Solve for the increment dx = x' - x: for an identity morph it is exactly zero, and
         # round-off scales with the step, not with the distance of the markers from the origin.

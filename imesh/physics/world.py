@@ -111,7 +111,9 @@ def reduced_urdf(robot) -> str:
         mass = link.find("inertial/mass")
         if mass is not None and float(mass.get("value", "0")) <= 0:
             # a frame link with a zero-mass <inertial> (iCub's *_dh_frame): DART's default
-            link.remove(link.find("inertial"))
+            inertial = link.find("inertial")
+            assert inertial is not None  # it holds the <mass> found above
+            link.remove(inertial)
     fixed = set(robot.config.fixed_joints)
     for joint in root.iter("joint"):
         for m in joint.findall("mimic"):

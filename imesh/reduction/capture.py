@@ -160,9 +160,9 @@ def sagittal_capture(motion: MarkerMotion, iterations: int = 8) -> SagittalCaptu
     # initial angles from the segment directions
     T = std.n_frames
     phi = np.zeros((T, 7))
-    for side, (f, s, t) in (("l", (0, 1, 2)), ("r", (6, 5, 4))):
+    for side, (f, sh, t) in (("l", (0, 1, 2)), ("r", (6, 5, 4))):
         phi[:, t] = _seg_angle_down(markers[f"knee_{side}"] - hip)
-        phi[:, s] = _seg_angle_down(markers[f"ankle_{side}"] - markers[f"knee_{side}"])
+        phi[:, sh] = _seg_angle_down(markers[f"ankle_{side}"] - markers[f"knee_{side}"])
         d = markers[f"toe_{side}"] - markers[f"ankle_{side}"]
         phi[:, f] = -np.arctan2(d[:, 1], d[:, 0]) - foot_ref
     dn = markers["neck"] - hip

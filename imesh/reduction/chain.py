@@ -206,7 +206,7 @@ class PlanarChain:
             seg, order = self._segments(b)
             v = rot(phi[sel][:, list(order)], seg[None])      # (t, 7, 2)
             y[sel] = v[..., 1].sum(axis=1) - self.roller_radius[1 - b]
-            dy[np.ix_(sel, list(order))] = -v[..., 0]          # dz/dphi of each segment
+            dy[np.ix_(sel, np.asarray(order))] = -v[..., 0]          # dz/dphi of each segment
         return y, dy
 
     def step_length(self, phi: np.ndarray, base: np.ndarray | int
@@ -228,7 +228,7 @@ class PlanarChain:
             seg[6] = self.ball[m] - self.joint_xz[3 * m + 2]      # ankle_m -> ball_m
             w = rot(phi[sel][:, list(order)], seg[None])
             d[sel] = w[..., 0].sum(axis=1)
-            dd[np.ix_(sel, list(order))] = w[..., 1]
+            dd[np.ix_(sel, np.asarray(order))] = w[..., 1]
         return d, dd
 
     def slip_velocity(self, phi: np.ndarray, phid: np.ndarray, base: np.ndarray | int
@@ -252,7 +252,7 @@ class PlanarChain:
             if not sel.size:
                 continue
             seg, order = self._segments(b)
-            o = list(order)
+            o = np.asarray(order)
             w = rot(phi[sel][:, o], seg[None])               # (t, 7, 2)
             rate = phid[sel][:, o]
             v[sel] = np.sum(w[..., 1] * rate, axis=1)

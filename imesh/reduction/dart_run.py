@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -185,8 +186,8 @@ def simulate_planar(result, config: DartConfig | None = None, urdf_path=PLANAR_B
     limit = ch.effort
     steps = int(round(cfg.cycles * period / cfg.time_step))
     rec_every = max(1, int(round(0.01 / cfg.time_step)))
-    rec = {k: [] for k in ("t", "q", "q_ref", "torso", "u_ff", "u_fb", "grf", "contact_fz",
-                           "toe_x")}
+    rec: dict[str, list[Any]] = {k: [] for k in ("t", "q", "q_ref", "torso", "u_ff", "u_fb",
+                                                 "grf", "contact_fz", "toe_x")}
     contact_bodies = ("toe_l", "roller_l", "toe_r", "roller_r")
     toes = [robot.getBodyNode("toe_l"), robot.getBodyNode("toe_r")]
     fell, reason = False, ""

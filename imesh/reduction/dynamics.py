@@ -90,7 +90,7 @@ def _lump(pin, model, q0: np.ndarray, joint_names: tuple[str, ...]) -> dict:
     pin.forwardKinematics(model, data, q0)
     pin.updateFramePlacements(model, data)
     names = list(model.names)
-    ids = []
+    ids: list[int] = []
     for n in joint_names:
         if n not in names:
             raise ChainError(f"robot has no joint {n!r} (needed as {JOINTS[len(ids)]}); "
@@ -134,15 +134,15 @@ def _planar_biped_cached(path: str, mtime: float) -> PlanarChain:
     ball = np.array([_frame_xz(pin, model, data, f"toe_{s}") for s in "lr"])
     tip = np.array([_frame_xz(pin, model, data, f"toe_tip_{s}") for s in "lr"])
     roller = np.array([_frame_xz(pin, model, data, f"roller_{s}") for s in "lr"])
-    radius = []
+    radii: list[float] = []
     root = ET.parse(path).getroot()
     for s in "lr":
         link = root.find(f"./link[@name='roller_{s}']")
         sphere = None if link is None else link.find("./collision/geometry/sphere")
-        if sphere is None:
-            raise ChainError(f"{path}: link roller_{s} has no collision sphere")
-        radius.append(float(sphere.get("radius")))
-    radius = np.array(radius)
+        radius = None if sphere is None else sphere.get("radius")
+        if radius is None:
+            raise ChainError(f"{path}: link roller_{s} has no collision sphere with a radius")
+        radii.append(float(radius))
     ground = ball[:, 1].mean()
     shift = np.array([0.0, ground])
     lower, upper, effort, velocity = (np.array([model.lowerPositionLimit[model.joints[j].idx_q]
@@ -154,13 +154,17 @@ def _planar_biped_cached(path: str, mtime: float) -> PlanarChain:
                                       np.array([model.velocityLimit[model.joints[j].idx_v]
                                                 for j in lump["ids"]]))
     torso = root.find("./link[@name='torso']/visual/geometry/box")
-    top = 0.27 if torso is None else float(torso.get("size").split()[2])
+    size = None if torso is None else torso.get("size")
+    if torso is not None and size is None:
+        raise ChainError(f"{path}: the torso's visual box has no size")
+    top = 0.27 if size is None else float(size.split()[2])
     head = lump["joint_xz"][0] + np.array([0.0, top]) - shift
     return PlanarChain(
         name="planar_biped", mass=lump["mass"], com=lump["com"] - shift,
         inertia=lump["inertia"], joint_xz=lump["joint_xz"] - shift, joint_sign=lump["sign"],
         joint_names=JOINTS, ball=ball - shift, tip=tip - shift, roller=roller - shift,
-        roller_radius=radius, q_lower=lower, q_upper=upper, effort=effort, velocity=velocity,
+        roller_radius=np.array(radii), q_lower=lower, q_upper=upper, effort=effort,
+        velocity=velocity,
         source=path, meta={"head_xz": head, "height_m": float(head[1]),
                            "groups": lump["groups"]})
 
@@ -203,15 +207,16 @@ def chain_from_robot(robot, joint_names: tuple[str, ...] | None = None) -> Plana
     lump = _lump(pin, model, q0, tuple(names))
     data = lump["data"]
     root0 = np.array(data.oMi[1].translation[[0, 2]])
-    ball, tip = [], []
+    balls: list[np.ndarray] = []
+    tips: list[np.ndarray] = []
     for s in ("left", "right"):
         sole = robot.soles[s]
         M = data.oMf[model.getFrameId(sole.frame)]
         front = M.act(sole.center + np.array([sole.half_extents[0], 0, 0]))
         back = M.act(sole.center - np.array([sole.half_extents[0], 0, 0]))
-        ball.append(back[[0, 2]])
-        tip.append(front[[0, 2]])
-    ball, tip = np.array(ball), np.array(tip)
+        balls.append(back[[0, 2]])
+        tips.append(front[[0, 2]])
+    ball, tip = np.array(balls), np.array(tips)
     ground = ball[:, 1].mean()
     shift = np.array([0.0, ground])
     jidx = [model.joints[j] for j in lump["ids"]]
@@ -459,7 +464,7 @@ class ChainDynamics:
         acc = np.empty_like(acc_o)
         for b in (0, 1):
             sel = np.flatnonzero(base == b)
-            acc[np.ix_(sel, list(BASE_ORDER[b]))] = acc_o[sel]
+            acc[np.ix_(sel, np.asarray(BASE_ORDER[b]))] = acc_o[sel]
         grf, active, G = self._grf(lam, base, line)
         if not derivatives:
             return DynamicsResult(acc=acc, lam=lam, grf=grf, grf_active=active)
@@ -506,12 +511,13 @@ class ChainDynamics:
             sel = np.flatnonzero(base == b)
             if not sel.size:
                 continue
-            o = list(BASE_ORDER[b])
+            # index arrays, not lists or ranges: numpy's stub of ix_ takes one kind for all
+            o = np.asarray(BASE_ORDER[b])
             dacc_dphi[np.ix_(sel, o, o)] = dacc_o_dq[sel]
             dacc_dphid[np.ix_(sel, o, o)] = dacc_o_dv[sel]
-            dacc_du[np.ix_(sel, o, range(6))] = dacc_o_du[sel]
-            dl_dphi[np.ix_(sel, range(4), o)] = dl_dq[sel]
-            dl_dphid[np.ix_(sel, range(4), o)] = dl_dv[sel]
+            dacc_du[np.ix_(sel, o, np.arange(6))] = dacc_o_du[sel]
+            dl_dphi[np.ix_(sel, np.arange(4), o)] = dl_dq[sel]
+            dl_dphid[np.ix_(sel, np.arange(4), o)] = dl_dv[sel]
         return DynamicsResult(
             acc=acc, lam=lam, grf=grf, grf_active=active, dacc_dphi=dacc_dphi,
             dacc_dphid=dacc_dphid, dacc_du=dacc_du, dgrf_dphi=G @ dl_dphi,

@@ -236,7 +236,7 @@ def fourier_basis(n: int, harmonics: int | None) -> np.ndarray:
 
 #: residual rows per frame: 7 accelerations, closure, slip, 3 forces, 6 angles, 6 torques,
 #: friction
-_ROWS = {"acc": slice(0, 7), "closure": 7, "slip": 8, "grf": slice(9, 12),
+_ROWS: dict[str, slice | int] = {"acc": slice(0, 7), "closure": 7, "slip": 8, "grf": slice(9, 12),
          "angle": slice(12, 18), "torque": slice(18, 24), "friction": 24, "step": 25}
 _M = 26
 
@@ -386,6 +386,8 @@ class MotionOptimizer:
         c = self.config
         ch = self.chain
         d = ev.dyn
+        # evaluate() computes the derivatives by default, and the optimizer never turns them off
+        assert d.dlam_dphi is not None and d.dlam_dphid is not None and d.dlam_du is not None
         n = self.n
         e = np.zeros((n, _M))
         Eq = np.zeros((n, _M, 7))
@@ -490,7 +492,7 @@ class MotionOptimizer:
         Htt = J2.T @ J2
         gt = J2.T @ e.reshape(-1)
         Htu = np.einsum("kip,kiu->pku", Jt, Eu).reshape(Pt, n * 6)
-        Huu = np.zeros((n, 6, n, 6))
+        Huu: np.ndarray = np.zeros((n, 6, n, 6))          # reshaped to (n 6, n 6) below
         Huu[np.arange(n), :, np.arange(n), :] = np.einsum("kiu,kiv->kuv", Eu, Eu)
         gu = np.einsum("kiu,ki->ku", Eu, e).reshape(-1)
         obj = float(np.sum(e ** 2))
@@ -575,6 +577,7 @@ class MotionOptimizer:
         """The initial motion with the torques that best fit it (least squares of J_m, frame by
         frame): J_m of the motion itself, not of arbitrary torques."""
         ev = self.evaluate(self.phi0, np.zeros((self.n, 6)))
+        assert ev.dyn.dacc_du is not None          # evaluate() computes the derivatives
         torque = ev.torque + np.stack([np.linalg.lstsq(P, r, rcond=1e-10)[0] for P, r in
                                        zip(ev.dyn.dacc_du, ev.residual, strict=True)])
         return self.evaluate(self.phi0, torque)

@@ -12,6 +12,7 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,9 @@ from .contact import ContactSchedule, contact_schedule
 from .cyclic import CyclicMotion, make_cyclic
 from .dynamics import ChainDynamics, chain_from_robot, planar_biped_chain
 from .optimize import IterationRecord, MotionOptimizer, OptimizationResult, ReductionConfig
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (imported lazily at run time)
+    from ..robot import Robot
 
 log = logging.getLogger(__name__)
 
@@ -159,7 +163,7 @@ class ReductionResult:
         return rep
 
 
-def resolve_chain(robot: str | PlanarChain | object) -> tuple[str, PlanarChain]:
+def resolve_chain(robot: str | PlanarChain | Robot) -> tuple[str, PlanarChain]:
     """A robot name (planar_biped, or a robot of robots/ such as jvrc1), a PlanarChain or a
     loaded Robot, as (name, chain)."""
     if isinstance(robot, PlanarChain):
@@ -199,7 +203,7 @@ def ball_positions(chain: PlanarChain, phi: np.ndarray, schedule: ContactSchedul
     return x, float(last)
 
 
-def reduce_motion(motion: MarkerMotion, robot: str | PlanarChain | object = PLANAR_ROBOT,
+def reduce_motion(motion: MarkerMotion, robot: str | PlanarChain | Robot = PLANAR_ROBOT,
                   config: ReductionConfig | None = None, cycle: CycleConfig | None = None,
                   progress: Callable[[IterationRecord], None] | None = None
                   ) -> ReductionResult:

@@ -492,8 +492,11 @@ class MeshCollisionChecker:
 
         self._coal = coal
         self.robot = robot
-        self.model = robot.capsule_model() if ignored is None else None
-        ignored = self.model.ignored if ignored is None else ignored
+        if ignored is None:
+            self.model = robot.capsule_model()
+            ignored = self.model.ignored
+        else:
+            self.model = None
         links, _ = robot_bodies(robot)
         geometry = robot.link_geometry()
         #: "collision" (the URDF's collision elements) or "visual" (its visual meshes, for a

@@ -42,6 +42,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypedDict
 
 import numpy as np
 
@@ -97,6 +98,14 @@ class Sole:
     z: float
 
 
+class LimitDefaults(TypedDict):
+    """Joint -> the default limit used where the URDF has no valid value."""
+
+    position: dict[str, tuple[float, float]]  # (lower, upper) [rad]
+    velocity: dict[str, float]                # [rad/s]
+    effort: dict[str, float]                  # [Nm]
+
+
 @dataclass(frozen=True, eq=False)
 class GeneratedConfig:
     """A configuration generated from a URDF: what robot.toml and markers.toml will say
@@ -139,7 +148,7 @@ class GeneratedConfig:
     kept: tuple[str, ...]
     fixed: tuple[str, ...]
     nominal: Mapping[str, float]
-    limits: Mapping[str, Mapping[str, object]]
+    limits: LimitDefaults
     use_visual: tuple[str, ...]
     defaults: tuple[str, ...]
     leg_length_m: float
@@ -336,10 +345,10 @@ def _trunk_points(tree: UrdfTree, limbs: Mapping[str, Limb], leg_len: float, up:
 # joints and limits
 
 
-def _limits(tree: UrdfTree, kept: list[str], defaults: list[str]) -> dict[str, dict]:
+def _limits(tree: UrdfTree, kept: list[str], defaults: list[str]) -> LimitDefaults:
     """Defaults for the limits the URDF lacks (and a note on placeholder-looking ones)."""
     m, jid = tree.model, tree.jid
-    table: dict[str, dict] = {"position": {}, "velocity": {}, "effort": {}}
+    table: LimitDefaults = {"position": {}, "velocity": {}, "effort": {}}
     for n in kept:
         jm = m.joints[jid[n]]
         lo, hi = m.lowerPositionLimit[jm.idx_q], m.upperPositionLimit[jm.idx_q]
@@ -351,7 +360,8 @@ def _limits(tree: UrdfTree, kept: list[str], defaults: list[str]) -> dict[str, d
             table["velocity"][n] = DEFAULTS["velocity"][0]
         if not (np.isfinite(e) and 0 < e < 1e6):
             table["effort"][n] = DEFAULTS["effort"][0]
-    for what, given in table.items():
+    for what, given in (("position", table["position"]), ("velocity", table["velocity"]),
+                        ("effort", table["effort"])):
         if given:
             names = list(given)
             defaults.append(f"{what} limit missing for {len(names)} joint(s) "

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from importlib import import_module, metadata
 from pathlib import Path
 from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -46,9 +47,17 @@ from .config import (
 )
 from .registry import resolve_robot_toml
 
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    import pinocchio  # no type information: its classes are Any to mypy
+
+    from .capsules import CapsuleModel
+
 log = logging.getLogger(__name__)
 
 GRAVITY = 9.81
+
+#: Frames as names or indices: a sequence, or an int array of indices.
+FrameRefs = Sequence[int | str] | np.ndarray
 
 
 def _pinocchio() -> ModuleType:
@@ -107,7 +116,8 @@ def resolve_urdf(config: RobotConfig, urdf: str | os.PathLike | None) -> tuple[P
             mod = None
             tried.append(f"import {m.package}")
         if mod is not None:
-            pkg_dir = Path(mod.__file__).parent if getattr(mod, "__file__", None) else None
+            mod_file = getattr(mod, "__file__", None)
+            pkg_dir = Path(mod_file).parent if mod_file else None
             attr = getattr(mod, m.urdf, None) if m.urdf.isidentifier() else None
             candidates = [Path(attr)] if isinstance(attr, str | os.PathLike) else []
             if pkg_dir is not None:
@@ -127,7 +137,8 @@ def resolve_urdf(config: RobotConfig, urdf: str | os.PathLike | None) -> tuple[P
             suffix = m.urdf.replace("\\", "/").lstrip("/")
             for f in dist.files or ():
                 if str(f).replace("\\", "/").endswith(suffix):
-                    path = Path(dist.locate_file(f))
+                    # typed as a SimplePath: a pathlib.Path for an installed distribution
+                    path = Path(str(dist.locate_file(f)))
                     if path.is_file():
                         return path, _package_dirs(path)
             tried.append(f"{m.distribution} files ending with {suffix}")
@@ -147,7 +158,7 @@ class _Built:
     config: RobotConfig
     markers: MarkerConfig | None
     urdf: Path
-    model: object
+    model: pinocchio.Model
     q_nominal: np.ndarray
     q_lower: np.ndarray
     q_upper: np.ndarray
@@ -159,7 +170,7 @@ class _Built:
     ignored: set[tuple[str, str]]
     adjacent: set[tuple[str, str]] = field(default_factory=set)
     geometry: dict = field(default_factory=dict)  # link -> {"collision": [...], "visual": [...]}
-    capsules: object = None  # the CapsuleModel, built on first use
+    capsules: CapsuleModel | None = None  # built on first use
 
 
 _CACHE: dict[tuple, _Built] = {}
@@ -205,6 +216,7 @@ def _geometry_items(pin, model, geom_model, source: str) -> list[GeometryItem]:
         geo = g.geometry
         cls = type(geo).__name__
         verts = None
+        dims: tuple[float, ...]
         if cls.startswith("BVHModel") or cls.startswith("Convex"):
             kind, dims = "mesh", ()
             pts = geo.vertices() if hasattr(geo, "vertices") else geo.points()
@@ -642,7 +654,7 @@ class Robot:
                 np.array([k.offset for k in kp.values()], dtype=float).reshape(-1, 3),
                 np.array([k.weight for k in kp.values()], dtype=float))
 
-    def _ids(self, frames: Sequence[int | str]) -> list[int]:
+    def _ids(self, frames: FrameRefs) -> list[int]:
         return [self.frame_id(f) if isinstance(f, str) else int(f) for f in frames]
 
     # --- kinematics --------------------------------------------------------------------------
@@ -691,7 +703,7 @@ class Robot:
         elif not self._jac_valid:
             self.forward(self._q)
 
-    def frame_placements(self, q, frames: Sequence[int | str]) -> np.ndarray:
+    def frame_placements(self, q, frames: FrameRefs) -> np.ndarray:
         """(F, 4, 4) float world poses of frames.
 
         Args:
@@ -701,7 +713,7 @@ class Robot:
         self._fk(q)
         return np.array([self.data.oMf[i].homogeneous for i in self._ids(frames)])
 
-    def frame_positions(self, q, frames: Sequence[int | str],
+    def frame_positions(self, q, frames: FrameRefs,
                         offsets: np.ndarray | None = None) -> np.ndarray:
         """(F, 3) float [m] world positions of points fixed in frames.
 
@@ -718,12 +730,12 @@ class Robot:
             out[k] = M.translation if offsets is None else M.rotation @ offsets[k] + M.translation
         return out
 
-    def frame_rotations(self, q, frames: Sequence[int | str]) -> np.ndarray:
+    def frame_rotations(self, q, frames: FrameRefs) -> np.ndarray:
         """(F, 3, 3) float world rotations of frames (columns = frame axes in the world)."""
         self._fk(q)
         return np.array([self.data.oMf[i].rotation for i in self._ids(frames)])
 
-    def point_jacobians(self, q, frames: Sequence[int | str],
+    def point_jacobians(self, q, frames: FrameRefs,
                         offsets: np.ndarray | None = None) -> np.ndarray:
         """(F, 3, nv) float world-aligned linear Jacobians of points fixed in frames.
 
@@ -748,7 +760,7 @@ class Robot:
                 out[k] = J[:3] - _skew(r) @ J[3:]
         return out
 
-    def frame_jacobians(self, q, frames: Sequence[int | str]) -> np.ndarray:
+    def frame_jacobians(self, q, frames: FrameRefs) -> np.ndarray:
         """(F, 6, nv) float world-aligned Jacobians of frames: rows 0-2 the frame origin's
         linear velocity, rows 3-5 the angular velocity (one pinocchio call per frame, where
         :meth:`point_jacobians` and :meth:`frame_angular_jacobians` make one each)."""
@@ -759,7 +771,7 @@ class Robot:
             out[k] = pin.getFrameJacobian(self.model, self.data, i, pin.LOCAL_WORLD_ALIGNED)
         return out
 
-    def trajectory_kinematics(self, q: np.ndarray, frames: Sequence[int | str]
+    def trajectory_kinematics(self, q: np.ndarray, frames: FrameRefs
                               ) -> TrajectoryKinematics:
         """Placements and world-aligned Jacobians of frames, CoM and its Jacobian, at every
         configuration of a trajectory (one pass of pinocchio calls per configuration: joint
@@ -846,7 +858,7 @@ class Robot:
         self._jac_valid = False
         return tau, dtau
 
-    def frame_angular_jacobians(self, q, frames: Sequence[int | str]) -> np.ndarray:
+    def frame_angular_jacobians(self, q, frames: FrameRefs) -> np.ndarray:
         """(F, 3, nv) float world angular-velocity Jacobians of frames (``omega = J @ v``)."""
         self._jac(q)
         pin = self._pin
@@ -1059,7 +1071,7 @@ class Robot:
         hits = [(a, b, -d) for (a, b), d in self.shape_pair_distances(q).items() if -d > depth]
         return sorted(hits, key=lambda h: -h[2])
 
-    def capsule_model(self):
+    def capsule_model(self) -> CapsuleModel:
         """The self-collision capsules and the pairs checked
         (:class:`imesh.robot.capsules.CapsuleModel`), built on first use and shared by the
         Robots of the same files."""

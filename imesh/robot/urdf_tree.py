@@ -160,7 +160,7 @@ class UrdfTree:
         self.root_link = self.link_of(1)
 
     def revolute(self, j: int) -> bool:
-        return self.model.joints[j].nq == 1 and np.linalg.norm(self.axis[j]) > 0.5
+        return bool(self.model.joints[j].nq == 1 and np.linalg.norm(self.axis[j]) > 0.5)
 
     def link_of(self, j: int) -> str:
         """The link a joint moves (the first body frame on it)."""

@@ -11,8 +11,12 @@ import os
 import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
 from ..errors import ImeshError
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (Playwright is the optional viz extra)
+    from playwright.sync_api import Page
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +41,7 @@ def find_chromium() -> str | None:
 
 
 @contextmanager
-def chromium_page(width: int = 1000, height: int = 700) -> Iterator[tuple[object, list[str]]]:
+def chromium_page(width: int = 1000, height: int = 700) -> Iterator[tuple[Page, list[str]]]:
     """A Playwright page in headless Chromium, and the list its console errors and page errors
     are appended to.
 

@@ -87,7 +87,8 @@ def visual_meshes(robot, max_faces: int = 40_000, cell_m: float = 0.004) -> list
                 continue
             verts, faces = mesh
         verts = verts @ T[:3, :3].T + T[:3, 3]
-        color = tuple(float(c) for c in np.asarray(g.meshColor)[:3])
+        red, green, blue = (float(c) for c in np.asarray(g.meshColor)[:3])  # RGBA
+        color = (red, green, blue)
         if np.allclose(color, 0.0):
             color = (0.7, 0.7, 0.7)
         out.append(VisualMesh(link=frame.name, vertices=verts.astype(np.float32),

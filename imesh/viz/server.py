@@ -28,16 +28,18 @@ class ViewerServer:
     def __init__(self, scene: dict, host: str = "127.0.0.1", port: int = 0):
         page = viewer_html(None).encode("utf-8")
         data = json.dumps(scene, separators=(",", ":")).encode("utf-8")
-        routes = {"/": (page, "text/html; charset=utf-8"),
-                  "/index.html": (page, "text/html; charset=utf-8"),
-                  "/scene.json": (data, "application/json")}
+        routes: dict[str, tuple[bytes, str]] = {
+            "/": (page, "text/html; charset=utf-8"),
+            "/index.html": (page, "text/html; charset=utf-8"),
+            "/scene.json": (data, "application/json")}
 
         class Handler(BaseHTTPRequestHandler):
             def do_GET(self):  # noqa: N802 (http.server's name)
-                body, kind = routes.get(self.path.split("?")[0], (None, None))
-                if body is None:
+                route = routes.get(self.path.split("?")[0])
+                if route is None:
                     self.send_error(404)
                     return
+                body, kind = route
                 self.send_response(200)
                 self.send_header("Content-Type", kind)
                 self.send_header("Content-Length", str(len(body)))
@@ -51,6 +53,7 @@ class ViewerServer:
         self._httpd = ThreadingHTTPServer((host, port), Handler)
         self._httpd.daemon_threads = True
         h, p = self._httpd.server_address[:2]
+        assert isinstance(h, str)  # an AF_INET server's host (typeshed allows bytes for others)
         self.url = f"http://{h}:{p}/"
         self._thread = threading.Thread(target=self._httpd.serve_forever, daemon=True)
         self._thread.start()
