@@ -24,9 +24,15 @@ Tables (each printed as it is measured; docs/speed.md quotes them):
   wall seconds and peak memory.
 * ``scaling``: ``imesh retarget`` on such concatenated clips of ``--scaling-frames`` frames
   (source frames at 120 Hz; "solved" counts the working frames at 30 fps with the lead-in
-  and lead-out, "windows" the whole-body windows): the pipeline's own time (the report's
-  ``seconds.total``, without start-up and robot load), peak memory, and the exponent of a
-  least-squares fit ``time ~ frames^k``.
+  and lead-out, "windows" the whole-body windows, "workers" its processes): the pipeline's
+  own time (the report's ``seconds.total``, without start-up and robot load), the cpu
+  seconds of the whole process tree (user + system; under other jobs' load they move far
+  less than wall seconds), the 5-minute load average at the row's end, peak memory
+  (the resident memory of the process and its children summed, sampled every 0.2 s with
+  psutil: a worker's memory counts too), and the exponent of a least-squares fit
+  ``time ~ frames^k`` of both times. ``--workers 1`` or ``2`` sets ``RetargetConfig.workers`` (the
+  command line has no flag for it: the CLI's configuration is wrapped); default the
+  library's (2 from 3 windows on).
 
 Single runs: on a shared machine quote ``farm-bench`` medians for any claim (docs/speed.md).
 """
@@ -203,32 +209,80 @@ def table_inspect(source: Path, n_frames: int, tmp: Path) -> None:
     print(f"wall {wall:.2f} s, peak {peak:.0f} MB")
 
 
-def table_scaling(source: Path, sizes: list[int], robot: str, tmp: Path) -> None:
+#: ``python -c`` prefix running the CLI with ``RetargetConfig.workers`` set (argv[1]).
+_WORKERS_SHIM = ("import dataclasses, sys; import imesh.cli as c; f = c._retarget_config; "
+                 "w = int(sys.argv.pop(1)); "
+                 "c._retarget_config = lambda *a, **k: dataclasses.replace(f(*a, **k), "
+                 "workers=w); sys.exit(c.main(sys.argv[1:]))")
+
+
+def _timed_tree(argv: list[str], env: dict | None = None) -> tuple[float, float, float]:
+    """Run a command: (wall s, cpu s (user + system of it and every process it waited for),
+    peak MB of its resident memory summed over the process and its children, sampled every
+    0.2 s)."""
+    import resource
+
+    import psutil
+
+    def cpu() -> float:
+        use = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return use.ru_utime + use.ru_stime
+
+    cpu0 = cpu()
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    root, peak = psutil.Process(proc.pid), 0
+    while proc.poll() is None:
+        try:
+            tree = [root, *root.children(recursive=True)]
+            peak = max(peak, sum(p.memory_info().rss for p in tree))
+        except psutil.Error:  # a process ended between the listing and the reading
+            pass
+        time.sleep(0.2)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(argv)} exited {proc.returncode}:\n"
+                         f"{proc.stderr.read().decode()[-2000:]}")
+    return wall, cpu() - cpu0, peak / 2 ** 20
+
+
+def table_scaling(source: Path, sizes: list[int], robot: str, tmp: Path,
+                  workers: int | None = None) -> None:
     import numpy as np
 
-    print(f"\n## scaling: imesh retarget --robot {robot} on {source.name} concatenated\n")
-    head = (f"{'frames':>7} {'solved':>7} {'windows':>7} {'pipeline s':>11} {'ms/frame':>9} "
-            f"{'wall s':>8} {'peak MB':>8}")
+    print(f"\n## scaling: imesh retarget --robot {robot} on {source.name} concatenated"
+          f"{'' if workers is None else f', workers={workers}'}\n")
+    head = (f"{'frames':>7} {'solved':>7} {'windows':>7} {'workers':>7} {'pipeline s':>11} "
+            f"{'ms/frame':>9} {'wall s':>8} {'cpu s':>8} {'load':>5} {'peak MB':>8}")
     print(head)
     print("-" * len(head))
-    xs, ys = [], []
+    xs, ys, cs = [], [], []
     for n in sizes:
         clip = concatenated_bvh(source, n, tmp / f"scale_{n}.bvh")
         report = tmp / f"scale_{n}.json"
-        wall, peak, _ = _timed(_imesh("-q", "retarget", str(clip), "--robot", robot, "-o",
-                                      str(tmp / f"scale_{n}.npz"), "--json", str(report),
-                                      "--force"), _env())
+        args = ["-q", "retarget", str(clip), "--robot", robot, "-o",
+                str(tmp / f"scale_{n}.npz"), "--json", str(report), "--force"]
+        cmd = _imesh(*args) if workers is None else \
+            [sys.executable, "-c", _WORKERS_SHIM, str(workers), *args]
+        wall, cpu, peak = _timed_tree(cmd, _env())
+        load = os.getloadavg()[1]  # over the last 5 minutes: the machine beside this row
         rep = json.loads(report.read_text())
         total = rep["seconds"]["total"]
-        windows = int(rep["wholebody"]["seconds"].get("windows", 1))
+        seconds = rep["wholebody"]["seconds"]
+        windows = int(seconds.get("windows", 1))
+        used = int(seconds.get("workers", 1))
         solved = rep["frames"]
         xs.append(n)
         ys.append(total)
-        print(f"{n:>7} {solved:>7} {windows:>7} {total:>11.2f} {1e3 * total / n:>9.2f} "
-              f"{wall:>8.2f} {peak:>8.0f}", flush=True)
+        cs.append(cpu)
+        print(f"{n:>7} {solved:>7} {windows:>7} {used:>7} {total:>11.2f} "
+              f"{1e3 * total / n:>9.2f} {wall:>8.2f} {cpu:>8.2f} {load:>5.2f} {peak:>8.0f}",
+              flush=True)
     if len(xs) >= 2:
         k = np.polyfit(np.log(xs), np.log(ys), 1)[0]
-        print(f"fitted exponent (time ~ frames^k): k = {k:.3f}")
+        k_cpu = np.polyfit(np.log(xs), np.log(cs), 1)[0]
+        # cpu seconds hardly move with the load of other jobs, wall seconds do
+        print(f"fitted exponent (time ~ frames^k): pipeline k = {k:.3f}, cpu k = {k_cpu:.3f}")
 
 
 def main(argv=None) -> int:
@@ -239,6 +293,8 @@ def main(argv=None) -> int:
     ap.add_argument("--clips", nargs="+", default=list(CLIPS))
     ap.add_argument("--inspect-frames", type=int, default=216000)
     ap.add_argument("--scaling-frames", type=int, nargs="+", default=[500, 1000, 2000])
+    ap.add_argument("--workers", type=int, choices=(1, 2), default=None,
+                    help="RetargetConfig.workers of the scaling table (default: the library's)")
     ap.add_argument("--out", help="folder of the written motions (default: a temporary one)")
     args = ap.parse_args(argv)
     clips = [data_root() / "mocap" / c for c in args.clips]
@@ -259,7 +315,7 @@ def main(argv=None) -> int:
             elif table == "inspect":
                 table_inspect(clips[0], args.inspect_frames, tmp)
             elif table == "scaling":
-                table_scaling(clips[0], args.scaling_frames, args.robot, tmp)
+                table_scaling(clips[0], args.scaling_frames, args.robot, tmp, args.workers)
             sys.stdout.flush()
     return 0
 

@@ -78,6 +78,10 @@ class RetargetConfig:
             linearly; 900 frames (30 s at 30 fps) keeps every shared clip but the long idle in
             one window.
         window_overlap_frames: frames at the end of a window solved again by the next.
+        workers: processes of a windowed whole-body solve: 1 (the windows in order) or 2 (two
+            chains of windows in two processes joined by a window held at both ends,
+            :func:`imesh.solve.windows.solve_windowed`); None: 2 when the solve has at least
+            3 windows, else 1. A solve of one window ignores it.
     """
 
     fps: float | None = 30.0
@@ -96,6 +100,7 @@ class RetargetConfig:
     pelvis_weight: float = 3.0
     window_frames: int = 900
     window_overlap_frames: int = 60
+    workers: int | None = None
 
     def __post_init__(self) -> None:
         if self.balance not in BALANCE_MODES:
@@ -112,6 +117,10 @@ class RetargetConfig:
             raise OptionError("window_frames", self.window_frames,
                               f"an integer >= {2 * (self.window_overlap_frames + 4)} (twice "
                               "the overlap and the 4 frames held at the previous window)")
+        if self.workers is not None and (type(self.workers) is not int
+                                         or self.workers not in (1, 2)):
+            raise OptionError("workers", self.workers,
+                              "1, 2 or None (2 when the solve has 3 windows or more)")
         if self.balance == "wholebody" and self.support is None:
             raise OptionError("support", None, "a SupportConfig: the whole-body solve plans "
                               "footprints from the support phases")
@@ -421,14 +430,18 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
             notify(progress, "wholebody", done, total, n_out, f"SQP iteration {done}")
 
         if n_out > config.window_frames:
-            from .solve.windows import solve_windowed
+            from .solve import windows
 
             def window_step(done: int, total: int, text: str) -> None:
                 notify(progress, "wholebody", done, total, n_out, text)
 
-            solution = solve_windowed(robot, plan, footprints, targets, config.wholebody,
-                                      config.window_frames, config.window_overlap_frames,
-                                      progress=window_step)
+            workers = config.workers
+            if workers is None:  # a second process pays from 3 windows on
+                workers = 2 if len(windows.window_layout(
+                    n_out, config.window_frames, config.window_overlap_frames)) >= 3 else 1
+            solution = windows.solve_windowed(
+                robot, plan, footprints, targets, config.wholebody, config.window_frames,
+                config.window_overlap_frames, progress=window_step, workers=workers)
         else:
             solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody,
                                         progress=sqp_step)

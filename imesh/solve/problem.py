@@ -247,6 +247,9 @@ class Plan:
             has them only where it is the clip's start or end.
         q_start: (T, nq) the SQP's starting trajectory (None: ``q_init``, which stays the
             initializer the joints are pulled towards).
+        fixed_end_frames: the last this many frames do not move either (the window joining
+            two chains of windows solved in parallel ends on the second chain's solution:
+            :mod:`imesh.solve.windows`).
     """
 
     marker_points: np.ndarray
@@ -269,6 +272,7 @@ class Plan:
     fixed_frames: int = 0
     rest_ends: tuple[bool, bool] = (True, True)
     q_start: np.ndarray | None = None
+    fixed_end_frames: int = 0
 
 
 def gradient_operator(n: int, h: float) -> sp.csr_matrix:
@@ -475,6 +479,11 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         fixed = np.arange(min(plan.fixed_frames, T))
         eq.append(_rows_at(np.repeat(fixed, nv), np.tile(np.eye(nv), (len(fixed), 1)), nx, T))
         rhs.append(np.zeros(len(fixed) * nv))
+    # the same at the end of a join window (held at the next chain's solution)
+    if plan.fixed_end_frames:
+        fixed = np.arange(max(T - plan.fixed_end_frames, 0), T)
+        eq.append(_rows_at(np.repeat(fixed, nv), np.tile(np.eye(nv), (len(fixed), 1)), nx, T))
+        rhs.append(np.zeros(len(fixed) * nv))
     A = sp.vstack(eq, format="csc")
     b = np.concatenate(rhs)
 
@@ -613,11 +622,13 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     P = ((P + P.T) * 0.5).tocsc()
     low = np.concatenate(lo) if lo else np.zeros(0)
     high = np.concatenate(hi) if hi else np.zeros(0)
-    if plan.fixed_frames and G.shape[0]:
+    if (plan.fixed_frames or plan.fixed_end_frames) and G.shape[0]:
         # rows in the fixed frames' unknowns only are constants (their one-sided differences
         # met by slack, at a constant price): without them the interior point takes 25
         # iterations instead of 60-250
-        touches = (abs(G) @ (np.arange(N) >= plan.fixed_frames * nx).astype(float)) > 0
+        free = (np.arange(N) >= plan.fixed_frames * nx) & (
+            np.arange(N) < (T - plan.fixed_end_frames) * nx)
+        touches = (abs(G) @ free.astype(float)) > 0
         G, low, high = G[touches], low[touches], high[touches]
     return QpProblem(P=P, c=np.asarray(c).ravel(), A=A, b=b, G=G, l=low, u=high,
                      x_l=x_l.ravel(), x_u=x_u.ravel())

@@ -342,8 +342,9 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
     hp_frame, hp_n, hp_b = plan.halfplanes
     outside = (hp_b + margin - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1))
     # a window's first two (fixed) frames have one-sided differences: their ZMP is the
-    # previous window's business
-    outside = outside[hp_frame >= min(plan.fixed_frames, 2)]
+    # previous window's business (and a join window's last two the next chain's)
+    outside = outside[(hp_frame >= min(plan.fixed_frames, 2))
+                      & (hp_frame < len(q) - min(plan.fixed_end_frames, 2))]
     # distance outside a convex polygon >= largest violated half-plane distance
     zmp_out = float(np.maximum(outside, 0).max(initial=0.0))
     qj = q[:, 7:]
@@ -391,7 +392,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         try:
             # a window's QP (fixed first frames): PIQP's duality-gap test stalls there
             sol = solve_qp(qp, config.solver, config.qp_tolerance,
-                           gap_check=plan.fixed_frames == 0)
+                           gap_check=plan.fixed_frames == 0 and plan.fixed_end_frames == 0)
         except SolverError as exc:
             if config.solver == "clarabel":
                 raise SolverError(f"whole-body solve, iteration {it + 1}: {exc}",
@@ -401,7 +402,11 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             log.info("whole-body iteration %d: %s; retrying with clarabel", it + 1, exc)
             sol = solve_qp(qp, "clarabel", config.qp_tolerance)
         seconds["qp"] += sol.seconds
-        dq = sol.x.reshape(T, -1)[:, :nv]
+        dq = sol.x.reshape(T, -1)[:, :nv].copy()
+        # held frames: their equality rows hold to the QP's tolerance; keep them exact, so
+        # windows meet their neighbours' solutions bit for bit
+        dq[:plan.fixed_frames] = 0.0
+        dq[T - plan.fixed_end_frames:] = 0.0
         # backtracking on the exact-penalty merit: the linearized ZMP and rotations are only
         # valid near q, and a full step far from a feasible point can make things worse
         t0 = time.perf_counter()

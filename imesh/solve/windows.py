@@ -12,7 +12,15 @@ window's frames, as the evaluator measures them. The ``overlap_frames`` at the e
 that window k + 1 solves again are not kept: near its free end a window's differences are
 one-sided. Window k + 1 starts its SQP from window k's solution where it has one.
 
-Memory is that of one window; time is linear in the frames.
+Every window but the last has the same length (:func:`window_layout`), so memory is that of
+one window and time is linear in the frames.
+
+Both cores (``workers=2``): the first half of the clip is solved as such a chain of windows in
+this process while a spawned process solves the second half's chain, which starts from the
+initializer with a free first frame. One join window across the middle (:func:`join_layout`)
+then holds its first ``fixed_frames`` at the first chain's solution and its last at the
+second's (``Plan.fixed_end_frames``), starting from both chains' solutions; what it solves
+replaces the chains' free ends.
 """
 
 from __future__ import annotations
@@ -38,9 +46,14 @@ FIXED_FRAMES = 4
 
 def window_layout(n_frames: int, window_frames: int, overlap_frames: int,
                   fixed_frames: int = FIXED_FRAMES) -> list[tuple[int, int, int]]:
-    """(start, stop, keep) per window, of equal lengths at most ``window_frames``: window k
-    solves [start, stop), its result is kept on [start + fixed, keep) (from 0 for the first),
-    and window k + 1 starts at ``keep - fixed``.
+    """(start, stop, keep) per window: window k solves [start, stop), its result is kept on
+    [start + fixed, keep) (from 0 for the first), and window k + 1 starts at ``keep - fixed``.
+
+    Every window is ``window_frames`` long but the last, so the cost per frame does not follow
+    the clip's length (equal windows of 450-900 frames made the time grow as frames^1.05). A
+    last window shorter than half a window is folded: into the one before it where both fit in
+    one window, else the last two share their frames equally (each longer than half a window).
+    A clip of at most ``window_frames`` frames is one window.
 
     Raises:
         OptionError: a window too short for its overlap and fixed frames.
@@ -51,22 +64,25 @@ def window_layout(n_frames: int, window_frames: int, overlap_frames: int,
                           f"at least twice overlap + fixed frames ({2 * step_cost})")
     if n_frames <= window_frames:
         return [(0, n_frames, n_frames)]
-    n = 1 + math.ceil((n_frames - window_frames) / (window_frames - step_cost))
-    length = math.ceil((n_frames + (n - 1) * step_cost) / n)
-    layout, start = [], 0
-    for k in range(n):
-        stop = n_frames if k == n - 1 else min(n_frames, start + length)
-        keep = stop if stop == n_frames else stop - overlap_frames
-        layout.append((start, stop, keep))
-        start = keep - fixed_frames
-    return layout
+    step = window_frames - step_cost
+    n = 1 + math.ceil((n_frames - window_frames) / step)
+    bounds = [(k * step, min(k * step + window_frames, n_frames)) for k in range(n)]
+    if 2 * (n_frames - bounds[-1][0]) < window_frames:
+        first = bounds[-2][0]
+        rest = n_frames - first
+        if rest <= window_frames:
+            bounds[-2:] = [(first, n_frames)]
+        else:
+            length = math.ceil((rest + step_cost) / 2)
+            bounds[-2:] = [(first, first + length), (first + length - step_cost, n_frames)]
+    return [(a, b, b if b == n_frames else b - overlap_frames) for a, b in bounds]
 
 
 def plan_window(plan: Plan, start: int, stop: int, *, fixed_frames: int = 0,
                 rest_ends: tuple[bool, bool] = (True, True),
-                q_start: np.ndarray | None = None) -> Plan:
+                q_start: np.ndarray | None = None, fixed_end_frames: int = 0) -> Plan:
     """The frames [start, stop) of a plan (its half-planes renumbered), holding the first
-    ``fixed_frames`` at ``q_start``."""
+    ``fixed_frames`` and the last ``fixed_end_frames`` at ``q_start``."""
     hp_frame, hp_n, hp_b = plan.halfplanes
     sel = (hp_frame >= start) & (hp_frame < stop)
     part = slice(start, stop)
@@ -77,7 +93,8 @@ def plan_window(plan: Plan, start: int, stop: int, *, fixed_frames: int = 0,
         halfplanes=(hp_frame[sel] - start, hp_n[sel], hp_b[sel]),
         desired_zmp=plan.desired_zmp[part], q_init=plan.q_init[part],
         clearance=None if plan.clearance is None else plan.clearance[part],
-        fixed_frames=fixed_frames, rest_ends=rest_ends, q_start=q_start)
+        fixed_frames=fixed_frames, rest_ends=rest_ends, q_start=q_start,
+        fixed_end_frames=fixed_end_frames)
 
 
 def _combine(reports: list[IterationReport], frames: list[int]) -> IterationReport:
@@ -98,22 +115,34 @@ def _combine(reports: list[IterationReport], frames: list[int]) -> IterationRepo
         qp_iterations=sum(r.qp_iterations for r in reports))
 
 
-def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBodyConfig,
-                   window_frames: int, overlap_frames: int,
-                   progress: Callable[[int, int, str], None] | None = None
-                   ) -> WholeBodySolution:
-    """The whole-body solve of ``plan`` in windows (module docstring).
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Chain:
+    """The windows of one chain solved one after the other (:func:`_solve_chain`).
 
-    Args:
-        robot, plan, footprints, targets, config: as :func:`imesh.solve.solve_whole_body`.
-        window_frames: largest window [frames].
-        overlap_frames: frames at a window's end solved again by the next window.
-        progress: called as ``progress(frames done, frames, text)`` after every SQP iteration.
-
-    Returns:
-        A WholeBodySolution of all frames; its history is the windows' iterates in order, the
-        first and the last entry combined over the windows (:func:`_combine`).
+    Attributes:
+        q: (n, nq) the chain's trajectory: every frame solved, the free ends' overlap included.
+        first, last: each window's first and last IterationReport.
+        iterates: every window's iterates after its first, in order.
+        kept: (start, keep) of each window's kept frames in the chain's numbering.
+        seconds: the windows' times summed, per key of WholeBodySolution.seconds.
+        converged: every window converged.
     """
+
+    q: np.ndarray
+    first: list
+    last: list
+    iterates: list
+    kept: list
+    seconds: dict
+    converged: bool
+
+
+def _solve_chain(robot, plan: Plan, footprints: list, targets, config: WholeBodyConfig,
+                 window_frames: int, overlap_frames: int,
+                 progress: Callable[[int, int, str], None] | None = None,
+                 name: str = "") -> _Chain:
+    """The windows of ``plan`` (a whole clip or a slice of it, its rest ends already set) in
+    order, each starting on the previous one's solution (module docstring)."""
     T = len(plan.q_init)
     layout = window_layout(T, window_frames, overlap_frames)
     q = plan.q_init.copy()
@@ -127,31 +156,166 @@ def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBo
             p_start, p_stop, p_q = prev
             q_start[:p_stop - start] = p_q[start - p_start:]
         sub = plan_window(plan, start, stop, fixed_frames=FIXED_FRAMES if k else 0,
-                          rest_ends=(k == 0, k == len(layout) - 1), q_start=q_start)
+                          rest_ends=(k == 0 and plan.rest_ends[0],
+                                     k == len(layout) - 1 and plan.rest_ends[1]),
+                          q_start=q_start)
         done_before = start + (FIXED_FRAMES if k else 0)
 
-        def tick(it: int, total: int, k=k, start=start, keep=keep, done=done_before) -> None:
+        def tick(it: int, total: int, k=k, keep=keep, done=done_before) -> None:
             if progress is not None:
                 progress(done + (keep - done) * it // total, T,
-                         f"window {k + 1}/{len(layout)}, SQP iteration {it}")
+                         f"{name}window {k + 1}/{len(layout)}, SQP iteration {it}")
 
         sol = solve_whole_body(robot, sub, footprints, targets, config, progress=tick)
         lo = FIXED_FRAMES if k else 0
-        q[start + lo:keep] = sol.q[lo:keep - start]
+        # the last window's free end too: a chain's caller decides what it keeps of it
+        upto = stop if k == len(layout) - 1 else keep
+        q[start + lo:upto] = sol.q[lo:upto - start]
         prev = (start, stop, sol.q)
         first.append(sol.history[0])
         last.append(sol.history[-1])
         iterates += sol.history[1:]
-        kept.append(keep - start - lo)
+        kept.append((start + lo, keep))
         converged &= sol.converged
         for key, v in sol.seconds.items():
             seconds[key] = seconds.get(key, 0.0) + v
         if progress is not None:
-            progress(keep, T, f"window {k + 1}/{len(layout)} done")
-        log.info("whole-body window %d/%d: frames [%d, %d) kept to %d, %d iterations, %s",
-                 k + 1, len(layout), start, stop, keep, len(sol.history) - 1,
+            progress(keep, T, f"{name}window {k + 1}/{len(layout)} done")
+        log.info("whole-body %swindow %d/%d: frames [%d, %d) kept to %d, %d iterations, %s",
+                 name, k + 1, len(layout), start, stop, keep, len(sol.history) - 1,
                  "converged" if sol.converged else "not converged")
-    history = [_combine(first, kept), *iterates[:-1], _combine(last, kept)]
-    seconds["windows"] = len(layout)
+    return _Chain(q=q, first=first, last=last, iterates=iterates, kept=kept, seconds=seconds,
+                  converged=converged)
+
+
+def _robot_source(robot) -> tuple[str, str | None]:
+    """How a worker process loads the same robot: its robot.toml and, for a model the user
+    provides, the URDF (a pinocchio model is not sent between processes)."""
+    urdf = str(robot.urdf) if robot.config.model.source == "user" else None
+    return str(robot.config.path), urdf
+
+
+def _chain_in_worker(robot_source: tuple[str, str | None], plan: Plan, footprints: list,
+                     targets, config: WholeBodyConfig, window_frames: int,
+                     overlap_frames: int) -> _Chain:
+    """:func:`_solve_chain` in a worker process, the robot loaded there."""
+    from ..robot import load_robot
+
+    toml, urdf = robot_source
+    return _solve_chain(load_robot(toml, urdf=urdf), plan, footprints, targets, config,
+                        window_frames, overlap_frames)
+
+
+def join_layout(n_frames: int, window_frames: int, overlap_frames: int,
+                fixed_frames: int = FIXED_FRAMES) -> tuple[int, int, int, int]:
+    """Where two chains of windows and the window joining them lie: (chain 1's stop, chain
+    2's start, join start, join stop). Chain 1 solves [0, stop1), chain 2 [start2, n); the
+    join window [j0, j1) (``min(window, 4 (overlap + fixed))`` frames about the middle) holds
+    its first ``fixed_frames`` at chain 1's solution and its last at chain 2's, both at least
+    ``overlap_frames`` away from the chains' free ends; the chains meet at the middle, so the
+    join starts from their solutions everywhere.
+
+    Raises:
+        OptionError: a clip too short for two chains (not longer than one window).
+    """
+    if n_frames <= window_frames:
+        raise OptionError("workers", 2, f"1 for a solve of at most window_frames "
+                          f"({window_frames}) frames: it is one window")
+    step_cost = overlap_frames + fixed_frames
+    join = min(window_frames, 4 * step_cost)
+    middle = n_frames // 2
+    j0 = middle - join // 2
+    j1 = j0 + join
+    return max(middle, j0 + step_cost), min(middle, j1 - step_cost), j0, j1
+
+
+def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBodyConfig,
+                   window_frames: int, overlap_frames: int,
+                   progress: Callable[[int, int, str], None] | None = None,
+                   workers: int = 1) -> WholeBodySolution:
+    """The whole-body solve of ``plan`` in windows (module docstring).
+
+    Args:
+        robot, plan, footprints, targets, config: as :func:`imesh.solve.solve_whole_body`.
+        window_frames: window length [frames] (:func:`window_layout`).
+        overlap_frames: frames at a window's end solved again by the next.
+        progress: called as ``progress(frames done, frames, text)`` after every SQP iteration
+            (with two workers: of this process's chain, then of the join).
+        workers: 1: the windows in order; 2: two chains of windows, the first half's in this
+            process and the second half's in a spawned one (starting from the initializer),
+            then one window across their border held at both ends (:func:`join_layout`).
+
+    Returns:
+        A WholeBodySolution of all frames; its history is the windows' iterates in order, the
+        first and the last entry combined over the windows (:func:`_combine`).
+
+    Raises:
+        OptionError: ``workers`` not 1 or 2, or 2 for a solve of one window.
+    """
+    if workers not in (1, 2):
+        raise OptionError("workers", workers, "1 or 2")
+    T = len(plan.q_init)
+    if workers == 1:
+        chain = _solve_chain(robot, plan, footprints, targets, config, window_frames,
+                             overlap_frames, progress)
+        parts = [(chain, 0, 0, T)]  # (chain, offset, kept from, kept to) in clip frames
+        q, n_windows = chain.q, len(chain.kept)
+    else:
+        stop1, start2, j0, j1 = join_layout(T, window_frames, overlap_frames)
+        plan1 = plan_window(plan, 0, stop1, rest_ends=(plan.rest_ends[0], False))
+        plan2 = plan_window(plan, start2, T, rest_ends=(False, plan.rest_ends[1]))
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        def tick1(done: int, total: int, text: str) -> None:
+            # this process's chain stands for both: the bar reaches the join's start with it
+            if progress is not None:
+                progress(done * (j0 + FIXED_FRAMES) // total, T, f"two chains: {text}")
+
+        with ProcessPoolExecutor(max_workers=1,
+                                 mp_context=multiprocessing.get_context("spawn")) as pool:
+            future = pool.submit(_chain_in_worker, _robot_source(robot), plan2, footprints,
+                                 targets, config, window_frames, overlap_frames)
+            chain1 = _solve_chain(robot, plan1, footprints, targets, config, window_frames,
+                                  overlap_frames, tick1, name="chain 1 ")
+            chain2 = future.result()
+        q = np.concatenate([chain1.q[:j0 + FIXED_FRAMES],
+                            plan.q_init[j0 + FIXED_FRAMES:j1 - FIXED_FRAMES],
+                            chain2.q[j1 - FIXED_FRAMES - start2:]])
+        q_start = np.concatenate([chain1.q[j0:stop1], chain2.q[stop1 - start2:j1 - start2]])
+        sub = plan_window(plan, j0, j1, fixed_frames=FIXED_FRAMES, rest_ends=(False, False),
+                          q_start=q_start, fixed_end_frames=FIXED_FRAMES)
+
+        def tick_join(it: int, total: int) -> None:
+            if progress is not None:
+                progress(j0 + FIXED_FRAMES + (j1 - j0 - 2 * FIXED_FRAMES) * it // total, T,
+                         f"join window, SQP iteration {it}")
+
+        sol = solve_whole_body(robot, sub, footprints, targets, config, progress=tick_join)
+        q[j0 + FIXED_FRAMES:j1 - FIXED_FRAMES] = sol.q[FIXED_FRAMES:-FIXED_FRAMES]
+        log.info("whole-body join window: frames [%d, %d), %d iterations, %s", j0, j1,
+                 len(sol.history) - 1, "converged" if sol.converged else "not converged")
+        join = _Chain(q=sol.q, first=[sol.history[0]], last=[sol.history[-1]],
+                      iterates=sol.history[1:], kept=[(FIXED_FRAMES, j1 - j0 - FIXED_FRAMES)],
+                      seconds=sol.seconds, converged=sol.converged)
+        parts = [(chain1, 0, 0, j0 + FIXED_FRAMES), (chain2, start2, j1 - FIXED_FRAMES, T),
+                 (join, j0, j0 + FIXED_FRAMES, j1 - FIXED_FRAMES)]
+        n_windows = len(chain1.kept) + len(chain2.kept) + 1
+    first, last, iterates, frames = [], [], [], []
+    seconds: dict[str, float] = {}
+    for chain, offset, lo, hi in parts:
+        first += chain.first
+        last += chain.last
+        iterates += chain.iterates
+        # each window's frames in the written trajectory weigh its figures
+        frames += [max(min(b + offset, hi) - max(a + offset, lo), 0) for a, b in chain.kept]
+        for key, v in chain.seconds.items():
+            seconds[key] = seconds.get(key, 0.0) + v
+    if progress is not None:
+        progress(T, T, f"{n_windows} windows done")
+    history = [_combine(first, frames), *iterates[:-1], _combine(last, frames)]
+    seconds["windows"] = n_windows
+    seconds["workers"] = workers
     return WholeBodySolution(q=q, footprints=footprints, plan=plan, history=history,
-                             converged=converged, seconds=seconds, config=config)
+                             converged=all(c.converged for c, *_ in parts), seconds=seconds,
+                             config=config)
