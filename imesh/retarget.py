@@ -16,6 +16,7 @@ import dataclasses
 import logging
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,6 +31,13 @@ from .motion import MarkerMotion
 from .progress import ProgressCallback, notify
 from .solve import WholeBodyConfig
 from .support import SupportConfig, flat_support, support_blend, support_foot_targets
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (the robot stack is imported lazily)
+    from .arms.config import ArmsConfig
+    from .balance.loop import BalanceConfig, BalanceResult
+    from .fit.dls import FitConfig, FitResult
+    from .robot_motion import RobotMotion
+    from .solve.sqp import WholeBodySolution
 
 log = logging.getLogger(__name__)
 
@@ -80,19 +88,20 @@ class RetargetConfig:
         window_overlap_frames: frames at the end of a window solved again by the next.
         workers: processes of a windowed whole-body solve: 1 (the windows in order) or 2 (two
             chains of windows in two processes joined by a window held at both ends,
-            :func:`imesh.solve.windows.solve_windowed`); None: 2 when the solve has at least
-            3 windows, else 1. A solve of one window ignores it.
+            :func:`imesh.solve.windows.solve_windowed`). 1 by default: two cost 1.25x the
+            cpu and were not faster on a shared 2-core machine (docs/speed.md); they pay only
+            with a free core. A solve of one window ignores it.
     """
 
     fps: float | None = 30.0
     morph: MorphConfig = field(default_factory=lambda: MorphConfig(accel_weight=10.0))
     contacts: ContactConfig = field(default_factory=ContactConfig)
     support: SupportConfig | None = field(default_factory=SupportConfig)
-    fit: object | None = None
-    arms: object | None = None
+    fit: FitConfig | None = None
+    arms: ArmsConfig | None = None
     balance: str = "wholebody"
     wholebody: WholeBodyConfig = field(default_factory=WholeBodyConfig)
-    nishiwaki: object | None = None
+    nishiwaki: BalanceConfig | None = None
     lead_s: float = 1.0
     allow_flight: bool = False
     lowpass_hz: float | None = 8.0
@@ -100,7 +109,7 @@ class RetargetConfig:
     pelvis_weight: float = 3.0
     window_frames: int = 900
     window_overlap_frames: int = 60
-    workers: int | None = None
+    workers: int = 1
 
     def __post_init__(self) -> None:
         if self.balance not in BALANCE_MODES:
@@ -117,10 +126,9 @@ class RetargetConfig:
             raise OptionError("window_frames", self.window_frames,
                               f"an integer >= {2 * (self.window_overlap_frames + 4)} (twice "
                               "the overlap and the 4 frames held at the previous window)")
-        if self.workers is not None and (type(self.workers) is not int
-                                         or self.workers not in (1, 2)):
+        if type(self.workers) is not int or self.workers not in (1, 2):
             raise OptionError("workers", self.workers,
-                              "1, 2 or None (2 when the solve has 3 windows or more)")
+                              "1 (windows in order) or 2 (two chains in two processes)")
         if self.balance == "wholebody" and self.support is None:
             raise OptionError("support", None, "a SupportConfig: the whole-body solve plans "
                               "footprints from the support phases")
@@ -149,15 +157,15 @@ class RetargetResult:
         arms: the report of the arms' SQP in the initial fit (``config.arms``), or None.
     """
 
-    motion: object
+    motion: RobotMotion
     arrangement: Arrangement
     adapted: MarkerMotion
     contacts: Contacts
     support: Contacts
     morph: MorphResult
-    fit: object
-    wholebody: object | None
-    balance: object | None
+    fit: FitResult
+    wholebody: WholeBodySolution | None
+    balance: BalanceResult | None
     lead_frames: tuple[int, int]
     unconstrained_frames: list
     seconds: dict
@@ -435,13 +443,9 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
             def window_step(done: int, total: int, text: str) -> None:
                 notify(progress, "wholebody", done, total, n_out, text)
 
-            workers = config.workers
-            if workers is None:  # a second process pays from 3 windows on
-                workers = 2 if len(windows.window_layout(
-                    n_out, config.window_frames, config.window_overlap_frames)) >= 3 else 1
             solution = windows.solve_windowed(
                 robot, plan, footprints, targets, config.wholebody, config.window_frames,
-                config.window_overlap_frames, progress=window_step, workers=workers)
+                config.window_overlap_frames, progress=window_step, workers=config.workers)
         else:
             solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody,
                                         progress=sqp_step)

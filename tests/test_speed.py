@@ -155,10 +155,10 @@ def test_windows_have_one_length_but_the_last_and_cover_the_clip(n_frames, windo
 def test_workers_option_names_what_is_valid():
     from imesh.errors import OptionError
 
-    for bad in (0, 3, 1.0, True, "2"):
+    for bad in (0, 3, 1.0, True, "2", None):
         with pytest.raises(OptionError, match="workers"):
             RetargetConfig(workers=bad)
-    assert RetargetConfig(workers=2).workers == 2 and RetargetConfig().workers is None
+    assert RetargetConfig(workers=2).workers == 2 and RetargetConfig().workers == 1
 
 
 def _border_checks(robot, written, borders) -> None:

@@ -52,6 +52,7 @@ from ..errors import OptionError
 from .qp import SOLVERS, QpProblem
 
 if TYPE_CHECKING:
+    from .collision import CollisionLinearization
     from .torque import TorqueLinearization
 
 GRAVITY = 9.81
@@ -217,7 +218,7 @@ class Linearization:
     zmp_multibody: np.ndarray
     base_rotations: np.ndarray
     torques: TorqueLinearization | None = None
-    collision: object = None
+    collision: CollisionLinearization | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -524,15 +525,15 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
                                              (np.arange(T)[:, None] * nx + 6
                                               + np.arange(n_j)).ravel())), shape=(T * n_j, N))
     qj = q[:, 7:]
-    for order, limit, margin in ((1, plan.v_max * h, config.velocity_margin),
-                                 (2, plan.a_max * h * h, config.acceleration_margin)):
-        if T <= order:
+    for n_diff, limit, margin in ((1, plan.v_max * h, config.velocity_margin),
+                                  (2, plan.a_max * h * h, config.acceleration_margin)):
+        if T <= n_diff:
             continue
-        D = sp.kron(difference_operator(T, order), sp.identity(n_j), format="csr") @ sel
-        lim = np.tile(limit * (1 - margin), T - order)
-        d = np.diff(qj, n=order, axis=0).ravel()
+        D = sp.kron(difference_operator(T, n_diff), sp.identity(n_j), format="csr") @ sel
+        lim = np.tile(limit * (1 - margin), T - n_diff)
+        d = np.diff(qj, n=n_diff, axis=0).ravel()
         finite = np.isfinite(lim)
-        if order == 2:  # elastic (one slack per frame): the lead-in's start from rest
+        if n_diff == 2:  # elastic (one slack per frame): the lead-in's start from rest
             centre = np.repeat(np.arange(1, T - 1), n_j)
             slack = _rows_at(centre, np.ones((len(centre), 1)), nx, T, A0)
             G_blocks += [(D - slack)[finite], (D + slack)[finite]]
