@@ -64,7 +64,7 @@ def wave_table(robots, clip, physics: bool) -> dict:
         results[name] = res
         tracking = None
         if physics:
-            from imesh.arms.pid import track_arms
+            from imesh.physics.arms import track_arms
 
             tracking = {side: track_arms(robot, res.motion, a.arm.joints)
                         for side, a in res.arms.items()}

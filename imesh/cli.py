@@ -128,7 +128,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
     p.add_argument("--window-frames", type=int, default=2000,
                    help="solve longer clips in windows of this many frames (default 2000)")
-    from .arms.cli import add_options as add_arms_options
+    from .cli_arms import add_options as add_arms_options
 
     add_arms_options(p)  # --mode {full,arms}, --fit {dls,sqp}, --solver, --plots
 
@@ -160,7 +160,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_batch_parser(sub)
 
     from .cli_evaluate import add_parser as add_evaluate_parser
-    from .reduction.cli import add_parser as add_reduce_parser
+    from .cli_reduction import add_parser as add_reduce_parser
 
     add_evaluate_parser(sub)
     add_reduce_parser(sub)
@@ -391,7 +391,7 @@ def cmd_retarget(args) -> int:
     from .robot_motion import save_robot_motion
 
     if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
-        from .arms.cli import run_arms
+        from .cli_arms import run_arms
 
         robot = load_robot(args.robot, urdf=args.urdf)
         motion = _load(args)
@@ -416,7 +416,7 @@ def cmd_retarget(args) -> int:
         result = retarget(motion, robot, config=config, progress=bar)
         report = result.report()
         if args.plots and result.balance is not None:
-            from .balance.plots import plot_balance
+            from .viz.balance import plot_balance
 
             report["balance_plots"] = plot_balance(result.balance, args.plots, robot.name)
         robot_motion = result.motion
@@ -529,7 +529,7 @@ def cmd_evaluate(args) -> int:
 
 
 def cmd_reduce(args) -> int:
-    from .reduction.cli import run
+    from .cli_reduction import run
 
     return run(args)
 

@@ -314,7 +314,7 @@ def test_missing_marker_and_bad_config_fail_cleanly(wave):
 @pytest.mark.parametrize("name", ROBOTS)
 def test_dart_pid_tracks_the_wave_with_fixed_base(name, wave):
     pytest.importorskip("dartpy")
-    from imesh.arms.pid import track_arms
+    from imesh.physics.arms import track_arms
 
     robot = load_test_robot(name)
     res = run(name, wave)

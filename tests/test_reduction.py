@@ -323,7 +323,7 @@ def test_dart_run_does_not_fall(reduced):
 
 
 def test_cli_writes_motion_and_report(tmp_path, mocap):
-    from imesh.reduction.cli import add_parser, run
+    from imesh.cli_reduction import add_parser, run
     from imesh.reduction.pipeline import NPZ_KEYS
 
     parser = argparse.ArgumentParser()

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .chain import JOINTS
+from ..reduction.chain import JOINTS
 
 
 def _plt():

@@ -8,7 +8,7 @@ import argparse
 import logging
 from pathlib import Path
 
-from .config import SOLVERS
+from .arms.config import SOLVERS
 
 log = logging.getLogger(__name__)
 
@@ -31,10 +31,10 @@ def add_options(p: argparse.ArgumentParser) -> None:
 def run_arms(args, robot, motion) -> int:
     """``imesh retarget CLIP --mode arms``: solve, save the motion (and markers, report, plots),
     print one line; returns the exit status."""
-    from ..export import save_marker_motion, write_json
-    from ..robot_motion import save_robot_motion
-    from .config import ArmsConfig
-    from .solve import human_arm_markers, solve_arms
+    from .arms.config import ArmsConfig
+    from .arms.solve import human_arm_markers, solve_arms
+    from .export import save_marker_motion, write_json
+    from .robot_motion import save_robot_motion
 
     config = ArmsConfig(solver=args.solver)
     human = human_arm_markers(motion, config.lowpass_hz)
@@ -44,7 +44,7 @@ def run_arms(args, robot, motion) -> int:
     if getattr(args, "markers", None):
         save_marker_motion(args.markers, human)
     if args.plots:
-        from .plots import write_plots
+        from .viz.arms import write_plots
 
         files = write_plots(result, args.plots, prefix=f"{robot.name}_")
         report["plots"] = [str(f) for f in files]

@@ -9,7 +9,7 @@ import argparse
 import logging
 import sys
 
-from ..errors import OptionError
+from .errors import OptionError
 
 log = logging.getLogger(__name__)
 
@@ -68,10 +68,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """Run ``imesh reduce``; returns the exit status (ImeshError propagates to the caller)."""
-    from ..export import write_json
-    from ..io import load_motion
-    from .optimize import ReductionConfig
-    from .pipeline import CycleConfig, reduce_motion, save_reduction
+    from .export import write_json
+    from .io import load_motion
+    from .reduction.optimize import ReductionConfig
+    from .reduction.pipeline import CycleConfig, reduce_motion, save_reduction
 
     if not str(args.output).endswith(".npz"):
         raise OptionError("output file", args.output, "a .npz file")
@@ -102,7 +102,7 @@ def run(args) -> int:
     save_reduction(args.output, result)
     dart_text = ""
     if args.dart:
-        from .dart_run import DartConfig, simulate_planar
+        from .reduction.dart_run import DartConfig, simulate_planar
 
         dart = simulate_planar(result, DartConfig(cycles=args.dart_cycles))
         report["dart"] = dart.summary()
@@ -112,12 +112,12 @@ def run(args) -> int:
         if args.plots:
             from pathlib import Path
 
-            from .plots import plot_dart
+            from .viz.reduction import plot_dart
 
             Path(args.plots).mkdir(parents=True, exist_ok=True)
             plot_dart(dart, result, Path(args.plots) / "dart_tracking.png")
     if args.plots:
-        from .plots import plot_all
+        from .viz.reduction import plot_all
 
         plot_all(result, args.plots)
     if args.report:

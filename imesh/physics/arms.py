@@ -75,7 +75,7 @@ def track_arms(robot, motion: RobotMotion, joints: Sequence[str] | None = None, 
     Raises:
         PhysicsError: dartpy missing (with the install command) or a model mismatch.
     """
-    from ..physics import PhysicsConfig, simulate_motion
+    from . import PhysicsConfig, simulate_motion
 
     config = PhysicsConfig(fixed_base=True, controller="pid", feedforward=feedforward,
                            kp_per_effort=kp_per_effort, settle_s=settle_s)

@@ -1,0 +1,69 @@
+"""The package layout's direction of imports: the stages that compute (human model, mesh, morph,
+fit, whole-body solve, balance, arms, reduction) never import the command line, the viewers and
+plots, the file readers or the physics check. Read from the source with ``ast`` (every import,
+also those inside functions), so a lazy import counts too."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "imesh"
+
+#: Packages and modules that compute: DESIGN.md's stages from the markers to the robot motion.
+SOLVERS = ("human", "mesh", "morph", "fit", "solve", "balance", "arms", "reduction", "adapt",
+           "arrange", "contacts", "support", "filtering", "gaps")
+
+
+def _forbidden(unit: str) -> bool:
+    """Whether ``unit`` (a first-level name under imesh) is the command line, a viewer or plot,
+    a reader or the physics check."""
+    return (unit in ("cli", "__main__", "viz", "plots", "io", "physics")
+            or unit.startswith("cli_"))
+
+
+def _imported_units(path: Path) -> set[str]:
+    """First-level imesh names that the module at ``path`` imports (absolute or relative)."""
+    rel = path.relative_to(PACKAGE)
+    package = list(rel.parent.parts)
+    units = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        names: list[list[str]] = []
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[:len(package) - (node.level - 1)]
+                if node.module:
+                    names.append(base + node.module.split("."))
+                else:
+                    names += [base + [alias.name] for alias in node.names]
+            elif node.module and node.module.split(".")[0] == "imesh":
+                names.append(node.module.split(".")[1:])
+                if node.module == "imesh":
+                    names += [[alias.name] for alias in node.names]
+        elif isinstance(node, ast.Import):
+            names += [alias.name.split(".")[1:] for alias in node.names
+                      if alias.name.split(".")[0] == "imesh"]
+        units |= {n[0] for n in names if n}
+    return units
+
+
+def _files(unit: str) -> list[Path]:
+    folder = PACKAGE / unit
+    return sorted(folder.rglob("*.py")) if folder.is_dir() else [PACKAGE / f"{unit}.py"]
+
+
+@pytest.mark.parametrize("unit", SOLVERS)
+def test_solvers_import_no_cli_viewer_reader_or_physics(unit):
+    files = _files(unit)
+    assert files and all(f.is_file() for f in files), f"imesh/{unit} not found"
+    bad = {f"{f.relative_to(PACKAGE.parent)} imports imesh.{u}"
+           for f in files for u in _imported_units(f) if _forbidden(u)}
+    assert not bad, "\n".join(sorted(bad))
+
+
+def test_the_check_sees_imports():
+    """The reader finds a known import, relative and lazy: the CLI imports the viewers."""
+    assert "viz" in _imported_units(PACKAGE / "cli.py")
+    assert "physics" in _imported_units(PACKAGE / "evaluate.py")
