@@ -276,6 +276,13 @@ class Plan:
     fixed_end_frames: int = 0
 
 
+def held_frames(plan: Plan, n_frames: int) -> np.ndarray:
+    """(H,) int frames of a window that do not move: its first ``plan.fixed_frames`` and last
+    ``plan.fixed_end_frames`` (:mod:`imesh.solve.windows`)."""
+    frames = np.arange(n_frames)
+    return frames[(frames < plan.fixed_frames) | (frames >= n_frames - plan.fixed_end_frames)]
+
+
 def gradient_operator(n: int, h: float) -> sp.csr_matrix:
     """(n, n) sparse matrix of ``numpy.gradient`` with spacing h (central inside, one-sided
     first order at the ends), so ``D @ x == np.gradient(x, h)``."""
@@ -474,15 +481,11 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
             rows_next = _rows_at(np.full(nv, t + 1), Sb[t + 1], nx, T)
             eq.append(rows_next - rows_now)
             rhs.append(y[t] - y[t + 1])
-    # frames held at the previous window's solution: dq_t = 0 as equality rows (as equal
-    # bounds they cost the interior point 60-250 iterations instead of 25)
-    if plan.fixed_frames:
-        fixed = np.arange(min(plan.fixed_frames, T))
-        eq.append(_rows_at(np.repeat(fixed, nv), np.tile(np.eye(nv), (len(fixed), 1)), nx, T))
-        rhs.append(np.zeros(len(fixed) * nv))
-    # the same at the end of a join window (held at the next chain's solution)
-    if plan.fixed_end_frames:
-        fixed = np.arange(max(T - plan.fixed_end_frames, 0), T)
+    # frames held at the previous window's (and a join window's last at the next chain's)
+    # solution: dq_t = 0 as equality rows (as equal bounds they cost the interior point
+    # 60-250 iterations instead of 25)
+    fixed = held_frames(plan, T)
+    if len(fixed):
         eq.append(_rows_at(np.repeat(fixed, nv), np.tile(np.eye(nv), (len(fixed), 1)), nx, T))
         rhs.append(np.zeros(len(fixed) * nv))
     A = sp.vstack(eq, format="csc")
@@ -623,13 +626,13 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     P = ((P + P.T) * 0.5).tocsc()
     low = np.concatenate(lo) if lo else np.zeros(0)
     high = np.concatenate(hi) if hi else np.zeros(0)
-    if (plan.fixed_frames or plan.fixed_end_frames) and G.shape[0]:
+    if len(fixed) and G.shape[0]:
         # rows in the fixed frames' unknowns only are constants (their one-sided differences
         # met by slack, at a constant price): without them the interior point takes 25
         # iterations instead of 60-250
-        free = (np.arange(N) >= plan.fixed_frames * nx) & (
-            np.arange(N) < (T - plan.fixed_end_frames) * nx)
-        touches = (abs(G) @ free.astype(float)) > 0
+        free = np.ones(T, dtype=bool)
+        free[fixed] = False
+        touches = (abs(G) @ np.repeat(free, nx).astype(float)) > 0
         G, low, high = G[touches], low[touches], high[touches]
     return QpProblem(P=P, c=np.asarray(c).ravel(), A=A, b=b, G=G, l=low, u=high,
                      x_l=x_l.ravel(), x_u=x_u.ravel())

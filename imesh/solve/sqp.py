@@ -38,6 +38,7 @@ from .problem import (
     Plan,
     WholeBodyConfig,
     build_qp,
+    held_frames,
     merit,
     sole_errors,
 )
@@ -405,8 +406,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         dq = sol.x.reshape(T, -1)[:, :nv].copy()
         # held frames: their equality rows hold to the QP's tolerance; keep them exact, so
         # windows meet their neighbours' solutions bit for bit
-        dq[:plan.fixed_frames] = 0.0
-        dq[T - plan.fixed_end_frames:] = 0.0
+        dq[held_frames(plan, T)] = 0.0
         # backtracking on the exact-penalty merit: the linearized ZMP and rotations are only
         # valid near q, and a full step far from a feasible point can make things worse
         t0 = time.perf_counter()
