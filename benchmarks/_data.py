@@ -52,3 +52,8 @@ def cell(m: dict, key: str, fmt: str) -> str:
     """A table cell: the metric formatted, or n/a when it was not measured."""
     v = m.get(key)
     return format(v, fmt) if isinstance(v, (int, float)) else "n/a"
+
+
+def cells(m: dict, *columns: tuple[str, str]) -> str:
+    """Table cells of the metrics ``(key, format)`` separated by one space (:func:`cell`)."""
+    return " ".join(cell(m, key, fmt) for key, fmt in columns)

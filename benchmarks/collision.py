@@ -22,7 +22,7 @@ import logging
 import sys
 from pathlib import Path
 
-from _data import data_root, load, write_and_read
+from _data import cells, data_root, load, write_and_read
 
 CLIPS = ("cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh", "cmu_141_16_wave_hello.bvh",
          "cmu_02_10_wash_self_cc3rig.bvh", "cmu_60_10_salsa_partnerA_sl_scaled.bvh")
@@ -111,13 +111,10 @@ def rescore(out: Path) -> int:
         v = metric_values(evaluate_motion(
             robot, load_robot_motion(path, robot),
             adapted=load_marker_motion(path.with_name(path.stem + "_markers.npz"))))
-
-        def f(key, fmt, v=v):
-            return format(v[key], fmt) if v.get(key) is not None else "n/a"
-
-        print(f"{path.stem:<46} {f('sole_deviation_mm', '7.2f')} {f('sole_tilt_deg', '5.2f')} "
-              f"{f('limit_violation_frames', '4d')} {f('zmp_inside_fraction', '6.3f')} "
-              f"{f('zmp_error_mm', '6.1f')} {f('ground_penetration_mm', '6.1f')}")
+        print(f"{path.stem:<46} " + cells(
+            v, ("sole_deviation_mm", "7.2f"), ("sole_tilt_deg", "5.2f"),
+            ("limit_violation_frames", "4d"), ("zmp_inside_fraction", "6.3f"),
+            ("zmp_error_mm", "6.1f"), ("ground_penetration_mm", "6.1f")))
     return 0
 
 

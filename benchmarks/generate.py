@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from _data import cell, data_root, load, score_written
+from _data import cells, data_root, load, score_written
 
 CLIPS = {"walk": "cmu_02_01_walk.bvh", "wave": "cmu_141_16_wave_hello.bvh",
          "veer": "cmu_16_11_walk_veer_left.bvh", "wash": "cmu_02_10_wash_self_cc3rig.bvh"}
@@ -102,15 +102,11 @@ def main(argv=None) -> int:
                 if kind == "hand":
                     hand_rms = rms
                 d = "-" if kind == "hand" or hand_rms is None else f"{rms - hand_rms:+.1f}"
-
-                def f(k, fmt, m=m):
-                    return cell(m, k, fmt)
-
-                print(f"{key:<5} {name:<6} {kind:<5} {rms:>7.1f} {d:>6} "
-                      f"{f('close_pair_error', '6.4f')} {f('sole_deviation_mm', '7.2f')} "
-                      f"{f('foot_skid_mm_per_frame', '5.2f')} "
-                      f"{f('limit_violation_frames', '4d')} {f('zmp_inside_fraction', '6.3f')} "
-                      f"{f('zmp_error_mm', '6.1f')} {f('self_collision_frames', '4d')} "
+                metrics = cells(m, ("close_pair_error", "6.4f"), ("sole_deviation_mm", "7.2f"),
+                                ("foot_skid_mm_per_frame", "5.2f"),
+                                ("limit_violation_frames", "4d"), ("zmp_inside_fraction", "6.3f"),
+                                ("zmp_error_mm", "6.1f"), ("self_collision_frames", "4d"))
+                print(f"{key:<5} {name:<6} {kind:<5} {rms:>7.1f} {d:>6} {metrics} "
                       f"{mesh:>4} {str(m.get('physics_fell', 'n/a')):>5} {total:>7.1f}")
                 sys.stdout.flush()
     return 0

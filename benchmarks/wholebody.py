@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from _data import cell, data_root, load, score_written
+from _data import cells, data_root, load, score_written
 
 CLIPS = ("cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh", "cmu_141_16_wave_hello.bvh",
          "cmu_02_10_wash_self_cc3rig.bvh")
@@ -72,17 +72,15 @@ def main(argv=None) -> int:
                 plot_wholebody(robot, written, Path(args.plots) / f"{stem}.png",
                                title=f"{clip} on {name} (written output)")
 
-            def f(key, fmt, m=m):
-                return cell(m, key, fmt)
-
-            print(f"{clip:<30} {name:<6} {written.n_frames:>6} {f('marker_rms_mm', '7.1f')} "
-                  f"{f('close_pair_error', '6.4f')} "
-                  f"{f('sole_deviation_mm', '7.2f')} {f('sole_tilt_deg', '5.2f')} "
-                  f"{f('foot_skid_mm_per_frame', '5.2f')} {f('ground_penetration_mm', '6.1f')} "
-                  f"{f('limit_violation_frames', '4d')} {f('zmp_inside_fraction', '6.3f')} "
-                  f"{f('zmp_error_mm', '6.1f')} {str(m.get('physics_fell', 'n/a')):>5} "
-                  f"{f('physics_survived_s', '6.2f')} {f('torque_ratio_max', '5.2f')} "
-                  f"{f('torque_ratio_ref', '6.2f')} {f('friction_ratio_max', '5.2f')} "
+            quality = cells(m, ("marker_rms_mm", "7.1f"), ("close_pair_error", "6.4f"),
+                            ("sole_deviation_mm", "7.2f"), ("sole_tilt_deg", "5.2f"),
+                            ("foot_skid_mm_per_frame", "5.2f"), ("ground_penetration_mm", "6.1f"),
+                            ("limit_violation_frames", "4d"), ("zmp_inside_fraction", "6.3f"),
+                            ("zmp_error_mm", "6.1f"))
+            dynamics = cells(m, ("physics_survived_s", "6.2f"), ("torque_ratio_max", "5.2f"),
+                             ("torque_ratio_ref", "6.2f"), ("friction_ratio_max", "5.2f"))
+            print(f"{clip:<30} {name:<6} {written.n_frames:>6} {quality} "
+                  f"{str(m.get('physics_fell', 'n/a')):>5} {dynamics} "
                   f"{wb.get('iterations', 0):>3} {res.seconds.get('wholebody', 0.0):>7.2f} "
                   f"{total:>7.2f}")
             sys.stdout.flush()
