@@ -30,9 +30,8 @@ Tables (each printed as it is measured; docs/speed.md quotes them):
   less than wall seconds), the 5-minute load average at the row's end, peak memory
   (the resident memory of the process and its children summed, sampled every 0.2 s with
   psutil: a worker's memory counts too), and the exponent of a least-squares fit
-  ``time ~ frames^k`` of both times. ``--workers 1`` or ``2`` sets ``RetargetConfig.workers`` (the
-  command line has no flag for it: the CLI's configuration is wrapped); default the
-  library's (2 from 3 windows on).
+  ``time ~ frames^k`` of both times. ``--workers 1`` or ``2`` is passed on as ``imesh
+  retarget --solve-workers`` (``RetargetConfig.workers``; default 1).
 
 Single runs: on a shared machine quote ``farm-bench`` medians for any claim (docs/speed.md).
 """
@@ -209,13 +208,6 @@ def table_inspect(source: Path, n_frames: int, tmp: Path) -> None:
     print(f"wall {wall:.2f} s, peak {peak:.0f} MB")
 
 
-#: ``python -c`` prefix running the CLI with ``RetargetConfig.workers`` set (argv[1]).
-_WORKERS_SHIM = ("import dataclasses, sys; import imesh.cli as c; f = c._retarget_config; "
-                 "w = int(sys.argv.pop(1)); "
-                 "c._retarget_config = lambda *a, **k: dataclasses.replace(f(*a, **k), "
-                 "workers=w); sys.exit(c.main(sys.argv[1:]))")
-
-
 def _timed_tree(argv: list[str], env: dict | None = None) -> tuple[float, float, float]:
     """Run a command: (wall s, cpu s (user + system of it and every process it waited for),
     peak MB of its resident memory summed over the process and its children, sampled every
@@ -262,9 +254,9 @@ def table_scaling(source: Path, sizes: list[int], robot: str, tmp: Path,
         report = tmp / f"scale_{n}.json"
         args = ["-q", "retarget", str(clip), "--robot", robot, "-o",
                 str(tmp / f"scale_{n}.npz"), "--json", str(report), "--force"]
-        cmd = _imesh(*args) if workers is None else \
-            [sys.executable, "-c", _WORKERS_SHIM, str(workers), *args]
-        wall, cpu, peak = _timed_tree(cmd, _env())
+        if workers is not None:
+            args += ["--solve-workers", str(workers)]
+        wall, cpu, peak = _timed_tree(_imesh(*args), _env())
         load = os.getloadavg()[1]  # over the last 5 minutes: the machine beside this row
         rep = json.loads(report.read_text())
         total = rep["seconds"]["total"]
@@ -294,7 +286,7 @@ def main(argv=None) -> int:
     ap.add_argument("--inspect-frames", type=int, default=216000)
     ap.add_argument("--scaling-frames", type=int, nargs="+", default=[500, 1000, 2000])
     ap.add_argument("--workers", type=int, choices=(1, 2), default=None,
-                    help="RetargetConfig.workers of the scaling table (default: the library's)")
+                    help="imesh retarget --solve-workers of the scaling table (default 1)")
     ap.add_argument("--out", help="folder of the written motions (default: a temporary one)")
     args = ap.parse_args(argv)
     clips = [data_root() / "mocap" / c for c in args.clips]

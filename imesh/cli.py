@@ -128,6 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
     p.add_argument("--window-frames", type=int, default=2000,
                    help="solve longer clips in windows of this many frames (default 2000)")
+    p.add_argument("--solve-workers", type=int, choices=(1, 2), default=1,
+                   help="processes of a whole-body solve in several windows: 2 solves two "
+                        "halves at once and joins them (pays only with a free core; default 1)")
     from .cli_arms import add_options as add_arms_options
 
     add_arms_options(p)  # --mode {full,arms}, --fit {dls,sqp}, --solver, --plots
@@ -382,6 +385,7 @@ def _retarget_config(args, steps: int, window_frames: int = 2000, support: bool 
                           fps=getattr(args, "fps", None) or base.fps,
                           allow_flight=getattr(args, "allow_flight", False),
                           lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s,
+                          workers=getattr(args, "solve_workers", base.workers),
                           arms=_arms_config(args))
 
 

@@ -152,6 +152,17 @@ def test_windows_have_one_length_but_the_last_and_cover_the_clip(n_frames, windo
         assert window_layout(short, window, overlap) == [(0, short, short)]
 
 
+def test_solve_workers_flag_reaches_the_retarget_config():
+    from imesh.cli import _retarget_config, build_parser
+
+    for argv, workers in ((["retarget", "c.bvh", "-o", "o.npz"], 1),
+                          (["retarget", "c.bvh", "-o", "o.npz", "--solve-workers", "2"], 2)):
+        args = build_parser().parse_args(argv)
+        assert _retarget_config(args, args.steps, args.window_frames).workers == workers
+    with pytest.raises(SystemExit):  # argparse names the valid choices
+        build_parser().parse_args(["retarget", "c.bvh", "-o", "o.npz", "--solve-workers", "3"])
+
+
 def test_workers_option_names_what_is_valid():
     from imesh.errors import OptionError
 
