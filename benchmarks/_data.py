@@ -24,8 +24,8 @@ def write_and_read(out: Path, stem: str, result, robot):
     """Write a retarget result as ``imesh retarget`` does (``OUT/STEM.npz`` and the adapted
     markers ``OUT/STEM_markers.npz``) and read the motion back, so benchmarks score the written
     file. Returns (the motion read back, the markers' path)."""
-    from imesh.export import save_marker_motion
-    from imesh.robot_motion import load_robot_motion, save_robot_motion
+    from imesh.io.npz import save_marker_motion
+    from imesh.io.robot_motion import load_robot_motion, save_robot_motion
 
     path, markers = out / f"{stem}.npz", out / f"{stem}_markers.npz"
     save_robot_motion(path, result.motion)
@@ -37,7 +37,7 @@ def score_written(robot, result, source, out: Path, stem: str, physics: bool = F
     """Write a retarget result, read it back and score it as ``imesh evaluate`` does; the
     close-pair error against the source clip on the clip's own frames (the whole-body solve's
     lead-in and lead-out are not the clip's). Returns (the motion read back, metric values)."""
-    from imesh.evaluate import evaluate_motion, metric_values
+    from imesh.evaluate.scoreboard import evaluate_motion, metric_values
 
     written, markers = write_and_read(out, stem, result, robot)
     m = metric_values(evaluate_motion(robot, written, adapted=str(markers), physics=physics))

@@ -209,7 +209,7 @@ def lowpass_table(robots, clip) -> None:
 def refine_table(robots, clip) -> None:
     """The main pipeline (DLS) and its arms re-solved by the SQP (--fit sqp)."""
     from imesh.arms import refine_arms
-    from imesh.retarget import retarget
+    from imesh.pipeline.retarget import retarget
 
     print("\n## 6. --fit sqp: the main pipeline's arms (DLS) re-solved; errors against the same "
           "shoulder-anchored targets")

@@ -1,7 +1,7 @@
 """Balance loop per clip and robot: iterations, ZMP metrics before/after, feet, seconds/frame.
 
-For each clip x robot the full pipeline (``imesh.retarget.retarget``) runs twice: without the
-balance loop and with it (the default). Printed per run: the multibody ZMP inside the planned
+For each clip x robot the full pipeline (``imesh.pipeline.retarget.retarget``) runs twice: without
+the balance loop and with it (the default). Printed per run: the multibody ZMP inside the planned
 support polygon (fraction of support frames), the RMS ZMP error against the desired ZMP [mm],
 the support-foot slip (mean, mm per frame at 30 fps) and height (95th percentile of the lowest
 sole corner |z| in support, mm), limit violations, and seconds per frame of the whole pipeline.
@@ -55,7 +55,7 @@ def main() -> None:
     args = parser.parse_args()
 
     import imesh
-    from imesh.retarget import RetargetConfig, retarget
+    from imesh.pipeline.retarget import RetargetConfig, retarget
 
     head = (f"{'robot':6s} {'clip':30s} {'balance':>7s} {'iters':>5s} {'best':>4s} "
             f"{'ZMP in %':>8s} {'ZMP err mm':>10s} {'slip mm/f':>9s} {'foot p95 mm':>11s} "

@@ -25,7 +25,7 @@ CLIPS = ("cmu_141_16_wave_hello.bvh",)
 
 def main() -> int:
     import imesh
-    from imesh.batch import BatchSettings, run_batch
+    from imesh.pipeline.batch import BatchSettings, run_batch
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])

@@ -46,11 +46,11 @@ def main(argv=None) -> int:
     if args.rescore:
         return rescore(Path(args.out))
 
-    from imesh.evaluate import evaluate_motion, metric_values
-    from imesh.export import load_marker_motion
+    from imesh.evaluate.scoreboard import evaluate_motion, metric_values
     from imesh.io import load_motion
+    from imesh.io.npz import load_marker_motion
     from imesh.metrics.collision import check_mesh_collisions
-    from imesh.retarget import RetargetConfig, retarget
+    from imesh.pipeline.retarget import RetargetConfig, retarget
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -96,9 +96,9 @@ def main(argv=None) -> int:
 
 def rescore(out: Path) -> int:
     """The whole-body guarantees of every motion written in ``out`` (no DART)."""
-    from imesh.evaluate import evaluate_motion, metric_values
-    from imesh.export import load_marker_motion
-    from imesh.robot_motion import load_robot_motion
+    from imesh.evaluate.scoreboard import evaluate_motion, metric_values
+    from imesh.io.npz import load_marker_motion
+    from imesh.io.robot_motion import load_robot_motion
 
     robots: dict = {}
     print(f"{'run':<46} {'sole mm':>7} {'tilt':>5} {'lim':>4} {'zmp in':>6} {'zmp mm':>6} "

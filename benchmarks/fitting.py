@@ -5,7 +5,7 @@ Two kinds of rows, printed by the same table (:func:`fit_table`):
 - FK round trip: a smooth random within-limit joint trajectory with a walking, turning base;
   key points and direction markers by forward kinematics; fitted back with the default
   FitConfig (the exact answer is known, so RMS measures the solver).
-- real clips: the pipeline up to the initial fit (``imesh.retarget.retarget`` with
+- real clips: the pipeline up to the initial fit (``imesh.pipeline.retarget.retarget`` with
   ``balance="none"``: arrangement, contacts, morph, fit) on clips of ``IMESH_DATA/mocap``; the
   fitting stage's numbers are reported, then for the output motion: key-point RMS against the
   adapted markers, the largest |v|/v_max and |a|/a_max, the sole height in the planned support
@@ -77,7 +77,7 @@ def clip_rows(clips, robots=ROBOTS, fit_config=None) -> list[dict]:
         fit_config: an imesh.fit.FitConfig for the fitting stage (None: defaults).
     """
     import imesh
-    from imesh.retarget import RetargetConfig, retarget
+    from imesh.pipeline.retarget import RetargetConfig, retarget
 
     config = RetargetConfig(fit=fit_config, balance="none")  # the fitting stage alone
 
@@ -104,7 +104,8 @@ def support_feet(robot, result) -> dict:
     |a|/a_max of the joints, sole height in the planned support frames (|lowest sole corner
     z| [mm]: median, p95, max over both feet) and the horizontal sole-centre slip [mm per frame
     at 30 fps]."""
-    from imesh.contacts import SIDES
+    from imesh.contacts.phases.phases import SIDES
+
     from imesh.fit import FitConfig
     from imesh.fit.dls import joint_limits
     from imesh.metrics.kinematics import sole_tracks

@@ -7,9 +7,9 @@ a few milliseconds; the cut keeps the file consistent):
 - ``asf/amc``: cmu_07_05.amc with cmu_07.asf (either file mutated);
 - ``c3d``: ezc3d_Qualisys_gait.c3d and ezc3d_BTS_gait.c3d (whole files);
 - ``trc``: roboptim_human_grab_box.trc;
-- ``npz``: a robot motion written by ``imesh.robot_motion.save_robot_motion`` whose base and
+- ``npz``: a robot motion written by ``imesh.core.robot_motion.save_robot_motion`` whose base and
   joint trajectories are the CMU walk's root position and rotation channels,
-  ``imesh.robot_motion.load_robot_motion``;
+  ``imesh.core.robot_motion.load_robot_motion``;
 - ``csv``: the same robot motion as .csv.
 
 Mutations (:func:`mutate`): byte flips (anywhere or in the header), truncation, numbers replaced
@@ -87,7 +87,8 @@ def _cut_trc(data: bytes, frames: int) -> bytes:
 
 def _robot_motion_file(frames: int, suffix: str) -> bytes:
     """A robot motion .npz or .csv (the imesh writer) from the CMU walk's channels."""
-    from imesh.robot_motion import RobotMotion, save_robot_motion
+    from imesh.core.robot_motion import RobotMotion
+    from imesh.io.robot_motion import save_robot_motion
 
     text = (data_root() / "mocap" / "cmu_02_01_walk.bvh").read_text()
     rows = text.split("Frame Time:")[1].splitlines()[1:frames + 1]
@@ -241,7 +242,7 @@ def mutate(seed: _Seed, rng: np.random.Generator) -> tuple[dict[str, bytes], str
 def load(fmt: str, folder: Path):
     """Load the mutant written in ``folder`` with the public reader of ``fmt``."""
     if fmt in ("npz", "csv"):
-        from imesh.robot_motion import load_robot_motion
+        from imesh.io.robot_motion import load_robot_motion
 
         return load_robot_motion(folder / f"motion.{fmt}")
     from imesh.io import load_motion

@@ -68,7 +68,7 @@ def main(argv=None) -> int:
 
     from imesh.io import load_motion
     from imesh.metrics.collision import check_mesh_collisions
-    from imesh.retarget import retarget
+    from imesh.pipeline.retarget import retarget
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

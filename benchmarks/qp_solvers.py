@@ -33,7 +33,7 @@ def first_qp(clip: str, robot_name: str, fps: float):
     """The QpProblem of the first whole-body SQP iteration of ``clip`` on ``robot_name``."""
     import imesh.solve.sqp as sqp
     from imesh.io import load_motion
-    from imesh.retarget import RetargetConfig, retarget
+    from imesh.pipeline.retarget import RetargetConfig, retarget
 
     box = {}
 

@@ -3,8 +3,8 @@ to every robot, plus each robot standing still for 5 s in DART (the physics base
 
 A synthetic feasible motion (a slow squat with arm raises, soles flat) is scored first for
 every robot: the DART check must pass it, so falls in the clip rows are the motions', not the
-check's. Clip rows run the full pipeline (``imesh.retarget.retarget``) and score the result with
-``imesh.evaluate.evaluate_motion`` (adapted markers for ``marker_rms_mm``, the source clip for
+check's. Clip rows run the full pipeline (``imesh.pipeline.retarget.retarget``) and score the result
+with ``imesh.evaluate.evaluate_motion`` (adapted markers for ``marker_rms_mm``, the source clip for
 ``close_pair_error``, the pipeline's stage timings for ``seconds_per_frame``). When the
 pipeline has a balance stage (a ``balance`` field of ``RetargetConfig``), every clip runs with
 and without it, so the table shows which motions fall only without balancing.
@@ -61,7 +61,7 @@ def feasible_motion(robot, seconds: float = 3.0, fps: float = 30.0):
     """A motion the robot can certainly do: one slow squat (knees +0.7 rad) with the soles
     flat on the ground, one arm raised forward and the other sideways. The scoreboard's
     reference row: the DART check must pass it."""
-    from imesh.robot_motion import RobotMotion
+    from imesh.core.robot_motion import RobotMotion
 
     n = int(round(seconds * fps)) + 1
     t = np.arange(n) / fps
@@ -81,7 +81,7 @@ def feasible_motion(robot, seconds: float = 3.0, fps: float = 30.0):
 
 
 def feasible_row(robot, physics: bool, physics_config, plots: Path | None) -> dict:
-    from imesh.evaluate import evaluate_motion
+    from imesh.evaluate.scoreboard import evaluate_motion
 
     motion = feasible_motion(robot)
     plot = plots / f"{robot.name}_feasible_squat.png" if plots is not None and physics else None
@@ -96,7 +96,7 @@ def feasible_row(robot, physics: bool, physics_config, plots: Path | None) -> di
 def balance_variants():
     """[(label, RetargetConfig)]: with and without the balance stage when the pipeline has one,
     else the default configuration only."""
-    from imesh.retarget import RetargetConfig
+    from imesh.pipeline.retarget import RetargetConfig
 
     config = RetargetConfig()
     if "balance" in {f.name for f in dataclasses.fields(RetargetConfig)}:
@@ -106,8 +106,8 @@ def balance_variants():
 
 def standing_row(robot, physics_config) -> dict:
     """The robot's nominal pose held for 5 s in DART."""
+    from imesh.core.robot_motion import RobotMotion
     from imesh.physics import simulate_motion
-    from imesh.robot_motion import RobotMotion
 
     fps = 30.0
     motion = RobotMotion(q=np.repeat(robot.q_nominal[None], 151, axis=0), fps=fps,
@@ -122,9 +122,9 @@ def standing_row(robot, physics_config) -> dict:
 
 def clip_row(robot, clip: str, label: str, config, physics: bool, physics_config,
              plots: Path | None) -> dict:
-    from imesh.evaluate import evaluate_motion
+    from imesh.evaluate.scoreboard import evaluate_motion
     from imesh.io import load_motion
-    from imesh.retarget import retarget
+    from imesh.pipeline.retarget import retarget
 
     row = {"robot": robot.name, "clip": clip, "balance": label}
     path = data_root() / "mocap" / clip
@@ -154,7 +154,8 @@ def reference_demand(robot, motion) -> dict:
     the reference (the feed-forward, contact wrenches distributed over the support soles) over
     the torque limits, whether the first frame can be held still (the CoM above the support
     polygon of the soles on the ground), and the lowest sole corner over the motion."""
-    from imesh.contacts import SIDES
+    from imesh.contacts.phases.phases import SIDES
+
     from imesh.metrics.kinematics import inside_polygon, support_polygons
     from imesh.physics import PhysicsConfig
     from imesh.physics.reference import build_reference
@@ -270,7 +271,7 @@ def main(argv=None) -> int:
     print_tables(rows, standing)
     print(f"\ntotal {time.perf_counter() - t0:.0f} s")
     if args.json:
-        from imesh.export import write_json
+        from imesh.io.atomic import write_json
 
         write_json(args.json, {"standing": standing, "rows": rows})
     return 0

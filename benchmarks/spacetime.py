@@ -24,9 +24,9 @@ import numpy as np
 
 
 def _performer(steps: int, frames: int, height: float, shift_y: float, spine: bool):
-    from imesh.adapt import prepare_markers
-    from imesh.markerset import STANDARD_MARKERS
-    from imesh.synthetic import synthetic_walk_clap
+    from imesh.human.markerset import STANDARD_MARKERS
+    from imesh.io.synthetic import synthetic_walk_clap
+    from imesh.morph.adapt import prepare_markers
 
     m = synthetic_walk_clap(steps=steps, fps=60.0, height_m=height)
     m = m.with_positions(m.positions_m + [0.0, shift_y, 0.0]).frames(0, frames)
@@ -40,7 +40,7 @@ def _performer(steps: int, frames: int, height: float, shift_y: float, spine: bo
 
 
 def run_one(frames: int, markers: int, threads: int | None = None) -> dict:
-    from imesh.adapt import adapt_motion
+    from imesh.morph.adapt import adapt_motion
     from imesh.morph.problem import MorphConfig
 
     steps = max(4, int(frames / 60 / 0.55) + 2)

@@ -57,12 +57,16 @@ CLIPS = ("cmu_02_01_walk.bvh", "cmu_141_16_wave_hello.bvh")
 STAGES = {
     "read clip": [("imesh/io/__init__.py", "load_motion")],
     "load robot": [("imesh/robot/model.py", "load_robot")],
-    "prepare": [("imesh/adapt.py", "prepare_markers"), ("imesh/filtering.py", "lowpass"),
-                ("imesh/arrange.py", "arrange_for_robot"), ("imesh/contacts.py", "detect_contacts"),
-                ("imesh/support.py", "flat_support"), ("imesh/support.py", "support_foot_targets")],
+    "prepare": [("imesh/morph/adapt.py", "prepare_markers"),
+                ("imesh/human/filtering.py", "lowpass"),
+                ("imesh/human/arrange.py", "arrange_for_robot"),
+                ("imesh/contacts/phases.py", "detect_contacts"),
+                ("imesh/contacts/support.py", "flat_support"),
+                ("imesh/contacts/support.py", "support_foot_targets")],
     "morph": [("imesh/morph/problem.py", "build_morph_problem"),
               ("imesh/morph/solver.py", "solve_morph")],
-    "fit": [("imesh/retarget.py", "orientation_targets"), ("imesh/fit/dls.py", "fit_motion")],
+    "fit": [("imesh/pipeline/retarget.py", "orientation_targets"),
+            ("imesh/fit/dls.py", "fit_motion")],
     "plan": [("imesh/solve/initial.py", "smooth_initializer"), ("imesh/solve/lead.py", "add_lead"),
              ("imesh/fit/targets.py", "compile_targets"),
              ("imesh/solve/sqp.py", "plan_whole_body")],
@@ -70,8 +74,9 @@ STAGES = {
     "SQP assemble": [("imesh/solve/problem.py", "build_qp")],
     "SQP QP": [("imesh/solve/qp.py", "solve_qp")],
     "SQP linearize + line search": [],  # solve_whole_body minus the three above
-    "verify (evaluator)": [("imesh/evaluate.py", "evaluate_motion")],
-    "write": [("imesh/robot_motion.py", "save_robot_motion"), ("imesh/export.py", "write_json")],
+    "verify (evaluator)": [("imesh/evaluate/scoreboard.py", "evaluate_motion")],
+    "write": [("imesh/io/robot_motion.py", "save_robot_motion"),
+              ("imesh/io/atomic.py", "write_json")],
 }
 
 

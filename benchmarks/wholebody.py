@@ -39,7 +39,7 @@ def main(argv=None) -> int:
     import dataclasses
 
     from imesh.io import load_motion
-    from imesh.retarget import RetargetConfig, retarget
+    from imesh.pipeline.retarget import RetargetConfig, retarget
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -67,7 +67,7 @@ def main(argv=None) -> int:
             written, m = score_written(robot, res, motion, out, stem, args.physics)
             wb = res.wholebody.report() if res.wholebody is not None else {}
             if args.plots:
-                from imesh.plots import plot_wholebody
+                from imesh.viz.adapt import plot_wholebody
 
                 plot_wholebody(robot, written, Path(args.plots) / f"{stem}.png",
                                title=f"{clip} on {name} (written output)")

@@ -10,7 +10,7 @@ The top-level API (:mod:`imesh.api`)::
 
     result = imesh.retarget(imesh.demo_clip(), "jvrc1", output="walk.npz")  # RetargetResult
     report = imesh.evaluate("walk.npz")                # metric name -> {"value", "unit", ...}
-    imesh.export_motion("walk.npz", "walk.csv", "csv")  # LAFAN1-layout CSV (imesh.exports)
+    imesh.export_motion("walk.npz", "walk.csv", "csv")  # LAFAN1-layout CSV (imesh.io.formats)
     robot = imesh.load_robot("g1")
     motion = imesh.load_robot_motion("walk.npz")      # RobotMotion
     clip = imesh.load_motion(imesh.demo_clip())       # a human clip (MarkerMotion)
@@ -19,6 +19,7 @@ The top-level API (:mod:`imesh.api`)::
 import sys as _sys
 import types as _types
 
+from .core.lazy import lazy_exports
 from .errors import (
     ConstraintError,
     ImeshError,
@@ -30,35 +31,35 @@ from .errors import (
     SolverError,
     UnsupportedFormatError,
 )
-from .lazy import lazy_exports
 
 #: Public names defined in submodules, imported on first use (PEP 562) so that ``import imesh``
 #: and ``imesh --help`` do not pay for scipy, pinocchio and the solvers.
 _LAZY = {
-    "AdaptResult": ".adapt", "adapt_motion": ".adapt",
-    "fill_gaps": ".gaps",
+    "AdaptResult": ".morph.adapt", "adapt_motion": ".morph.adapt",
+    "fill_gaps": ".human.gaps",
     "load_motion": ".io",
-    "STANDARD_BONES": ".markerset", "STANDARD_MARKERS": ".markerset", "to_standard": ".markerset",
+    **dict.fromkeys(("STANDARD_BONES", "STANDARD_MARKERS", "to_standard"), ".human.markerset"),
     "InteractionMesh": ".mesh.interaction", "build_interaction_mesh": ".mesh.interaction",
     "MorphConfig": ".morph.problem", "MorphProblem": ".morph.problem",
     "build_morph_problem": ".morph.problem",
     "MorphResult": ".morph.solver", "solve_morph": ".morph.solver",
-    "MarkerMotion": ".motion",
-    "RobotMotion": ".robot_motion",
-    "RetargetConfig": ".retarget", "RetargetResult": ".retarget",
+    "MarkerMotion": ".core.motion",
+    "RobotMotion": ".core.robot_motion",
+    "RetargetConfig": ".pipeline.retarget", "RetargetResult": ".pipeline.retarget",
     "retarget": ".api", "evaluate": ".api", "load_robot": ".api", "load_robot_motion": ".api",
     "export_motion": ".api", "demo_clip": ".api",
 }
 
-#: Public functions named like a submodule (``imesh.retarget``, ``imesh.evaluate``): importing
-#: the submodule must not replace the function (the import system sets the package attribute).
-_FUNCTIONS_OVER_MODULES = frozenset({"retarget", "evaluate"})
+#: Public functions named like a subpackage (``imesh.evaluate``, the package of the evaluator):
+#: importing the subpackage must not replace the function (the import system sets the package
+#: attribute).
+_FUNCTIONS_OVER_MODULES = frozenset({"evaluate"})
 
 
 class _Package(_types.ModuleType):
-    """The ``imesh`` module: keeps ``imesh.retarget``/``imesh.evaluate`` the API functions when
-    their submodules are imported (those stay in ``sys.modules``: ``from imesh.retarget import
-    RetargetConfig`` works as before)."""
+    """The ``imesh`` module: keeps ``imesh.evaluate`` the API function when the package
+    ``imesh/evaluate/`` is imported (it stays in ``sys.modules``: ``from imesh.evaluate import
+    evaluate_motion`` works)."""
 
     def __setattr__(self, name: str, value) -> None:
         if name in _FUNCTIONS_OVER_MODULES and isinstance(value, _types.ModuleType):

@@ -22,10 +22,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
-    from .motion import MarkerMotion
-    from .retarget import RetargetConfig, RetargetResult
+    from .core.motion import MarkerMotion
+    from .core.robot_motion import RobotMotion
+    from .pipeline.retarget import RetargetConfig, RetargetResult
     from .robot import Robot
-    from .robot_motion import RobotMotion
 
 log = logging.getLogger(__name__)
 
@@ -102,7 +102,7 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
             :func:`export_motion` for the CSV (LAFAN1 layout) and MuJoCo exports.
         fps: working and output frame rate [1/s] (default :class:`RetargetConfig`'s 30).
         balance: ``"wholebody"`` (default), ``"nishiwaki"`` or ``"none"``.
-        config: a full :class:`imesh.retarget.RetargetConfig` (``fps`` and ``balance`` then
+        config: a full :class:`imesh.pipeline.retarget.RetargetConfig` (``fps`` and ``balance`` then
             replace its fields when given explicitly).
         verify: before writing ``output``, compute the metrics and raise
             :class:`~imesh.errors.VerificationError` when a gate fails (nothing is written),
@@ -110,8 +110,8 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
         urdf: model file of robots whose model the user provides (HRP-4C).
 
     Returns:
-        :class:`imesh.retarget.RetargetResult`; ``result.motion`` is the
-        :class:`~imesh.robot_motion.RobotMotion` (T frames, ``q`` of shape (T, 7 + n)) and
+        :class:`imesh.pipeline.retarget.RetargetResult`; ``result.motion`` is the
+        :class:`~imesh.core.robot_motion.RobotMotion` (T frames, ``q`` of shape (T, 7 + n)) and
         ``result.meta``-free ``result.report()`` a JSON-able summary. When ``verify`` and
         ``output`` are given, ``result.report()`` is complemented by ``result.metrics``.
 
@@ -126,8 +126,8 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
         >>> motion.robot, motion.fps, motion.q.shape[1] == 7 + len(motion.joint_names)
         ('jvrc1', 30.0, True)
     """
-    from .retarget import RetargetConfig
-    from .retarget import retarget as _retarget
+    from .pipeline.retarget import RetargetConfig
+    from .pipeline.retarget import retarget as _retarget
 
     robot = _robot(robot, urdf)
     human = _human(clip)
@@ -139,7 +139,7 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
     config = dataclasses.replace(config, **changes)
     result = _retarget(human, robot, config=config)
     if output is not None:
-        from .robot_motion import save_robot_motion
+        from .io.robot_motion import save_robot_motion
 
         if verify:
             _verify(robot, result, name=str(clip) if isinstance(clip, str | os.PathLike)
@@ -152,8 +152,8 @@ def _verify(robot: Robot, result: RetargetResult, name: str, balanced: bool) -> 
     """The command line's verification: the metrics of the motion as it will be written;
     raises VerificationError when a gate fails."""
     from .errors import VerificationError
-    from .evaluate import evaluate_motion
-    from .verify import failed_gates
+    from .evaluate.scoreboard import evaluate_motion
+    from .evaluate.verify import failed_gates
 
     metrics = evaluate_motion(robot, result.motion, adapted=result.adapted,
                               seconds=result.seconds)
@@ -173,7 +173,7 @@ def load_robot_motion(path: PathLike, robot: Robot | str | None = None) -> Robot
             headerless CSV, supplies the joint names.
 
     Returns:
-        The :class:`~imesh.robot_motion.RobotMotion`.
+        The :class:`~imesh.core.robot_motion.RobotMotion`.
 
     Raises:
         MotionFileError: unreadable or malformed file (names the file and what is wrong).
@@ -188,7 +188,7 @@ def load_robot_motion(path: PathLike, robot: Robot | str | None = None) -> Robot
         >>> imesh.load_robot_motion(path).joint_positions[:, 0].tolist()
         [0.1, 0.2]
     """
-    from .exports import read_export
+    from .io.formats import read_export
 
     return read_export(path, robot)
 
@@ -196,7 +196,7 @@ def load_robot_motion(path: PathLike, robot: Robot | str | None = None) -> Robot
 def export_motion(motion: RobotMotion | PathLike, output: PathLike, fmt: str | None = None, *,
                   fps: float | None = None, robot: Robot | str | None = None,
                   mjcf: PathLike | None = None) -> None:
-    """Write a robot motion in one of the export formats (:mod:`imesh.exports`), atomically.
+    """Write a robot motion in one of the export formats (:mod:`imesh.io.formats`), atomically.
 
     Args:
         motion: a RobotMotion or the path of a robot-motion file.
@@ -212,7 +212,7 @@ def export_motion(motion: RobotMotion | PathLike, output: PathLike, fmt: str | N
     Raises:
         OptionError: unknown format (lists the valid ones), a robot without an MJCF.
     """
-    from .exports import write_export
+    from .io.formats import write_export
 
     if isinstance(motion, str | os.PathLike):
         motion = load_robot_motion(motion, robot)
@@ -253,7 +253,7 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
         >>> report["limit_violation_frames"]["value"]
         0
     """
-    from .evaluate import evaluate_motion
+    from .evaluate.scoreboard import evaluate_motion
 
     if isinstance(motion, str | os.PathLike):
         path = Path(motion)
@@ -271,7 +271,7 @@ def _robot_named_in(path: Path) -> str:
     from .errors import MotionFileError
 
     if path.suffix.lower() in (".npz", ".csv") and path.is_file():
-        from .exports import robot_named_in
+        from .io.formats import robot_named_in
 
         name = robot_named_in(path)
         if name:
@@ -280,14 +280,14 @@ def _robot_named_in(path: Path) -> str:
 
 
 def _load_for_evaluate(path: Path, robot: Robot, fps: float | None) -> RobotMotion:
-    from .evaluate import load_motion_file
-    from .exports import is_export
+    from .evaluate.scoreboard import load_motion_file
+    from .io.formats import is_export
 
     if is_export(path):
-        from .exports import read_export
+        from .io.formats import read_export
 
         motion = read_export(path, robot)
-        from .robot_motion import _match_joints
+        from .io.robot_motion import _match_joints
 
         q, names = _match_joints(path, motion.joint_positions, motion.joint_names,
                                  tuple(robot.joint_names))

@@ -110,7 +110,7 @@ class OptionError(ImeshError):
 class ImplausibleMotionError(InvalidMotionError):
     """A motion file parses but its content cannot be a recording of a person.
 
-    Raised by the plausibility checks at load time (:func:`imesh.motion.check_plausible`):
+    Raised by the plausibility checks at load time (:func:`imesh.core.motion.check_plausible`):
     positions beyond the plausible range, a body height outside the plausible range, a marker
     that jumps faster than any body part moves (a corrupted sample), every marker missing, or a
     clip shorter than the method needs.
@@ -199,8 +199,8 @@ class SourceMismatchError(ImeshError):
 
 
 class VerificationError(ImeshError):
-    """The motion was computed but failed the robot's gates (:mod:`imesh.verify`): nothing was
-    written (unless ``--force``). The command line exits with status 3.
+    """The motion was computed but failed the robot's gates (:mod:`imesh.evaluate.verify`): nothing
+    was written (unless ``--force``). The command line exits with status 3.
 
     Attributes:
         failed: metric -> (value, gate text) of every failed gate.

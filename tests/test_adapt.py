@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from imesh import load_motion
-from imesh.adapt import adapt_motion
+from imesh.morph.adapt import adapt_motion
 
 
 @pytest.mark.parametrize("clips", [

@@ -22,12 +22,12 @@ def test_top_level_names():
     for name in API:
         assert name in imesh.__all__, name
         assert getattr(imesh, name) is not None
-    # importing the submodules of the same name keeps the functions
-    importlib.import_module("imesh.retarget")
-    importlib.import_module("imesh.evaluate")
+    # importing the package of the same name (imesh/evaluate/) keeps the function
+    importlib.import_module("imesh.pipeline.retarget")
+    importlib.import_module("imesh.evaluate.scoreboard")
     assert callable(imesh.retarget) and imesh.retarget.__module__ == "imesh.api"
     assert callable(imesh.evaluate) and imesh.evaluate.__module__ == "imesh.api"
-    from imesh.retarget import RetargetConfig
+    from imesh.pipeline.retarget import RetargetConfig
 
     assert RetargetConfig is imesh.RetargetConfig
 

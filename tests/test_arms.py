@@ -25,7 +25,8 @@ from imesh.arms import (
 )
 from imesh.arms.solvers import solve_gn, solve_slsqp
 from imesh.cli import main
-from imesh.robot_motion import NPZ_KEYS, RobotMotion
+from imesh.core.robot_motion import RobotMotion
+from imesh.io.robot_motion import NPZ_KEYS
 
 ROBOTS = ("jvrc1", "g1", "hrp4c")
 WAVE = "cmu_141_16_wave_hello.bvh"

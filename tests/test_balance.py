@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import load_test_robot, mocap_path
+from imesh.contacts.phases.phases import detect_contacts, runs
 
 import imesh
-from imesh.adapt import prepare_markers
 from imesh.balance import BalanceConfig, FlightPhaseError, nishiwaki_correction
-from imesh.contacts import detect_contacts, runs
 from imesh.metrics.kinematics import motion_derivatives, zmp_trajectory
-from imesh.retarget import RetargetConfig, retarget
+from imesh.morph.adapt import prepare_markers
+from imesh.pipeline.retarget import RetargetConfig, retarget
 from imesh.robot.model import GRAVITY
 
 ROBOTS = ("jvrc1", "g1", "hrp4c")

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from conftest import mocap_path
 
-from imesh.batch import EXIT_PARTIAL, LOG_NAME, BatchSettings, is_done
 from imesh.cli import main
+from imesh.pipeline.batch import EXIT_PARTIAL, LOG_NAME, BatchSettings, is_done
 
 ROOT = Path(__file__).resolve().parents[1]
 pytest.importorskip("ray")

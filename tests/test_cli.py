@@ -105,7 +105,7 @@ def test_lazy_public_names():
     import imesh.arms
     import imesh.reduction
 
-    assert imesh.adapt_motion.__module__ == "imesh.adapt"
+    assert imesh.adapt_motion.__module__ == "imesh.morph.adapt"
     assert imesh.arms.imitate_arms.__module__ == "imesh.arms.solve"
     assert imesh.reduction.reduce_motion.__module__ == "imesh.reduction.pipeline"
     assert set(imesh.__all__) <= set(dir(imesh))

@@ -1,7 +1,7 @@
 """Issue 17: never report garbage as success. Every bad input and bad output path is a one-line
 error with exit status 2, found before the work, no traceback, no file left behind.
 
-Each case runs the command line in-process (``imesh.cli.main``) on files made in tmp_path from the
+Each case runs the command line in-process (``imesh.cli.app``) on files made in tmp_path from the
 real clips of IMESH_DATA.
 """
 
@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imesh.cli import PIPELINE_MIN_FRAMES, main
+from imesh.cli import main
+from imesh.cli.app import PIPELINE_MIN_FRAMES
 from imesh.errors import (
     ImplausibleMotionError,
     MotionFileError,
@@ -25,8 +26,9 @@ from imesh.errors import (
     SourceMismatchError,
     TooFewFramesError,
 )
-from imesh.export import atomic_path, output_transaction, save_marker_motion, write_json
 from imesh.io import load_motion
+from imesh.io.atomic import atomic_path, output_transaction, write_json
+from imesh.io.npz import save_marker_motion
 
 ROOT = Path(__file__).resolve().parents[1]
 WALK = "cmu_02_01_walk.bvh"
@@ -122,7 +124,7 @@ def test_one_frame_retarget_is_refused(capsys, mocap, tmp_path):
     assert status == 2 and "1 frame, too short for imesh retarget" in err
     assert not out.exists()
     with pytest.raises(TooFewFramesError) as info:
-        from imesh.motion import require_frames
+        from imesh.core.motion import require_frames
 
         require_frames(load_motion(clip), PIPELINE_MIN_FRAMES, "test")
     assert (info.value.frames, info.value.needed) == (1, PIPELINE_MIN_FRAMES)
@@ -329,7 +331,8 @@ def test_written_files_get_the_umask_permissions(tmp_path):
 def _robot_motion(path: Path, frames: int, fps: float):
     from conftest import load_test_robot
 
-    from imesh.robot_motion import RobotMotion, save_robot_motion
+    from imesh.core.robot_motion import RobotMotion
+    from imesh.io.robot_motion import save_robot_motion
 
     robot = load_test_robot("jvrc1")
     q = np.tile(robot.q_nominal, (frames, 1))
@@ -353,8 +356,8 @@ def test_evaluate_source_of_another_clip(capsys, mocap, tmp_path):
 def test_source_mismatch_is_an_error_in_the_library(mocap):
     from conftest import load_test_robot
 
-    from imesh.evaluate import evaluate_motion
-    from imesh.robot_motion import RobotMotion
+    from imesh.core.robot_motion import RobotMotion
+    from imesh.evaluate.scoreboard import evaluate_motion
 
     robot = load_test_robot("jvrc1")
     motion = RobotMotion(q=np.tile(robot.q_nominal, (30, 1)), fps=60.0, robot=robot.name,
@@ -378,7 +381,7 @@ def test_corrupt_npz_members_are_motion_file_errors(tmp_path):
     """A member whose header declares more data than it holds is refused before reading."""
     import zipfile
 
-    from imesh.robot_motion import load_robot_motion
+    from imesh.io.robot_motion import load_robot_motion
 
     path = tmp_path / "big.npz"
     header = "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000, 1000), }"

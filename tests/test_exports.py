@@ -1,4 +1,4 @@
-"""Exports (imesh.exports, ``imesh export``): round trips of the CSV (LAFAN1 layout), MuJoCo
+"""Exports (imesh.io.formats, ``imesh export``): round trips of the CSV (LAFAN1 layout), MuJoCo
 qpos and npz formats on a real G1 retarget of the demo walk, MuJoCo loading joint by joint, and
 ``--fps`` resampling (linear + slerp)."""
 
@@ -13,7 +13,7 @@ from conftest import load_test_robot
 
 from imesh.cli import main
 from imesh.errors import OptionError
-from imesh.exports import (
+from imesh.io.formats import (
     ExportError,
     mujoco_model,
     read_export,
@@ -177,7 +177,7 @@ def test_resampling_linear_and_slerp(g1_motion):
 
 
 def test_cli_export_round_trip(g1_motion, g1_mjcf, tmp_path):
-    from imesh.robot_motion import save_robot_motion
+    from imesh.io.robot_motion import save_robot_motion
 
     src = tmp_path / "walk.npz"
     save_robot_motion(src, g1_motion)

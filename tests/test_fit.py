@@ -9,6 +9,7 @@ import pytest
 from conftest import load_test_robot
 
 from imesh import ImeshError, MarkerMotion, MissingMarkerError
+from imesh.core.robot_motion import RobotMotion
 from imesh.fit import (
     DirectionTarget,
     FitConfig,
@@ -19,7 +20,6 @@ from imesh.fit import (
     robot_targets,
     solve_box_qp,
 )
-from imesh.robot_motion import RobotMotion
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ("jvrc1", "g1", "hrp4c")

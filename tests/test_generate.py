@@ -207,8 +207,8 @@ def test_icub_holds_its_nominal_pose_in_dart(tmp_path):
     """iCub in DART: zero-mass frame links get DART's default inertia, the feet rest on their
     sole boxes only (its foot link l_foot sits under the sole frame l_sole), and the robot
     stands 2 s in its generated nominal pose."""
+    from imesh.core.robot_motion import RobotMotion
     from imesh.physics import simulate_motion
-    from imesh.robot_motion import RobotMotion
 
     urdf = erd("icub_description/robots/icub.urdf")
     write_generated(generate_robot_config(urdf), tmp_path)

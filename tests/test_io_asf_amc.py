@@ -244,7 +244,7 @@ def test_rig_table(raw):
 
 
 def test_to_standard(motion):
-    from imesh import markerset
+    from imesh.human import markerset
     std = markerset.to_standard(motion)
     assert std.names == markerset.STANDARD_MARKERS and len(std.names) == 21
     assert not np.isnan(std.positions_m).any()

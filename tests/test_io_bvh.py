@@ -334,7 +334,7 @@ def test_rig_tables_match_clips(loaded, rig):
 
 @pytest.mark.parametrize("name", NAMES)
 def test_to_standard(loaded, name):
-    from imesh import markerset
+    from imesh.human import markerset
 
     _, motion = loaded[name]
     std = markerset.to_standard(motion)

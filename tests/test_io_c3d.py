@@ -138,7 +138,7 @@ def test_truncated_c3d(tmp_path, mocap):
 
 # ---------------------------------------------------------------- standard marker set
 def test_qualisys_to_standard(loaded):
-    from imesh import markerset
+    from imesh.human import markerset
     _, motion = loaded[QUALISYS]
     std = markerset.to_standard(motion)
     assert std.names == markerset.STANDARD_MARKERS
@@ -165,7 +165,7 @@ def _check_bone_lengths(std):
 
 def test_marker_missing_in_all_frames(tmp_path, mocap):
     """L_FLE gone in every frame: mapping fails naming L_FLE and knee_l."""
-    from imesh import markerset
+    from imesh.human import markerset
     c = ezc3d.c3d(str(mocap(QUALISYS)))
     i = list(c["parameters"]["POINT"]["LABELS"]["value"]).index("L_FLE")
     pts = c["data"]["points"]
@@ -185,8 +185,8 @@ def test_marker_missing_in_all_frames(tmp_path, mocap):
 
 def test_bts_partial_table(loaded):
     """The BTS protocol has no arms/head: mapping fails listing the standard markers lacking."""
-    from imesh import markerset
     from imesh.errors import MarkerMappingError
+    from imesh.human import markerset
 
     _, motion = loaded[BTS]
     with pytest.raises(MarkerMappingError, match="bts") as info:

@@ -137,7 +137,7 @@ def test_not_a_trc(tmp_path):
 
 # ---------------------------------------------------------------- standard marker set
 def test_trc_to_standard(motion):
-    from imesh import markerset
+    from imesh.human import markerset
     std = markerset.to_standard(motion)
     assert std.names == markerset.STANDARD_MARKERS
     np.testing.assert_array_equal(std.bones, markerset.STANDARD_BONES)

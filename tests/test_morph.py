@@ -17,10 +17,10 @@ from imesh import (
     solve_morph,
     to_standard,
 )
-from imesh.adapt import adapt_motion
+from imesh.io.synthetic import synthetic_walk_clap
 from imesh.mesh.bones import bone_lengths
+from imesh.morph.adapt import adapt_motion
 from imesh.morph.solver import _Window, window_layout
-from imesh.synthetic import synthetic_walk_clap
 
 
 @pytest.fixture(scope="module")

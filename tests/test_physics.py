@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from conftest import load_test_robot
 
+from imesh.core.robot_motion import RobotMotion
 from imesh.errors import ImeshError
 from imesh.robot import ROBOTS_DIR, load_robot_config
 from imesh.robot.registry import package_available
-from imesh.robot_motion import RobotMotion
 
 pytest.importorskip("dartpy")
 

@@ -113,7 +113,7 @@ def test_planar_biped_urdf_loads_in_pinocchio_and_dart(chain):
     import dartpy as dart
     import pinocchio as pin
 
-    from imesh.reduction.dart_run import planar_urdf_text
+    from imesh.physics.reduction import planar_urdf_text
     from imesh.reduction.dynamics import PLANAR_BIPED_URDF
 
     model = pin.buildModelFromUrdf(str(PLANAR_BIPED_URDF), pin.JointModelFreeFlyer())
@@ -313,7 +313,7 @@ def test_reduction_meets_the_acceptance_numbers(reduced):
 
 
 def test_dart_run_does_not_fall(reduced):
-    from imesh.reduction.dart_run import DartConfig, simulate_planar
+    from imesh.physics.reduction import DartConfig, simulate_planar
 
     rep = simulate_planar(reduced, DartConfig(cycles=3))
     assert not rep.fell, rep.fall_reason
@@ -323,7 +323,7 @@ def test_dart_run_does_not_fall(reduced):
 
 
 def test_cli_writes_motion_and_report(tmp_path, mocap):
-    from imesh.cli_reduction import add_parser, run
+    from imesh.cli.reduction import add_parser, run
     from imesh.reduction.pipeline import NPZ_KEYS
 
     parser = argparse.ArgumentParser()

@@ -8,7 +8,7 @@ from conftest import hrp4c_urdf, load_test_robot
 
 from imesh import load_motion
 from imesh.cli import main
-from imesh.retarget import RetargetConfig, retarget
+from imesh.pipeline.retarget import RetargetConfig, retarget
 
 ROBOTS = ("jvrc1", "g1", "hrp4c")
 
@@ -40,7 +40,7 @@ def test_wholebody_solves_the_wave(wave):
     """The wave starts with the right foot lifted and pitched and rests it on its toes: the
     lead-in steps it, the standing phase holds it flat; the evaluator finds no limit violation
     and the ZMP inside the support polygon."""
-    from imesh.evaluate import evaluate_motion, metric_values
+    from imesh.evaluate.scoreboard import evaluate_motion, metric_values
 
     robot = load_test_robot("jvrc1")
     res = retarget(wave, robot)
@@ -92,7 +92,7 @@ def test_flight_option_lists_unconstrained_frames_and_is_verified(mocap, tmp_pat
     judged by the gates: without --force a failed verification exits 3 and writes nothing."""
     import json
 
-    from imesh.verify import failed_gates
+    from imesh.evaluate.verify import failed_gates
 
     clip = tmp_path / "leap.bvh"
     _bvh_excerpt(mocap("cmu_05_06_dance_pirouettes_jete.bvh"), clip, 240)  # 2 s, one leap

@@ -11,9 +11,8 @@ import numpy as np
 import pytest
 
 import imesh.io as io
-from imesh import markerset
 from imesh.cli import main
-from imesh.human import RigRecognitionError, UnitsError, recognize
+from imesh.human import RigRecognitionError, UnitsError, markerset, recognize
 from imesh.io.units import UNIT_SCALES_M
 
 #: skeleton clips of the shared data and their hand-written rig tables

@@ -9,13 +9,8 @@ import numpy as np
 import pytest
 
 from imesh import InvalidMotionError, MotionFileError, OptionError, UnsupportedFormatError
-from imesh.robot_motion import (
-    CSV_BASE_COLUMNS,
-    NPZ_KEYS,
-    RobotMotion,
-    load_robot_motion,
-    save_robot_motion,
-)
+from imesh.core.robot_motion import CSV_BASE_COLUMNS, RobotMotion
+from imesh.io.robot_motion import NPZ_KEYS, load_robot_motion, save_robot_motion
 
 JOINTS = ("L_HIP_P", "L_KNEE", "R_HIP_P", "R_KNEE")
 

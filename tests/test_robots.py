@@ -17,7 +17,7 @@ import pytest
 from conftest import hrp4c_urdf
 
 from imesh.errors import ImeshError
-from imesh.markerset import STANDARD_BONE_NAMES, STANDARD_MARKERS
+from imesh.human.markerset import STANDARD_BONE_NAMES, STANDARD_MARKERS
 from imesh.robot import (
     ROBOTS_DIR,
     RobotConfigError,

@@ -12,8 +12,8 @@ import pytest
 from conftest import load_test_robot
 
 from imesh import load_motion
-from imesh.progress import JobBar, StageProgress, retarget_bar
-from imesh.retarget import RetargetConfig, retarget
+from imesh.core.progress import JobBar, StageProgress, retarget_bar
+from imesh.pipeline.retarget import RetargetConfig, retarget
 from imesh.solve import WholeBodyConfig
 
 
@@ -153,7 +153,7 @@ def test_windows_have_one_length_but_the_last_and_cover_the_clip(n_frames, windo
 
 
 def test_solve_workers_flag_reaches_the_retarget_config():
-    from imesh.cli import _retarget_config, build_parser
+    from imesh.cli.app import _retarget_config, build_parser
 
     for argv, workers in ((["retarget", "c.bvh", "-o", "o.npz"], 1),
                           (["retarget", "c.bvh", "-o", "o.npz", "--solve-workers", "2"], 2)):
@@ -196,9 +196,9 @@ def _border_checks(robot, written, borders) -> None:
 
 
 def _written_figures(robot, res, tmp_path):
-    from imesh.evaluate import evaluate_motion, load_motion_file, metric_values
-    from imesh.export import save_marker_motion
-    from imesh.robot_motion import save_robot_motion
+    from imesh.evaluate.scoreboard import evaluate_motion, load_motion_file, metric_values
+    from imesh.io.npz import save_marker_motion
+    from imesh.io.robot_motion import save_robot_motion
 
     path, markers = tmp_path / "walk.npz", tmp_path / "walk_markers.npz"
     save_robot_motion(path, res.motion)
@@ -278,7 +278,7 @@ def test_two_chains_and_their_join_window_hold_both_ends_and_every_border(
 def test_evaluator_in_blocks_of_frames_gives_the_same_report(mocap, monkeypatch):
     """The capsule distances and the inverse dynamics run over blocks of frames (9 GB on a
     30-minute clip at once): the report is the same to the last digit."""
-    import imesh.evaluate  # noqa: F401  (the module, not the top-level function)
+    import imesh.evaluate.scoreboard  # noqa: F401  (the module, not the top-level function)
 
     ev = sys.modules["imesh.evaluate"]
     robot = load_test_robot("g1")

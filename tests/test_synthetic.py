@@ -1,14 +1,14 @@
-"""Tests of the synthetic walk-and-clap generator (imesh.synthetic)."""
+"""Tests of the synthetic walk-and-clap generator (imesh.io.synthetic)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from imesh.core.motion import MarkerMotion
 from imesh.errors import OptionError
-from imesh.markerset import STANDARD_BONES, STANDARD_MARKERS
-from imesh.motion import MarkerMotion
-from imesh.synthetic import synthetic_walk_clap
+from imesh.human.markerset import STANDARD_BONES, STANDARD_MARKERS
+from imesh.io.synthetic import synthetic_walk_clap
 
 FLOOR_TOL_M = 1e-3  # toe within 1 mm of its floor level = stance
 

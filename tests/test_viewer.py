@@ -63,7 +63,7 @@ def test_demo_writes_motion_report_and_viewer(demo):
 
 
 def test_demo_clip_is_shipped_with_its_terms():
-    from imesh.cli_view import demo_clip
+    from imesh.cli.view import demo_clip
 
     clip = demo_clip()
     assert clip.is_file() and clip.stat().st_size < 1_000_000
@@ -238,7 +238,7 @@ def test_scene_arrays_round_trip_and_lead_frames():
 
 
 def test_solvers_do_not_import_the_viewer():
-    assert modules_after("import imesh.retarget, imesh.solve, imesh.fit, imesh.morph",
+    assert modules_after("import imesh.pipeline.retarget, imesh.solve, imesh.fit, imesh.morph",
                          "m.startswith('imesh.viz') or m in ('playwright', 'imageio_ffmpeg')"
                          ) == []
 

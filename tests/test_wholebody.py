@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import load_test_robot
+from imesh.contacts.phases.phases import SIDES
 
-from imesh.contacts import SIDES
 from imesh.fit.dls import FitConfig, joint_limits
 from imesh.fit.targets import compile_targets
 from imesh.solve import WholeBodyConfig, build_qp, plan_whole_body, solve_qp, solve_whole_body
@@ -192,7 +192,7 @@ def test_flight_is_refused_before_the_work(robot, mocap):
     """The pirouette/jete dance has flight phases: refused naming the frames."""
     from imesh.balance import FlightPhaseError
     from imesh.io import load_motion
-    from imesh.retarget import retarget
+    from imesh.pipeline.retarget import retarget
 
     motion = load_motion(mocap("cmu_05_06_dance_pirouettes_jete.bvh"))
     with pytest.raises(FlightPhaseError, match=r"flight phase\(s\).*frames \d+-\d+") as err:
@@ -205,9 +205,9 @@ def test_default_pipeline_walk(robot, mocap):
     violation, support soles still, the multibody ZMP inside the support polygon, the key
     points near the adapted markers. (The evaluator's sole deviation also counts the
     heel-strike/toe-off frames it detects as support: docs/wholebody.md.)"""
-    from imesh.evaluate import evaluate_motion, metric_values
+    from imesh.evaluate.scoreboard import evaluate_motion, metric_values
     from imesh.io import load_motion
-    from imesh.retarget import retarget
+    from imesh.pipeline.retarget import retarget
 
     motion = load_motion(mocap("cmu_02_01_walk.bvh"))
     res = retarget(motion, robot)

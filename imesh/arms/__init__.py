@@ -15,7 +15,7 @@ Example:
     >>> result.report()           # hand-point RMS, upper-arm error, frames outside the limits
 """
 
-from ..lazy import lazy_exports
+from ..core.lazy import lazy_exports
 
 _LAZY = {
     **dict.fromkeys(("JointLimits", "Violations", "check_limits", "frame_box"), ".bounds"),

@@ -18,11 +18,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.motion import MarkerMotion
+from ..core.robot_motion import RobotMotion
 from ..fit import FitConfig
 from ..fit.dls import ACCELERATION, POSITION, VELOCITY, joint_limits
 from ..fit.feasible import project_joint_trajectory
-from ..motion import MarkerMotion
-from ..robot_motion import RobotMotion
 from .bounds import CHECK_TOL, JointLimits, Violations, check_limits, frame_box
 from .config import ArmsConfig
 from .errors import ArmsError
@@ -369,10 +369,10 @@ def solve_arms(robot, markers: MarkerMotion, q_ref: np.ndarray, *,
 
 
 def human_arm_markers(motion: MarkerMotion, lowpass_hz: float | None) -> MarkerMotion:
-    """Standard markers of any loaded clip (:func:`imesh.adapt.prepare_markers`), low-passed as
-    in the main pipeline."""
-    from ..adapt import prepare_markers
-    from ..filtering import lowpass
+    """Standard markers of any loaded clip (:func:`imesh.morph.adapt.prepare_markers`), low-passed
+    as in the main pipeline."""
+    from ..human.filtering import lowpass
+    from ..morph.adapt import prepare_markers
 
     human = prepare_markers(motion)
     return lowpass(human, lowpass_hz) if lowpass_hz is not None else human
@@ -433,7 +433,7 @@ def refine_arms(robot, robot_motion: RobotMotion, markers: MarkerMotion,
         raise ArmsError(f"refine_arms: the motion has {robot_motion.n_frames} frames, the markers "
                         f"{markers.n_frames}")
     if config.lowpass_hz is not None:
-        from ..filtering import lowpass
+        from ..human.filtering import lowpass
 
         markers = lowpass(markers, config.lowpass_hz)
     result = solve_arms(robot, markers, robot_motion.q, config=config)

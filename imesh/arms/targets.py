@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..motion import MarkerMotion
+from ..core.motion import MarkerMotion
 from .config import ArmsConfig
 from .errors import ArmsError
 from .geometry import SUFFIX, ArmModel, thumb_direction
@@ -89,7 +89,7 @@ def _positions(markers: MarkerMotion, names: tuple[str, ...], why: str) -> np.nd
         t, m = np.argwhere(bad)[0]
         raise ArmsError(f"{markers.source or 'motion'}: marker {names[m]} is missing at frame "
                         f"{t} ({int(bad.any(axis=1).sum())} frames): fill the gaps first "
-                        "(imesh.adapt.prepare_markers)")
+                        "(imesh.morph.adapt.prepare_markers)")
     return pos
 
 

@@ -3,10 +3,10 @@ correction -> a motion with the corrected waist -> ZMP again; until the ZMP erro
 tolerance or an iteration limit.
 
 This module owns the loop and its report; producing the motion for a corrected waist is a
-callable supplied by the pipeline (:func:`imesh.retarget.retarget`, ``balance="nishiwaki"``):
-the paper's way, the corrected waist as a target of the morph and a new fit. It is kept as the
-paper's mode; the default balance is the whole-body solve (:mod:`imesh.solve`), which holds the
-ZMP, the footprints and the limits in one problem.
+callable supplied by the pipeline (:func:`imesh.pipeline.retarget.retarget`,
+``balance="nishiwaki"``): the paper's way, the corrected waist as a target of the morph and a new
+fit. It is kept as the paper's mode; the default balance is the whole-body solve
+(:mod:`imesh.solve`), which holds the ZMP, the footprints and the limits in one problem.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contacts import runs
+from ..contacts.phases import runs
 from ..errors import ImeshError, OptionError
-from ..filtering import lowpass_array
+from ..human.filtering import lowpass_array
 from ..metrics.kinematics import (
     motion_derivatives,
     sole_tracks,

@@ -49,8 +49,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..motion import MarkerMotion
-from ..robot_motion import RobotMotion
+from ..core.motion import MarkerMotion
+from ..core.robot_motion import RobotMotion
 from .boxqp import solve_box_qp
 from .errors import FitError
 from .feasible import project_joint_trajectory

@@ -30,9 +30,9 @@ body by its structure and geometry.
    most frames. Names (``LeftLeg``/``RightLeg``, ``l``/``r``, ``.L``/``.R``) are only a hint, used
    when the geometry is unclear, and a disagreement is logged.
 
-The result, :class:`Recognition`, gives a :class:`~imesh.markerset.RigTable` for the 21 standard
-markers (:meth:`Recognition.table`), the performer's standing height (for the unit choice) and
-how sure each part is.
+The result, :class:`Recognition`, gives a :class:`~imesh.human.markerset.RigTable` for the 21
+standard markers (:meth:`Recognition.table`), the performer's standing height (for the unit choice)
+and how sure each part is.
 """
 
 from __future__ import annotations
@@ -43,8 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..markerset import STANDARD_MARKERS, RigTable
 from .errors import RigRecognitionError
+from .markerset import STANDARD_MARKERS, RigTable
 
 log = logging.getLogger(__name__)
 

@@ -1,4 +1,4 @@
-"""Motion import: BVH, CMU ASF/AMC, C3D and TRC files to :class:`~imesh.motion.MarkerMotion`.
+"""Motion import: BVH, CMU ASF/AMC, C3D and TRC files to :class:`~imesh.core.motion.MarkerMotion`.
 
 ``load_motion(path)`` picks the reader by extension, converts to metres, Z up, floor at z = 0 and
 logs each decision (units, up axis, floor) so it can be checked and overridden.
@@ -9,8 +9,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ..core.motion import MarkerMotion
 from ..errors import MotionFileError, UnsupportedFormatError
-from ..motion import MarkerMotion
 from .raw import RawMotion
 from .units import UNIT_SCALES_M, UP_AXES, finalize
 
@@ -65,7 +65,7 @@ def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
         ground: "auto" (shift to the floor when off by > 3 cm), "none", or a shift in metres.
         fps: frame rate for AMC files, which store none (default 120).
         asf: the skeleton for an .amc file (default: found beside it).
-        check: run the plausibility checks of :func:`imesh.motion.check_plausible` (frame
+        check: run the plausibility checks of :func:`imesh.core.motion.check_plausible` (frame
             rate, body height 0.3-3 m, positions within 1 km, no marker faster than 100 m/s).
 
     Returns:

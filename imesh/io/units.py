@@ -14,10 +14,10 @@ import logging
 
 import numpy as np
 
+from ..core.motion import MarkerMotion, check_plausible
 from ..errors import ImplausibleMotionError, OptionError
 from ..human.errors import RigRecognitionError, UnitsError
 from ..human.rig import RECOGNIZED, Recognition, recognize
-from ..motion import MarkerMotion, check_plausible
 from .raw import RawMotion
 
 log = logging.getLogger(__name__)
@@ -196,7 +196,7 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
         ground: "auto" shifts the motion vertically so the floor (the 2nd percentile of the
             per-frame lowest marker) is at z = 0 when it is more than 3 cm away; "none" keeps the
             file's vertical origin; a number shifts by that many metres (up).
-        check: run the plausibility checks (:func:`imesh.motion.check_plausible`: frame rate,
+        check: run the plausibility checks (:func:`imesh.core.motion.check_plausible`: frame rate,
             body height, position range, marker speed); on by default.
         consume: the caller gives ``raw`` up: its positions array is converted in place and
             becomes the motion's (no second copy: a 30-minute clip's positions are 200 MB).
@@ -283,7 +283,7 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
         ground_why = "given by the user"
     pos[..., 2] -= floor
     if consume:
-        pos.setflags(write=False)  # the motion keeps it as it is (imesh.motion._frozen)
+        pos.setflags(write=False)  # the motion keeps it as it is (imesh.core.motion._frozen)
 
     log.info("%s: units %s (%.6g m/unit; %s); up axis %s (%s); floor %s", raw.path, unit_name,
              scale, unit_why, up, up_why, ground_why)

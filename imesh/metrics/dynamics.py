@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contacts import SIDES
+from ..contacts.phases import SIDES
 
 #: Friction coefficient of the friction ratio.
 MU = 0.7

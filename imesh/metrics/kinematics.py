@@ -1,11 +1,11 @@
 """Kinematic metrics of a robot motion: support phases from the soles, multibody ZMP against the
 support polygon and the desired ZMP, foot skid and joint-limit violations.
 
-Everything here works on a plain :class:`~imesh.robot_motion.RobotMotion` (no source markers),
+Everything here works on a plain :class:`~imesh.core.robot_motion.RobotMotion` (no source markers),
 so motions from other retargeting tools are scored on the same terms. Support phases come from
 the robot's own soles: a foot is in support while the lowest corner of its sole is within
 ``SupportDetection.height_m`` of the ground (z = 0) and its sole centre is slow, with hysteresis
-and a minimum phase duration (as :func:`imesh.contacts.detect_contacts` does for markers).
+and a minimum phase duration (as :func:`imesh.contacts.phases.detect_contacts` does for markers).
 
 Velocities and accelerations follow pinocchio's convention (``v = [base linear velocity in the
 base frame, base angular velocity in the base frame, joint rates]``, ``a = dv/dt``), computed
@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..contacts import SIDES, Contacts, drop_short, hysteresis, runs
+from ..contacts.phases import SIDES, Contacts, drop_short, hysteresis, runs
 from ..errors import OptionError
 
 log = logging.getLogger(__name__)

@@ -8,8 +8,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..core.motion import MarkerMotion
 from ..errors import InvalidMotionError, MissingMarkerError
-from ..motion import MarkerMotion
 
 CLOSE_PAIR_FRACTION = 0.15
 

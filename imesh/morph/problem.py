@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.motion import MarkerMotion
 from ..errors import ConstraintError, InvalidMotionError, OptionError
 from ..mesh.bones import bone_lengths, check_target_lengths
 from ..mesh.interaction import WEIGHTINGS
-from ..motion import MarkerMotion
 
 
 @dataclass(frozen=True)
@@ -166,7 +166,7 @@ def build_morph_problem(motion: MarkerMotion, *, pairs: np.ndarray | None = None
     """Assemble and validate a morph problem.
 
     Args:
-        motion: source motion with ``bones``; must be complete (see ``imesh.gaps.fill_gaps``).
+        motion: source motion with ``bones``; must be complete (see ``imesh.human.gaps.fill_gaps``).
         pairs: (B, 2) length-constrained marker pairs; default ``motion.bones``. Extra pairs
             (e.g. hip-hip, shoulder-neck) make segments rigid (Nakaoka & Komura sec. IV-A).
         target_lengths_m: (T, B) or (B,) final lengths of the pairs [m]; default: the source
@@ -186,7 +186,7 @@ def build_morph_problem(motion: MarkerMotion, *, pairs: np.ndarray | None = None
         t, j = np.argwhere(~motion.valid)[0]
         raise InvalidMotionError(
             f"{motion.source}: marker {motion.names[j]} is missing at frame {t}; fill gaps "
-            "before morphing (imesh.gaps.fill_gaps)"
+            "before morphing (imesh.human.gaps.fill_gaps)"
         )
     pairs = motion.bones if pairs is None else np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     if len(pairs) == 0:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..robot_motion import RobotMotion
+from ..core.robot_motion import RobotMotion
 
 log = logging.getLogger(__name__)
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..contacts import SIDES
+from ..contacts.phases import SIDES
 from ..metrics.collision import LowestPoint
 from ..metrics.kinematics import (
     SoleTracks,

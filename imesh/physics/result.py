@@ -127,6 +127,6 @@ class PhysicsResult:
     def plot(self, path: str | os.PathLike) -> None:
         """Write a figure of the run (joint error, base height, torque ratio, ZMP) to ``path``
         (any matplotlib format, e.g. .png), atomically."""
-        from .plots import plot_physics
+        from ..viz.physics import plot_physics
 
         plot_physics(self, path)

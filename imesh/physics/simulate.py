@@ -31,7 +31,7 @@ import numpy as np
 from scipy.linalg import lapack
 from scipy.spatial.transform import Rotation
 
-from ..contacts import SIDES
+from ..contacts.phases import SIDES
 from ..errors import ImeshError
 from .config import PhysicsConfig
 from .reference import Reference, build_reference, joint_splines, sample_frames
@@ -138,7 +138,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
-        motion: a :class:`imesh.robot_motion.RobotMotion` of this robot.
+        motion: a :class:`imesh.core.robot_motion.RobotMotion` of this robot.
         config: PhysicsConfig.
 
     Returns:

@@ -13,13 +13,12 @@ Pipeline (each step is a public function):
     derivative_matrices(n, dt, f) circulant F1, F2 (eqs 14-22)                     (diff)
     pca_basis(Theta, r)           SVD reduction (eqs 23-27)                        (pca)
     MotionOptimizer(...).run()    stages (I) and (II) (eqs 4-13, 28-34)            (optimize)
-    simulate_planar(result)       DART check with a planar root joint             (dart_run)
 
 ``reduce_motion(motion, robot)`` runs them all. Pinocchio is called only in
-:mod:`imesh.reduction.dynamics`; DART only in :mod:`imesh.reduction.dart_run`; both lazily.
+:mod:`imesh.reduction.dynamics`; DART only in :mod:`imesh.physics.reduction`; both lazily.
 """
 
-from ..lazy import lazy_exports
+from ..core.lazy import lazy_exports
 
 _LAZY = {
     **dict.fromkeys(("SagittalCapture", "sagittal_capture"), ".capture"),
@@ -29,7 +28,7 @@ _LAZY = {
     "derivative_matrices": ".diff",
     **dict.fromkeys(("MotionOptimizer", "OptimizationResult", "ReductionConfig"), ".optimize"),
     **dict.fromkeys(("PCABasis", "pca_basis"), ".pca"),
-    **dict.fromkeys(("CycleConfig", "ReductionResult", "reduce_motion", "save_reduction"),
+    **dict.fromkeys(("CycleConfig", "ReductionResult", "reduce_motion"),
                     ".pipeline"),
 }
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
@@ -38,5 +37,5 @@ __all__ = [
     "JOINTS", "LINKS", "ChainError", "ContactSchedule", "CycleConfig", "CyclicMotion",
     "MotionOptimizer", "OptimizationResult", "PCABasis", "PlanarChain", "ReductionConfig",
     "ReductionResult", "SagittalCapture", "contact_schedule", "derivative_matrices",
-    "make_cyclic", "pca_basis", "reduce_motion", "sagittal_capture", "save_reduction",
+    "make_cyclic", "pca_basis", "reduce_motion", "sagittal_capture",
 ]

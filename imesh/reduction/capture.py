@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..adapt import prepare_markers
+from ..core.motion import MarkerMotion
 from ..errors import InvalidMotionError
-from ..motion import MarkerMotion
+from ..morph.adapt import prepare_markers
 from .chain import LINKS, rot
 
 log = logging.getLogger(__name__)

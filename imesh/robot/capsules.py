@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cache import CACHE_ENV, cache_root
+from ..core.cache import CACHE_ENV, cache_root
 
 log = logging.getLogger(__name__)
 
@@ -601,7 +601,8 @@ def fit_robot_capsules(robot, cache: bool = True) -> list[Capsule]:
 
 def capsule_cache_dir() -> Path | None:
     """The folder of fitted capsules: ``capsules/`` in imesh's cache folder
-    (:func:`imesh.cache.cache_root`); None (no cache) when ``$IMESH_CACHE_DIR`` is set empty."""
+    (:func:`imesh.core.cache.cache_root`); None (no cache) when ``$IMESH_CACHE_DIR`` is set
+    empty."""
     env = os.environ.get(CACHE_ENV)
     if env is not None and not env.strip():
         return None

@@ -24,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..cache import read_cached, write_cached
+from ..core.cache import read_cached, write_cached
 from ..errors import ImeshError
 from .config import RobotConfigError, SoleRectangle
 

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ImeshError, _listing
-from ..markerset import STANDARD_MARKERS
+from ..human.markerset import STANDARD_MARKERS
 
 #: The robot folders shipped with imesh (``<repo>/robots``; each holds robot.toml, markers.toml).
 ROBOTS_DIR: Path = Path(__file__).resolve().parents[2] / "robots"

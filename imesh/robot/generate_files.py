@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cache import cache_root
+from ..core.cache import cache_root
 from ..errors import ImeshError
-from ..markerset import STANDARD_MARKERS
+from ..human.markerset import STANDARD_MARKERS
 from .config import SIDES
 from .generate import (
     CHEST_BELOW_SHOULDERS,
@@ -166,7 +166,7 @@ def _atomic_write(path: Path, text: str) -> None:
 
 def write_generated(gen: GeneratedConfig, directory: str | os.PathLike) -> list[Path]:
     """Write robot.toml, markers.toml (with the ``[arms]`` hand points) and report.txt into
-    ``directory``; load the result once to check it (the picture: imesh.plots.plot_keypoints).
+    ``directory``; load the result once to check it (the picture: imesh.viz.adapt.plot_keypoints).
 
     Returns:
         The files written.
@@ -208,7 +208,7 @@ def write_generated(gen: GeneratedConfig, directory: str | os.PathLike) -> list[
 
 def generated_dir(urdf: str | os.PathLike) -> Path:
     """Where ``--urdf`` without a configuration keeps its generated files: the user cache
-    (:func:`imesh.cache.cache_root`) under ``robots/<stem>-<hash of the URDF>``."""
+    (:func:`imesh.core.cache.cache_root`) under ``robots/<stem>-<hash of the URDF>``."""
     p = Path(urdf).expanduser()
     digest = hashlib.sha256(p.read_bytes()).hexdigest()[:12]
     return cache_root() / "robots" / f"{p.stem}-{digest}"

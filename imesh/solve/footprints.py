@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contacts import SIDES, runs
+from ..contacts.phases import SIDES, runs
+from ..contacts.support import middle_half
 from ..metrics.kinematics import SoleTracks, convex_hull_2d
-from ..support import middle_half
 
 
 @dataclass(frozen=True, eq=False)

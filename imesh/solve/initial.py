@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..filtering import lowpass_array
+from ..human.filtering import lowpass_array
 
 
 def smooth_initializer(robot, q: np.ndarray, fps: float, cutoff_hz: float) -> np.ndarray:

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contacts import SIDES, runs
+from ..contacts.phases import SIDES, runs
 from ..errors import SolverError
 from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh

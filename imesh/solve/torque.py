@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..contacts import SIDES
+from ..contacts.phases import SIDES
 from ..metrics.dynamics import net_torque_map
 from ..metrics.kinematics import SoleTracks, detect_support
 from .problem import gradient_operator

@@ -14,7 +14,7 @@ Solvers never import this package (tested); its heavy parts import lazily.
 
 from __future__ import annotations
 
-from ..lazy import lazy_exports
+from ..core.lazy import lazy_exports
 
 __getattr__, __dir__ = lazy_exports(__name__, {
     "build_scene": ".scene", "write_viewer": ".html", "viewer_html": ".html",

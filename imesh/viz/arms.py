@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..export import atomic_path
-from ..plots import _pyplot
+from ..io.atomic import atomic_path
+from .adapt import _pyplot
 
 _POINTS = ("wrist", "hand", "thumb")
 _COLORS = ("tab:red", "tab:green", "tab:blue")

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..export import atomic_path
-from ..plots import _pyplot
+from ..io.atomic import atomic_path
+from .adapt import _pyplot
 
 
 def _save(plt, fig, path: Path) -> str:

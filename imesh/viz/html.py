@@ -88,7 +88,7 @@ def viewer_html(scene: dict | None) -> str:
 
 def write_viewer(path: str | os.PathLike, scene: dict) -> Path:
     """Write the self-contained viewer page of ``scene`` to ``path`` (atomically)."""
-    from ..export import atomic_path
+    from ..io.atomic import atomic_path
 
     with atomic_path(path) as tmp:
         tmp.write_text(viewer_html(scene), encoding="utf-8")

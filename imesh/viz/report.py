@@ -1,8 +1,8 @@
 """The HTML report of a robot motion (``imesh retarget/evaluate --report``, ``imesh demo``).
 
 One self-contained file: the evaluator's metrics table with pass/fail against the gates of
-:mod:`imesh.verify`, figures computed from the motion file as written (ZMP inside the support
-polygon, sole heights and skid, joints against their position and velocity limits as in Kim
+:mod:`imesh.evaluate.verify`, figures computed from the motion file as written (ZMP inside the
+support polygon, sole heights and skid, joints against their position and velocity limits as in Kim
 2005 Fig. 4, torques against effort limits, marker errors per body part), and the 3D viewer
 embedded. Each metrics row carries its exact value (``data-metric``/``data-value``), the number
 ``imesh evaluate --json`` writes for the same file.
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contacts import SIDES
+from ..contacts.phases import SIDES
 
 log = logging.getLogger(__name__)
 
@@ -230,15 +230,15 @@ def figure_markers(t: np.ndarray, keypoints, markers) -> str:
 
 
 def _fmt(value) -> str:
-    from ..evaluate import _fmt as fmt
+    from ..evaluate.scoreboard import _fmt as fmt
 
     return fmt(value)
 
 
 def metrics_rows(metrics: Mapping[str, dict], balanced: bool = True) -> list[dict]:
     """Rows of the report's table: name, value, unit, gate, status (pass/fail/-), note."""
-    from ..evaluate import _note
-    from ..verify import Gates, failed_gates
+    from ..evaluate.scoreboard import _note
+    from ..evaluate.verify import Gates, failed_gates
 
     gates = Gates()
     gate_text = {"limit_violation_frames": f"<= {gates.limit_violation_frames}",
@@ -322,7 +322,7 @@ def report_html(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str, 
             f'</head><body><h1>{html.escape(title)}</h1><table class="meta">{meta}</table>'
             f'<h2>Metrics</h2><p>{verdict}</p><p>The numbers <code>imesh evaluate '
             f'{html.escape(Path(motion_path).name)} --robot {html.escape(robot.name)} --json'
-            f'</code> writes for this file; gates of <code>imesh.verify.Gates</code>.</p>'
+            f'</code> writes for this file; gates of <code>imesh.evaluate.verify.Gates</code>.</p>'
             f'{_table(rows)}{figs}{view}</body></html>')
 
 
@@ -352,8 +352,8 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
     Returns:
         the path written.
     """
-    from ..evaluate import evaluate_motion, load_motion_file
-    from ..export import atomic_path
+    from ..evaluate.scoreboard import evaluate_motion, load_motion_file
+    from ..io.atomic import atomic_path
     from ..metrics.dynamics import reference_dynamics
     from ..metrics.kinematics import (
         detect_support,

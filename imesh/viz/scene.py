@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contacts import SIDES
-from ..markerset import STANDARD_BONE_NAMES
+from ..contacts.phases import SIDES
+from ..human.markerset import STANDARD_BONE_NAMES
 
 log = logging.getLogger(__name__)
 
@@ -207,7 +207,7 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
-        motion: its :class:`imesh.robot_motion.RobotMotion` (T frames).
+        motion: its :class:`imesh.core.robot_motion.RobotMotion` (T frames).
         markers: the adapted markers the robot fitted (a MarkerMotion frame-aligned with the
             motion), or None: ``motion.meta["adapted_markers"]`` (stored in imesh motion files).
         source: the human clip (a path or MarkerMotion), drawn beside the robot: arranged for
@@ -305,7 +305,7 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
     scene["collisions"] = collisions
     scene["limits"] = _limit_frames(robot, q, fps)
     if metrics is not None:
-        from ..evaluate import metric_values
+        from ..evaluate.scoreboard import metric_values
 
         scene["metrics"] = {k: v for k, v in metric_values(metrics).items()}
     return scene
@@ -327,7 +327,7 @@ def _limit_frames(robot, q: np.ndarray, fps: float) -> list[list[str]]:
 def _source_entry(source, robot, fps: float, T: int, lead: tuple[int, int]) -> dict:
     """The arranged human clip at the motion's rate, frames shifted by the lead-in (held still
     over the lead-in/out), placed 1 m to the robot's left."""
-    from ..evaluate import arranged_source
+    from ..evaluate.scoreboard import arranged_source
 
     src = arranged_source(source, robot)
     if abs(src.fps - fps) > 1e-6 * fps:

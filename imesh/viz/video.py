@@ -63,7 +63,7 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
     """
     from PIL import Image
 
-    from ..export import atomic_path
+    from ..io.atomic import atomic_path
     from .browser import chromium_page, open_viewer
     from .html import viewer_html
 

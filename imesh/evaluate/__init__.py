@@ -1,0 +1,20 @@
+"""The evaluator: every metric of DESIGN.md for a written robot motion, and the gates that decide
+whether a retarget writes it.
+
+- :func:`~imesh.evaluate.scoreboard.evaluate_motion`: metric name -> value and unit;
+  :func:`~imesh.evaluate.scoreboard.load_motion_file` reads a motion as written (.npz, CSV).
+- :func:`~imesh.evaluate.verify.failed_gates`: which gates of a robot a report fails.
+
+``imesh evaluate`` (:mod:`imesh.cli.evaluate`) prints the same report.
+"""
+
+from ..core.lazy import lazy_exports
+
+_LAZY = {
+    **dict.fromkeys(("METRIC_NAMES", "EVAL_BLOCK_FRAMES", "arranged_source", "evaluate_motion",
+                     "format_table", "load_motion_file", "metric_values"), ".scoreboard"),
+    **dict.fromkeys(("Gates", "failed_gates"), ".verify"),
+}
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
+
+__all__ = sorted(_LAZY)

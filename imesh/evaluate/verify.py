@@ -1,0 +1,53 @@
+"""Verification of a robot motion before it is written: the evaluator's report against gates.
+
+The retarget command scores the motion it is about to write with
+:func:`imesh.evaluate.evaluate_motion` (the numbers ``imesh evaluate`` prints for the written
+file) and writes it only when every gate holds; otherwise it exits with status 3 and writes
+nothing, unless ``--force`` (written, and the report says which gates failed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .scoreboard import metric_values
+
+
+@dataclass(frozen=True)
+class Gates:
+    """Pass/fail limits on the evaluator's metrics.
+
+    Attributes:
+        limit_violation_frames: most frames with a joint outside its position, velocity or
+            acceleration limits.
+        ground_penetration_mm: deepest collision shape below the ground [mm].
+        marker_rms_mm: largest RMS distance of the key points from the adapted markers [mm].
+        zmp_inside_fraction: smallest fraction of support frames with the multibody ZMP inside
+            the support polygon (balanced motions only).
+    """
+
+    limit_violation_frames: int = 0
+    ground_penetration_mm: float = 10.0
+    marker_rms_mm: float = 100.0
+    zmp_inside_fraction: float = 0.95
+
+
+def failed_gates(report: dict, gates: Gates | None = None, balanced: bool = True) -> dict:
+    """metric -> (value, gate text) of every gate the evaluator's ``report`` fails (metrics that
+    could not be computed are not judged)."""
+    gates = gates or Gates()
+    m = metric_values(report)
+    out = {}
+    checks = [("limit_violation_frames", "<=", gates.limit_violation_frames),
+              ("ground_penetration_mm", "<=", gates.ground_penetration_mm),
+              ("marker_rms_mm", "<=", gates.marker_rms_mm)]
+    if balanced:
+        checks.append(("zmp_inside_fraction", ">=", gates.zmp_inside_fraction))
+    for name, op, limit in checks:
+        value = m.get(name)
+        if value is None:
+            continue
+        ok = value <= limit if op == "<=" else value >= limit
+        if not ok:
+            out[name] = (value, f"{op} {limit}")
+    return out

@@ -1,0 +1,467 @@
+"""The main pipeline: human motion -> robot joint trajectories.
+
+    standard markers (resampled to the working rate) -> arrangement for the robot (sec. IV-A)
+      -> contacts (sec. V-A) -> support-foot constraints (sec. V-B) -> spacetime morph (sec. III)
+      -> initial fit with motor limits (sec. IV-B; Kim 2005)
+      -> whole-body spacetime solve with a standing lead-in/out (imesh.solve; default)
+         or the paper's Nishiwaki waist loop (sec. V-C/D; ``balance="nishiwaki"``)
+      -> RobotMotion
+
+Every stage is a public function of its own module; this one only wires them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..contacts.phases import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_contacts
+from ..contacts.support import SupportConfig, flat_support, support_blend, support_foot_targets
+from ..core.motion import MarkerMotion
+from ..core.progress import ProgressCallback, notify
+from ..errors import OptionError
+from ..human.arrange import Arrangement, arrange_for_robot
+from ..human.filtering import lowpass
+from ..morph.adapt import prepare_markers
+from ..morph.problem import MorphConfig, build_morph_problem
+from ..morph.solver import MorphResult, MorphStepReport, solve_morph, window_layout
+from ..solve import WholeBodyConfig
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (the robot stack is imported lazily)
+    from ..arms.config import ArmsConfig
+    from ..balance.loop import BalanceConfig, BalanceResult
+    from ..core.robot_motion import RobotMotion
+    from ..fit.dls import FitConfig, FitResult
+    from ..solve.sqp import WholeBodySolution
+
+log = logging.getLogger(__name__)
+
+
+BALANCE_MODES = ("wholebody", "nishiwaki", "none")
+
+
+@dataclass(frozen=True)
+class RetargetConfig:
+    """Settings of every stage.
+
+    Attributes:
+        fps: the working and output frame rate [1/s]: the human motion is resampled to it
+            first (None keeps the source rate). 30 fps is the rate of the common retargeted
+            humanoid datasets; the whole-body solve's cost grows with the frame count.
+        morph: MorphConfig of the spacetime morph. A robot must move smoothly: the default
+            acceleration weight is 10 (adapt_motion's is 1). On the CMU walk the morph with
+            weight 1 triples the markers' accelerations (centroid p50 2.4 vs 0.74 m/s^2 in the
+            source; 1.1 with weight 100); but 100 distorts the first frames (wave, frame 0
+            key-point RMS 93 mm vs 32 mm with 10).
+        contacts: ContactConfig of the support detection.
+        support: SupportConfig; None disables the support-foot constraints of the morph.
+        fit: an :class:`imesh.fit.FitConfig` of the initial fit (None: defaults).
+        arms: an :class:`imesh.arms.ArmsConfig`: the initial fit's arm joints re-solved with
+            the SQP of Kim, Kim & Oh 2005 (:func:`imesh.arms.solve.refine_arms`) before the
+            balance stage; None: the DLS fit's arms.
+        balance: ``"wholebody"`` (default: the whole-body spacetime solve, :mod:`imesh.solve`),
+            ``"nishiwaki"`` (the paper's loop: the Nishiwaki waist correction fed back into the
+            morph, :func:`imesh.balance.balance_loop`) or ``"none"`` (the initial fit).
+        wholebody: WholeBodyConfig of the whole-body solve.
+        nishiwaki: BalanceConfig of the Nishiwaki loop (``balance="nishiwaki"``).
+        lead_s: standing lead-in and lead-out of the whole-body solve [s] (0: none).
+        allow_flight: accept flight phases (both feet up): those frames get no support and no
+            ZMP constraint, and the result lists them. False: refuse them with FlightPhaseError
+            before any work.
+        pelvis_weight: priority of the pelvis triangle (pelvis, hip_l, hip_r) and the base's
+            lateral direction: the paper fits the waist 6-DOF from these first; a high weight
+            keeps the feet from swinging the base when other targets disagree.
+        foot_weight: priority of the toe/ankle key points and the foot-roll directions in the
+            fit, relative to the markers.toml weights.
+        lowpass_hz: cut-off of the zero-phase low-pass applied to the human markers first
+            (``imesh.human.filtering``); None keeps them as recorded.
+        window_frames: a whole-body solve longer than this many frames (lead-in/out included)
+            is made in overlapping windows of at most this length
+            (:mod:`imesh.solve.windows`): memory stays that of one window and time grows
+            linearly; 900 frames (30 s at 30 fps) keeps every shared clip but the long idle in
+            one window.
+        window_overlap_frames: frames at the end of a window solved again by the next.
+        workers: processes of a windowed whole-body solve: 1 (the windows in order) or 2 (two
+            chains of windows in two processes joined by a window held at both ends,
+            :func:`imesh.solve.windows.solve_windowed`). 1 by default: two cost 1.25x the
+            cpu and were not faster on a shared 2-core machine (docs/speed.md); they pay only
+            with a free core. A solve of one window ignores it.
+    """
+
+    fps: float | None = 30.0
+    morph: MorphConfig = field(default_factory=lambda: MorphConfig(accel_weight=10.0))
+    contacts: ContactConfig = field(default_factory=ContactConfig)
+    support: SupportConfig | None = field(default_factory=SupportConfig)
+    fit: FitConfig | None = None
+    arms: ArmsConfig | None = None
+    balance: str = "wholebody"
+    wholebody: WholeBodyConfig = field(default_factory=WholeBodyConfig)
+    nishiwaki: BalanceConfig | None = None
+    lead_s: float = 1.0
+    allow_flight: bool = False
+    lowpass_hz: float | None = 8.0
+    foot_weight: float = 10.0
+    pelvis_weight: float = 3.0
+    window_frames: int = 900
+    window_overlap_frames: int = 60
+    workers: int = 1
+
+    def __post_init__(self) -> None:
+        if self.balance not in BALANCE_MODES:
+            raise OptionError("balance", self.balance, BALANCE_MODES)
+        if self.fps is not None and not (np.isfinite(self.fps) and self.fps > 0):
+            raise OptionError("fps", self.fps, "a positive number or None")
+        if not (np.isfinite(self.lead_s) and self.lead_s >= 0):
+            raise OptionError("lead_s", self.lead_s, "a number of seconds >= 0")
+        if not (isinstance(self.window_overlap_frames, int) and self.window_overlap_frames >= 2):
+            raise OptionError("window_overlap_frames", self.window_overlap_frames,
+                              "an integer >= 2")
+        if not (isinstance(self.window_frames, int)
+                and self.window_frames >= 2 * (self.window_overlap_frames + 4)):
+            raise OptionError("window_frames", self.window_frames,
+                              f"an integer >= {2 * (self.window_overlap_frames + 4)} (twice "
+                              "the overlap and the 4 frames held at the previous window)")
+        if type(self.workers) is not int or self.workers not in (1, 2):
+            raise OptionError("workers", self.workers,
+                              "1 (windows in order) or 2 (two chains in two processes)")
+        if self.balance == "wholebody" and self.support is None:
+            raise OptionError("support", None, "a SupportConfig: the whole-body solve plans "
+                              "footprints from the support phases")
+
+
+@dataclass(frozen=True, eq=False)
+class RetargetResult:
+    """Everything the pipeline produced, stage by stage.
+
+    Attributes:
+        motion: the robot motion (an :class:`imesh.core.robot_motion.RobotMotion`), including the
+            standing lead-in/out frames of the whole-body solve.
+        arrangement: the arranged, scaled human markers and robot targets.
+        adapted: the morphed markers, frame-aligned with ``motion`` (the lead-in/out frames
+            hold the first/last frame): the targets ``marker_rms_mm`` is measured against.
+        contacts: support phases of the source (footfalls, flight phases).
+        support: the robot's planned support, frame-aligned with ``motion``.
+        morph: the spacetime solver's result.
+        fit: the initial fit (residuals, limit counts).
+        wholebody: the whole-body solve (:class:`imesh.solve.WholeBodySolution`), or None.
+        balance: the Nishiwaki loop's result (``balance="nishiwaki"``), or None.
+        lead_frames: (lead-in, lead-out) frames added before and after the clip.
+        unconstrained_frames: flight frames left without support or ZMP constraint
+            (``allow_flight``), as [start, stop) ranges of ``motion``'s frames.
+        seconds: wall time per stage [s].
+        arms: the report of the arms' SQP in the initial fit (``config.arms``), or None.
+    """
+
+    motion: RobotMotion
+    arrangement: Arrangement
+    adapted: MarkerMotion
+    contacts: Contacts
+    support: Contacts
+    morph: MorphResult
+    fit: FitResult
+    wholebody: WholeBodySolution | None
+    balance: BalanceResult | None
+    lead_frames: tuple[int, int]
+    unconstrained_frames: list
+    seconds: dict
+    arms: dict | None = None
+
+    def report(self) -> dict:
+        fit_report = self.fit.report() if hasattr(self.fit, "report") else {}
+        return {
+            "robot": self.arrangement.motion.meta.get("robot"),
+            "frames": self.adapted.n_frames,
+            "fps": self.adapted.fps,
+            "lead_frames": list(self.lead_frames),
+            "unconstrained_frames": self.unconstrained_frames,
+            "markers": list(self.adapted.names),
+            "human_scale": self.arrangement.scale,
+            "bone_residual_m": self.morph.bone_residual_m,
+            "position_residual_m": self.morph.position_residual_m,
+            "morph_steps": self.morph.morph_steps,
+            "contacts": self.contacts.summary(),
+            "fit": fit_report,
+            "wholebody": self.wholebody.report() if self.wholebody is not None else None,
+            "balance": self.balance.report() if self.balance is not None else None,
+            "fit_sqp": self.arms,
+            "seconds": self.seconds,
+        }
+
+
+def foot_geometry(arrangement: Arrangement) -> tuple[dict[str, float], dict[str, float]]:
+    """Robot heights of the foot key points (nominal pose, soles at z = 0) and toe-ankle
+    lengths per side."""
+    pts = arrangement.meta["robot_points_m"]
+    names = arrangement.motion.names
+    heights = {m: float(pts[names.index(m), 2]) for side in SIDES for m in FOOT_MARKERS[side]}
+    lengths = {side: float(np.linalg.norm(pts[names.index(FOOT_MARKERS[side][0])]
+                                          - pts[names.index(FOOT_MARKERS[side][1])]))
+               for side in SIDES}
+    return heights, lengths
+
+
+def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
+                        weight: float = 1.0, flat: np.ndarray | None = None,
+                        pelvis_weight: float | None = None) -> tuple[MarkerMotion, tuple]:
+    """Virtual markers and key directions that fix each foot's roll and the base's roll/yaw.
+
+    The toe and ankle markers fix a foot's position, yaw and pitch but not its roll about the
+    toe-ankle line; left free, the fit rolls soles by tens of degrees. For each foot a virtual
+    marker ``foot_up_<side>`` is placed 0.1 m from the ankle along the zero-roll "up" vector of
+    the foot: perpendicular to ankle->toe and to a lateral axis, which is the world-horizontal
+    one (``f x z``: the sole flat on the ground) where the foot is in support (``flat`` = 1),
+    the pelvis's lateral axis in swing (``f x z`` flips when the foot points down at toe-off),
+    and a blend of the two on the support ramps. A key
+    direction asks the robot's matching sole axis (the sole normal made perpendicular to the
+    robot's own ankle->toe vector) to point there. With the toe and ankle at their support
+    heights this makes the sole flat on the ground.
+
+    Args:
+        adapted: the morphed markers.
+        robot, arrangement: the robot and the arrangement the markers come from.
+        weight: weight of the foot-roll directions.
+        flat: (T, 2) [left, right] support blend in [0, 1]
+            (:func:`imesh.contacts.support.support_blend`); None: pelvis-based everywhere.
+        pelvis_weight: weight of the base's lateral direction (None: ``weight``).
+
+    Returns:
+        (markers with the virtual markers appended, the extra Direction targets).
+    """
+    from ..robot.config import Direction
+
+    names = list(adapted.names)
+    pos = adapted.positions_m
+    pts = arrangement.meta["robot_points_m"]
+    extra_pos, extra_names, directions = [], [], []
+    # the foot's zero-roll lateral axis: the pelvis's right-pointing axis (hip_l -> hip_r) made
+    # perpendicular to the foot; f x z would flip when the foot points straight down (toe-off)
+    pelvis_right = pos[:, names.index("hip_r")] - pos[:, names.index("hip_l")]
+    for side in SIDES:
+        toe_name, ankle_name = FOOT_MARKERS[side]
+        toe, ankle = names.index(toe_name), names.index(ankle_name)
+        f = pos[:, toe] - pos[:, ankle]
+        f /= np.linalg.norm(f, axis=1, keepdims=True)
+        lateral = pelvis_right - np.sum(pelvis_right * f, axis=1, keepdims=True) * f
+        lateral /= np.maximum(np.linalg.norm(lateral, axis=1, keepdims=True), 1e-9)
+        if flat is not None:
+            k = SIDES.index(side)
+            # right-pointing for a forward foot; left unnormalized (its length is the foot's
+            # horizontal extent), so a foot pointing down on the ramps (toe-off) gets the
+            # pelvis axis rather than an ill-defined f x z
+            level = np.cross(f, [0.0, 0.0, 1.0])
+            level *= np.where(np.sum(level * lateral, axis=1, keepdims=True) < 0, -1.0, 1.0)
+            lateral = flat[:, k, None] * level + (1.0 - flat[:, k, None]) * lateral
+            lateral /= np.maximum(np.linalg.norm(lateral, axis=1, keepdims=True), 1e-9)
+        up = np.cross(lateral, f)
+        extra_pos.append(pos[:, ankle] + 0.1 * up)
+        extra_names.append(f"foot_up_{side[0]}")
+        sole = robot.soles[side]
+        rot = robot.frame_rotations(robot.q_nominal, [robot.frame_id(sole.frame)])[0]
+        d = rot.T @ (pts[toe] - pts[ankle])
+        d /= np.linalg.norm(d)
+        axis = sole.normal - (sole.normal @ d) * d
+        directions.append(Direction(frame=sole.frame, axis=axis / np.linalg.norm(axis),
+                                    from_marker=ankle_name, to_marker=extra_names[-1],
+                                    weight=weight))
+    # The base: its lateral axis along hip_r -> hip_l (the free-flyer's roll and yaw from the
+    # pelvis, as the paper fits the waist 6-DOF first).
+    if "hip_l" in names and "hip_r" in names:
+        waist = robot.frame_id(robot.waist_frame)
+        rot = robot.frame_rotations(robot.q_nominal, [waist])[0]
+        lat = rot.T @ (pts[names.index("hip_l")] - pts[names.index("hip_r")])
+        directions.append(Direction(frame=robot.waist_frame, axis=lat / np.linalg.norm(lat),
+                                    from_marker="hip_r", to_marker="hip_l",
+                                    weight=weight if pelvis_weight is None else pelvis_weight))
+    markers = MarkerMotion(positions_m=np.concatenate([pos, np.stack(extra_pos, axis=1)], axis=1),
+                           fps=adapted.fps, names=tuple(names + extra_names),
+                           valid=np.ones((adapted.n_frames, len(names) + 2), dtype=bool),
+                           bones=adapted.bones, source=adapted.source, meta=adapted.meta)
+    return markers, tuple(directions)
+
+
+def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = None,
+             progress: ProgressCallback | None = None) -> RetargetResult:
+    """Adapt a human motion to ``robot`` (an :class:`imesh.robot.Robot`).
+
+    Args:
+        motion: any loaded human motion.
+        robot: the target robot.
+        config: RetargetConfig.
+        progress: called with an :class:`imesh.core.progress.StageProgress` as each stage moves
+            (prepare, every morph step, fit, plan, every whole-body iteration); the command
+            line draws its bar from these (:class:`imesh.core.progress.JobBar`).
+
+    Returns:
+        RetargetResult; ``result.motion`` is the RobotMotion.
+
+    Raises:
+        FlightPhaseError: the clip has flight phases and ``allow_flight`` is off (before any
+            solve).
+        SolverError: the whole-body solve failed.
+    """
+    from ..balance import BalanceConfig, check_flight
+    from ..fit import FitConfig, fit_motion  # the fitting stage needs the robot stack
+    from ..fit.dls import joint_limits
+    from ..fit.targets import compile_targets
+    from ..solve import add_lead, plan_whole_body, smooth_initializer, solve_whole_body
+
+    config = config or RetargetConfig()
+    seconds: dict[str, float] = {}
+    t0 = time.perf_counter()
+    human = prepare_markers(motion)
+    if config.fps is not None and abs(human.fps - config.fps) > 1e-9:
+        human = human.resample(config.fps)
+    if config.lowpass_hz is not None:
+        human = lowpass(human, config.lowpass_hz)
+    arrangement = arrange_for_robot(human, robot)
+    source = arrangement.motion
+    contacts = detect_contacts(source, config.contacts)
+    nishiwaki = config.nishiwaki or BalanceConfig(error_lowpass_hz=1.5,
+                                                  allow_flight=config.allow_flight)
+    if config.balance != "none":  # fail before the morph, not after it
+        check_flight(motion.source or "motion", contacts.support, source.fps,
+                     BalanceConfig(allow_flight=config.allow_flight))
+    hard = soft = soft_w = None
+    flat = contacts
+    if config.support is not None:
+        flat = flat_support(source, contacts, config.support)
+        heights, lengths = foot_geometry(arrangement)
+        hard, soft, soft_w = support_foot_targets(source, flat, heights, lengths,
+                                                  config.support)
+    seconds["prepare"] = time.perf_counter() - t0
+    n_work = source.n_frames
+    notify(progress, "prepare", 1, 1, n_work)
+    # the morph reports every step of every window (its re-linearizations too): counted
+    n_morph = config.morph.steps * len(window_layout(n_work, config.morph.window_frames,
+                                                     config.morph.window_lookahead))
+    morph_calls = [0]
+
+    def morph_step(report: MorphStepReport) -> None:
+        morph_calls[0] += 1
+        notify(progress, "morph", min(morph_calls[0], n_morph), n_morph, n_work,
+               f"step {report.step}, window {report.window + 1}")
+
+    fit_config = config.fit if config.fit is not None else FitConfig()
+    blend = (support_blend(flat, config.support.ramp_s) if config.support is not None
+             else None)
+    # Priorities (W_e of eq. 7) as in the paper's order of fitting: the waist from the pelvis
+    # triangle, the feet (they carry the robot), then the rest; so the fit does not swing the
+    # base or slide a sole to meet an upper-body marker it cannot reach.
+    gain = {m: config.foot_weight for side in SIDES for m in FOOT_MARKERS[side]}
+    gain.update({m: config.pelvis_weight for m in ("pelvis", "hip_l", "hip_r")})
+    keypoints = {n: (dataclasses.replace(k, weight=k.weight * gain[n]) if n in gain else k)
+                 for n, k in arrangement.keypoints.items()}
+
+    def morph_and_fit(soft_m=soft, soft_wm=soft_w, q_init=None):
+        t1 = time.perf_counter()
+        problem = build_morph_problem(source, pairs=arrangement.pairs,
+                                      target_lengths_m=arrangement.target_lengths_m,
+                                      hard_positions_m=hard, soft_positions_m=soft_m,
+                                      soft_weights=soft_wm, config=config.morph)
+        morph = solve_morph(problem, progress=morph_step if progress is not None else None)
+        adapted = source.with_positions(morph.positions_m, source=f"adapted:{source.source}")
+        t2 = time.perf_counter()
+        fit_markers, extra_dirs = orientation_targets(adapted, robot, arrangement,
+                                                      weight=config.foot_weight, flat=blend,
+                                                      pelvis_weight=config.pelvis_weight)
+        fit = fit_motion(robot, fit_markers, keypoints=keypoints,
+                         directions=arrangement.directions + extra_dirs, config=fit_config,
+                         q_init=q_init)
+        seconds["morph"] = seconds.get("morph", 0.0) + t2 - t1
+        seconds["fit"] = seconds.get("fit", 0.0) + time.perf_counter() - t2
+        notify(progress, "fit", 1, 1, n_work)
+        return morph, adapted, fit_markers, fit, arrangement.directions + extra_dirs
+
+    morph, adapted, fit_markers, fit, directions = morph_and_fit()
+    q_out = fit.motion.q
+    arms_report = None
+    if config.arms is not None:  # Kim 2005 for the arms, as part of the initial fit
+        from ..arms.solve import refine_arms
+
+        t2 = time.perf_counter()
+        refined, arms_report = refine_arms(robot, fit.motion, adapted, config.arms)
+        q_out = refined.q
+        seconds["fit"] += time.perf_counter() - t2
+    balance = solution = None
+    lead = (0, 0)
+    unconstrained: list = []
+    support_out = flat
+    if config.balance == "nishiwaki":
+        from ..balance import balance_loop
+
+        t3 = time.perf_counter()
+        pelvis = source.index("pelvis")
+        shape = source.positions_m.shape
+        base_soft = soft if soft is not None else np.full(shape, np.nan)
+        base_w = soft_w if soft_w is not None else np.zeros(shape[:2])
+        stages = [(morph, adapted, fit)]
+
+        def step(waist_xy: np.ndarray) -> np.ndarray:
+            # The corrected waist is a soft target of large weight rather than the paper's hard
+            # constraint: with both feet pinned, a correction the legs cannot reach would make
+            # the hard constraints inconsistent and the morph fail.
+            s_m, w_m = base_soft.copy(), base_w.copy()
+            s_m[:, pelvis, :2] = waist_xy
+            w_m[:, pelvis] = nishiwaki.waist_weight
+            m_, a_, _, f_, _ = morph_and_fit(s_m, w_m, q_init=stages[-1][2].motion)
+            stages.append((m_, a_, f_))
+            return f_.motion.q
+
+        balance = balance_loop(robot, q_out, source.fps, flat.support,
+                               adapted.positions_m[:, pelvis, :2], step, nishiwaki)
+        morph, adapted, fit = stages[balance.best]
+        q_out = balance.q
+        seconds["balance"] = time.perf_counter() - t3
+    elif config.balance == "wholebody":
+        t3 = time.perf_counter()
+        n_lead = int(round(config.lead_s * source.fps))
+        q_init = smooth_initializer(robot, q_out, source.fps, config.wholebody.initial_lowpass_hz)
+        ext = add_lead(q_init, fit_markers.positions_m, flat.support, n_lead, n_lead,
+                       step_frames=int(round(0.5 * source.fps)))
+        targets = compile_targets(robot, fit_markers.names, keypoints, directions,
+                                  source=fit_markers.source or "motion")
+        limits = joint_limits(robot, fit_config)
+        plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
+                                           source.fps, limits, config.wholebody,
+                                           rest_frames=3 if n_lead >= 3 else 0)
+        seconds["plan"] = time.perf_counter() - t3
+        n_out = len(ext.q)
+        notify(progress, "plan", 1, 1, n_out)
+        t4 = time.perf_counter()
+
+        def sqp_step(done: int, total: int) -> None:
+            notify(progress, "wholebody", done, total, n_out, f"SQP iteration {done}")
+
+        if n_out > config.window_frames:
+            from ..solve import windows
+
+            def window_step(done: int, total: int, text: str) -> None:
+                notify(progress, "wholebody", done, total, n_out, text)
+
+            solution = windows.solve_windowed(
+                robot, plan, footprints, targets, config.wholebody, config.window_frames,
+                config.window_overlap_frames, progress=window_step, workers=config.workers)
+        else:
+            solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody,
+                                        progress=sqp_step)
+        seconds["wholebody"] = time.perf_counter() - t4
+        q_out = solution.q
+        lead = (n_lead, n_lead)
+        unconstrained = [(a + n_lead, b + n_lead) for a, b in contacts.flight_phases()]
+        adapted = adapted.with_positions(
+            ext.markers[:, :adapted.n_markers], source=adapted.source)
+        support_out = Contacts(support=ext.support, fps=source.fps)
+    motion_out = dataclasses.replace(fit.motion, q=q_out)
+    seconds["total"] = time.perf_counter() - t0
+    log.info("retargeted %s to %s: %d frames in %.2f s", motion.source, robot.name,
+             motion_out.n_frames, seconds["total"])
+    return RetargetResult(motion=motion_out, arrangement=arrangement, adapted=adapted,
+                          contacts=contacts, support=support_out, morph=morph, fit=fit,
+                          wholebody=solution, balance=balance, lead_frames=lead,
+                          unconstrained_frames=unconstrained, seconds=seconds,
+                          arms=arms_report)
