@@ -104,7 +104,7 @@ def support_feet(robot, result) -> dict:
     |a|/a_max of the joints, sole height in the planned support frames (|lowest sole corner
     z| [mm]: median, p95, max over both feet) and the horizontal sole-centre slip [mm per frame
     at 30 fps]."""
-    from imesh.contacts.phases.phases import SIDES
+    from imesh.contacts.phases import SIDES
 
     from imesh.fit import FitConfig
     from imesh.fit.dls import joint_limits

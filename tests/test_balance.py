@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import load_test_robot, mocap_path
-from imesh.contacts.phases.phases import detect_contacts, runs
+from imesh.contacts.phases import detect_contacts, runs
 
 import imesh
 from imesh.balance import BalanceConfig, FlightPhaseError, nishiwaki_correction

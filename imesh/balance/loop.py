@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..contacts.phases import runs
-from ..errors import ImeshError, OptionError
+from ..errors import ImeshError, OptionError, SolverError
 from ..human.filtering import lowpass_array
 from ..metrics.kinematics import (
     motion_derivatives,
@@ -259,7 +259,9 @@ def balance_loop(robot, q: np.ndarray, fps: float, support: np.ndarray, waist_xy
         target = target + dx
         try:
             q_new = step(target)
-        except ImeshError as exc:  # the morph or fit could not meet this correction
+        except SolverError as exc:
+            # the morph cannot meet this waist correction (hard constraints inconsistent with
+            # it); any other error is a bug or bad input and propagates
             log.warning("balance: iteration %d failed (%s); keeping the best iterate", k, exc)
             break
         state = zmp_state(robot, q_new, fps, support, config.transition_s)

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -58,6 +58,10 @@ class Arrangement:
             ``motion.names`` order.
         directions: key directions (``imesh.robot.config.Direction``) whose markers survived.
         scale: factor applied to the human before the morph.
+        robot: name of the robot the markers are arranged for.
+        pair_names: (P,) the marker names of each pair in ``pairs``.
+        robot_points_m: (M', 3) each marker's robot key point in the robot's nominal pose,
+            soles at z = 0 [m] (where the morph's targets and the foot geometry come from).
     """
 
     motion: MarkerMotion
@@ -66,7 +70,9 @@ class Arrangement:
     keypoints: Mapping
     directions: tuple
     scale: float
-    meta: dict = field(default_factory=dict)
+    robot: str
+    pair_names: tuple[tuple[str, str], ...]
+    robot_points_m: np.ndarray
 
 
 def _reattach(names: tuple[str, ...], bones: np.ndarray, remove: set[str]
@@ -204,8 +210,7 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
                  "point", np.degrees(turn))
     arranged = MarkerMotion(positions_m=pos, fps=motion.fps, names=tuple(all_names),
                             valid=np.ones(pos.shape[:2], dtype=bool), bones=tree_idx,
-                            source=motion.source, meta={**motion.meta, "robot": robot.name,
-                                                        "human_scale": scale})
+                            source=motion.source, meta=motion.meta)
     all_set = set(all_names)
     directions = tuple(d for d in model.directions
                        if d.from_marker in all_set and d.to_marker in all_set)
@@ -214,4 +219,4 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
              sorted(remove) or "none", added_names or "none", len(pairs), scale)
     return Arrangement(motion=arranged, pairs=pairs, target_lengths_m=target,
                        keypoints=keypoints, directions=directions, scale=scale,
-                       meta={"pair_names": pair_names, "robot_points_m": robot_pts})
+                       robot=robot.name, pair_names=tuple(pair_names), robot_points_m=robot_pts)

@@ -174,7 +174,7 @@ class RetargetResult:
     def report(self) -> dict:
         fit_report = self.fit.report() if hasattr(self.fit, "report") else {}
         return {
-            "robot": self.arrangement.motion.meta.get("robot"),
+            "robot": self.arrangement.robot,
             "frames": self.adapted.n_frames,
             "fps": self.adapted.fps,
             "lead_frames": list(self.lead_frames),
@@ -196,7 +196,7 @@ class RetargetResult:
 def foot_geometry(arrangement: Arrangement) -> tuple[dict[str, float], dict[str, float]]:
     """Robot heights of the foot key points (nominal pose, soles at z = 0) and toe-ankle
     lengths per side."""
-    pts = arrangement.meta["robot_points_m"]
+    pts = arrangement.robot_points_m
     names = arrangement.motion.names
     heights = {m: float(pts[names.index(m), 2]) for side in SIDES for m in FOOT_MARKERS[side]}
     lengths = {side: float(np.linalg.norm(pts[names.index(FOOT_MARKERS[side][0])]
@@ -236,7 +236,7 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
 
     names = list(adapted.names)
     pos = adapted.positions_m
-    pts = arrangement.meta["robot_points_m"]
+    pts = arrangement.robot_points_m
     extra_pos, extra_names, directions = [], [], []
     # the foot's zero-roll lateral axis: the pelvis's right-pointing axis (hip_l -> hip_r) made
     # perpendicular to the foot; f x z would flip when the foot points straight down (toe-off)
