@@ -124,3 +124,30 @@ def test_balance_loop_lowers_the_zmp_error_on_a_real_clip():
     assert report["iterations_run"] >= 1 and len(report["per_iteration"]) >= 2
 
 
+
+
+@pytest.mark.parametrize("error, stops", [
+    (imesh.SolverError("conflicting hard constraints"), True),
+    (imesh.OptionError("weight", -1.0, "a number >= 0"), False)])
+def test_balance_loop_stops_only_when_the_morph_cannot_meet_a_correction(error, stops):
+    """A SolverError from the morph/fit step ends the loop with the best iterate so far (the
+    unbalanced motion here); any other ImeshError is not swallowed."""
+    from imesh.balance import balance_loop
+
+    robot = load_test_robot("jvrc1")
+    q = np.tile(robot.q_nominal, (40, 1))  # standing: the ZMP is off the desired by > 1 um
+    support = np.ones((len(q), 2), dtype=bool)
+    calls = []
+
+    def step(waist_xy):
+        calls.append(waist_xy)
+        raise error
+
+    config = BalanceConfig(iterations=3, tolerance_mm=1e-3, inside_target=1.0)
+    if stops:
+        result = balance_loop(robot, q, 30.0, support, q[:, :2], step, config)
+        assert len(calls) == 1 and result.best == 0 and len(result.iterations) == 1
+        np.testing.assert_array_equal(result.q, q)
+    else:
+        with pytest.raises(type(error)):
+            balance_loop(robot, q, 30.0, support, q[:, :2], step, config)
