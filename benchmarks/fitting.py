@@ -105,7 +105,6 @@ def support_feet(robot, result) -> dict:
     z| [mm]: median, p95, max over both feet) and the horizontal sole-centre slip [mm per frame
     at 30 fps]."""
     from imesh.contacts.phases import SIDES
-
     from imesh.fit import FitConfig
     from imesh.fit.dls import joint_limits
     from imesh.metrics.kinematics import sole_tracks

@@ -198,6 +198,22 @@ class SourceMismatchError(ImeshError):
         self.found = found
 
 
+class MissingDependencyError(ImeshError):
+    """An optional dependency a feature needs is not installed (:func:`imesh.core.lazy.optional`).
+
+    Attributes:
+        module: the module that could not be imported.
+        pip: the command that installs it.
+        feature: what needs it.
+    """
+
+    def __init__(self, module: str, pip: str, feature: str):
+        super().__init__(f"{feature} needs {module}: {pip}")
+        self.module = module
+        self.pip = pip
+        self.feature = feature
+
+
 class VerificationError(ImeshError):
     """The motion was computed but failed the robot's gates (:mod:`imesh.evaluate.verify`): nothing
     was written (unless ``--force``). The command line exits with status 3.

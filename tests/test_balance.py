@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import load_test_robot, mocap_path
-from imesh.contacts.phases import detect_contacts, runs
 
 import imesh
 from imesh.balance import BalanceConfig, FlightPhaseError, nishiwaki_correction
+from imesh.contacts.phases import detect_contacts, runs
 from imesh.metrics.kinematics import motion_derivatives, zmp_trajectory
 from imesh.morph.adapt import prepare_markers
 from imesh.pipeline.retarget import RetargetConfig, retarget

@@ -407,3 +407,17 @@ def test_noise_clip_is_never_a_success(capsys, mocap, tmp_path, options):
     status, line = run(capsys, "-q", "retarget", clip, "--robot", "jvrc1", "-o", out, *options)
     assert status in (2, 3), line
     assert not out.exists()
+
+
+def test_a_missing_optional_dependency_names_the_pip_command(monkeypatch):
+    """One lazy-import helper for the heavy extras: the error names the feature and the command
+    that installs what it needs."""
+    from imesh.core.lazy import optional
+    from imesh.errors import MissingDependencyError
+
+    monkeypatch.setitem(sys.modules, "dartpy", None)  # an import of it now fails
+    with pytest.raises(MissingDependencyError) as info:
+        optional("dartpy", "pip install dartpy", "the physics check")
+    assert str(info.value) == "the physics check needs dartpy: pip install dartpy"
+    assert (info.value.module, info.value.pip) == ("dartpy", "pip install dartpy")
+    assert optional("json", "pip install json", "x") is sys.modules["json"]

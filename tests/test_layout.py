@@ -7,6 +7,7 @@ also those inside functions), so a lazy import counts too."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -67,3 +68,43 @@ def test_the_check_sees_imports():
     """The reader finds a known import, relative and lazy: the CLI imports the viewers."""
     assert "viz" in _imported_units(PACKAGE / "cli" / "view.py")
     assert "physics" in _imported_units(PACKAGE / "evaluate" / "scoreboard.py")
+
+
+#: Packages every package may import; docs/architecture.md says so instead of drawing them.
+EVERYWHERE = ("core", "errors")
+ARCHITECTURE = PACKAGE.parent / "docs" / "architecture.md"
+
+
+def _package_graph() -> set[tuple[str, str]]:
+    """(importer, imported) pairs of first-level imesh packages, from every module's imports."""
+    edges = set()
+    for path in PACKAGE.rglob("*.py"):
+        rel = path.relative_to(PACKAGE)
+        if len(rel.parts) == 1:  # the root's modules (__init__, __main__, api, errors)
+            unit = rel.stem
+        else:
+            unit = rel.parts[0]
+        edges |= {(unit, u) for u in _imported_units(path)
+                  if u != unit and u not in EVERYWHERE and not u.startswith("__")}
+    return {(a, b) for a, b in edges if not a.startswith("__") and a not in EVERYWHERE}
+
+
+def _drawn_edges() -> set[tuple[str, str]]:
+    """The arrows ``a --> b`` of the first mermaid diagram in docs/architecture.md."""
+    block = re.search(r"```mermaid\n(.*?)```", ARCHITECTURE.read_text(), re.S)
+    assert block, f"{ARCHITECTURE}: no mermaid diagram"
+    return set(re.findall(r"^\s*(\w+)\s*-->\s*(\w+)\s*$", block.group(1), re.M))
+
+
+def test_the_architecture_diagram_is_the_import_graph():
+    """docs/architecture.md draws exactly the imports between packages: an import added or
+    removed in the code must be drawn or erased there."""
+    drawn, actual = _drawn_edges(), _package_graph()
+    assert drawn == actual, (f"imported but not drawn: {sorted(actual - drawn)}; "
+                             f"drawn but not imported: {sorted(drawn - actual)}")
+
+
+def test_core_imports_nothing_of_imesh_but_errors():
+    """core/ holds the shared types: it may import only errors (no stage, no reader)."""
+    used = {u for f in _files("core") for u in _imported_units(f)} - {"core", "errors"}
+    assert not used, f"imesh/core imports {sorted(used)}"

@@ -13,7 +13,7 @@ import pytest
 from conftest import load_test_robot
 
 from imesh.core.robot_motion import RobotMotion
-from imesh.errors import ImeshError
+from imesh.errors import ImeshError, MissingDependencyError
 from imesh.robot import ROBOTS_DIR, load_robot_config
 from imesh.robot.registry import package_available
 
@@ -23,7 +23,6 @@ from imesh.physics import (  # noqa: E402
     PHYSICS_METRICS,
     DartRobot,
     PhysicsConfig,
-    PhysicsError,
     PhysicsResult,
     simulate_motion,
 )
@@ -218,7 +217,7 @@ def test_bad_config_values():
 
 def test_missing_dartpy_says_how_to_install(jvrc1, monkeypatch):
     monkeypatch.setitem(sys.modules, "dartpy", None)
-    with pytest.raises(PhysicsError, match="pip install dartpy"):
+    with pytest.raises(MissingDependencyError, match="pip install dartpy"):
         simulate_motion(jvrc1, standing(jvrc1, 0.1))
 
 

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.lazy import optional
 from ..core.robot_motion import RobotMotion
 from ..errors import ImeshError, MotionFileError, OptionError
 from .atomic import atomic_path
@@ -129,11 +130,7 @@ def mujoco_model(robot: str, mjcf: str | os.PathLike | None = None):
         ExportError: no ``mujoco``/``mujoco-menagerie`` installed, a robot without a known MJCF
             (names the robots that have one), or a model that cannot be loaded.
     """
-    try:
-        import mujoco
-    except ImportError:
-        raise ExportError("the MuJoCo export needs the mujoco package: pip install "
-                          "imesh[mujoco]") from None
+    mujoco = optional("mujoco", "pip install imesh[mujoco]", "the MuJoCo export")
     if mjcf is not None:
         try:
             return mujoco.MjModel.from_xml_path(str(mjcf)), str(mjcf)
@@ -144,11 +141,8 @@ def mujoco_model(robot: str, mjcf: str | os.PathLike | None = None):
                           f"{', '.join(sorted(MENAGERIE))}); pass --mjcf FILE with an MJCF "
                           "whose joint names are the robot's")
     name, entry = MENAGERIE[robot]
-    try:
-        import mujoco_menagerie
-    except ImportError:
-        raise ExportError(f"the MuJoCo model of {robot} comes from the mujoco-menagerie package: "
-                          "pip install imesh[mujoco] (or pass --mjcf FILE)") from None
+    mujoco_menagerie = optional("mujoco_menagerie", "pip install imesh[mujoco] (or pass --mjcf "
+                                "FILE)", f"the MuJoCo model of {robot}")
     try:
         model = mujoco_menagerie.load(name, entry)
     except Exception as exc:  # noqa: BLE001 - download/cache errors of the package

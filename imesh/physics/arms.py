@@ -73,7 +73,8 @@ def track_arms(robot, motion: RobotMotion, joints: Sequence[str] | None = None, 
         ArmTracking.
 
     Raises:
-        PhysicsError: dartpy missing (with the install command) or a model mismatch.
+        MissingDependencyError: dartpy missing (names the install command).
+        PhysicsError: a model mismatch.
     """
     from . import PhysicsConfig, simulate_motion
 

@@ -20,16 +20,11 @@ import numpy as np
 from ..errors import ImeshError
 from ..reduction.chain import joint_matrix, rot
 from ..reduction.dynamics import PLANAR_BIPED_URDF
+from .world import dartpy
 
 log = logging.getLogger(__name__)
 
 
-def _dart():
-    try:
-        import dartpy
-    except ImportError as exc:  # pragma: no cover - dartpy is a dependency
-        raise ImeshError("the physics check needs DART: pip install dartpy") from exc
-    return dartpy
 
 
 @dataclass(frozen=True)
@@ -139,7 +134,7 @@ def simulate_planar(result, config: DartConfig | None = None, urdf_path=PLANAR_B
     """Run a designed motion of the planar biped in DART (see the module docstring)."""
     if result.robot != "planar_biped":
         raise ImeshError(f"the DART check runs the planar biped only (got {result.robot!r})")
-    dart = _dart()
+    dart = dartpy()
     cfg = config or DartConfig()
     world = dart.simulation.World()
     world.setTimeStep(cfg.time_step)

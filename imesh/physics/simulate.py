@@ -147,7 +147,8 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
 
     Raises:
         ImeshError: the motion is of another robot or has other joints.
-        PhysicsError: dartpy missing (with the install command) or the DART model does not match.
+        MissingDependencyError: dartpy missing (names the install command).
+        PhysicsError: the DART model does not match.
     """
     config = config or PhysicsConfig()
     if motion.robot != robot.name or tuple(motion.joint_names) != tuple(robot.joint_names):

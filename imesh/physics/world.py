@@ -27,6 +27,7 @@ from types import ModuleType
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..core.lazy import optional
 from ..errors import ImeshError
 from .config import PhysicsConfig
 
@@ -40,17 +41,13 @@ GROUND_HALF_SIZE = 100.0
 
 
 class PhysicsError(ImeshError):
-    """The DART world cannot be built or simulated (missing dartpy, model mismatch)."""
+    """The DART world cannot be built or simulated (a model mismatch, a failed step)."""
 
 
 def dartpy() -> ModuleType:
-    """The dartpy module, or a PhysicsError saying how to install it."""
-    try:
-        import dartpy as dart
-    except ImportError as exc:
-        raise PhysicsError("the physics check needs DART's Python bindings: pip install dartpy "
-                           f"({exc})") from exc
-    return dart
+    """The dartpy module (imported on first use), or a MissingDependencyError saying how to
+    install it."""
+    return optional("dartpy", "pip install dartpy", "the physics check")
 
 
 def _rotations(q: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..core.lazy import optional
 from ..errors import ImeshError, OptionError
 
 log = logging.getLogger(__name__)
@@ -231,11 +232,7 @@ def _retarget_clip(clip: Path, output: Path, settings: BatchSettings, record: di
 def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, workers: int,
                  address: str | None) -> Iterator[dict]:
     """Run the jobs as Ray tasks, at most ``workers`` at a time; yield records as they end."""
-    try:
-        import ray
-    except ImportError:
-        raise OptionError("--backend", "ray", "processes (or pip install imesh[batch])"
-                          ) from None
+    ray = optional("ray", "pip install imesh[batch] (or --backend processes)", "--backend ray")
     env = {"env_vars": {"PYTHONPATH": os.pathsep.join(
         p for p in [str(Path(__file__).resolve().parents[1]), os.environ.get("PYTHONPATH")]
         if p)}}

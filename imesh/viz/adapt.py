@@ -9,17 +9,7 @@ import numpy as np
 
 from ..errors import ImeshError
 from ..io.atomic import atomic_path
-
-
-def _pyplot():
-    try:
-        import matplotlib
-    except ImportError as exc:
-        raise ImportError("plots need matplotlib: pip install matplotlib") from exc
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+from .pyplot import pyplot
 
 
 def plot_adaptation(result, path: str | os.PathLike) -> None:
@@ -31,7 +21,7 @@ def plot_adaptation(result, path: str | os.PathLike) -> None:
     """
     from ..mesh.bones import bone_lengths
 
-    plt = _pyplot()
+    plt = pyplot()
     src, ad, nv = result.source, result.adapted, result.naive
     t = np.arange(src.n_frames) / src.fps
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
@@ -83,7 +73,7 @@ def plot_wholebody(robot, motion, path: str | os.PathLike, title: str = "") -> N
         zmp_trajectory,
     )
 
-    plt = _pyplot()
+    plt = pyplot()
     q, fps = motion.q, motion.fps
     t = np.arange(len(q)) / fps
     soles = sole_tracks(robot, q, fps)
@@ -130,7 +120,7 @@ def plot_wholebody(robot, motion, path: str | os.PathLike, title: str = "") -> N
 def plot_keypoints(gen, path: str | os.PathLike) -> Path:
     """Front and side views of a generated robot (imesh.robot.generate.GeneratedConfig) in its
     nominal pose with the chosen key points (PNG)."""
-    plt = _pyplot()
+    plt = pyplot()
     path = Path(path)
     fig, axes = plt.subplots(1, 2, figsize=(8, 6))
     pts = np.array(list(gen.keypoints_nominal_m.values()))

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import atomic_path
-from .adapt import _pyplot
+from .pyplot import pyplot
 
 _POINTS = ("wrist", "hand", "thumb")
 _COLORS = ("tab:red", "tab:green", "tab:blue")
@@ -37,7 +37,7 @@ def plot_hand_points(arm_result, fps: float, path: str | os.PathLike, title: str
         path: PNG file (written atomically).
         title: figure title.
     """
-    plt = _pyplot()
+    plt = pyplot()
     target = 1e3 * arm_result.targets.hand_m
     robot = 1e3 * arm_result.robot_points_m[:, :3]
     t = np.arange(len(target)) / fps
@@ -66,7 +66,7 @@ def plot_joint_bounds(arm_result, fps: float, path: str | os.PathLike, title: st
         path: PNG file (written atomically).
         title: figure title.
     """
-    plt = _pyplot()
+    plt = pyplot()
     theta = np.degrees(arm_result.theta)
     lo, hi = np.degrees(arm_result.posvel_lo), np.degrees(arm_result.posvel_hi)
     blo, bhi = np.degrees(arm_result.box_lo), np.degrees(arm_result.box_hi)

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import atomic_path
-from .adapt import _pyplot
+from .pyplot import pyplot
 
 
 def _save(plt, fig, path: Path) -> str:
@@ -31,7 +31,7 @@ def plot_balance(result, folder: str | os.PathLike, name: str = "robot") -> list
     Returns:
         The paths written.
     """
-    plt = _pyplot()
+    plt = pyplot()
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     t = np.arange(len(result.zmp_m)) / result.fps

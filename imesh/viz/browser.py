@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
+from ..core.lazy import optional
 from ..errors import ImeshError
 
 if TYPE_CHECKING:  # pragma: no cover - typing only (Playwright is the optional viz extra)
@@ -48,11 +49,8 @@ def chromium_page(width: int = 1000, height: int = 700) -> Iterator[tuple[Page, 
     Raises:
         ImeshError: Playwright or Chromium missing (with the commands that install them).
     """
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        raise ImeshError("screenshots and videos of the viewer need Playwright: "
-                         "pip install 'imesh[viz]' (or pip install playwright)") from None
+    sync_playwright = optional("playwright.sync_api", "pip install 'imesh[viz]'",
+                               "screenshots and videos of the viewer").sync_playwright
     exe = find_chromium()
     if exe is None:
         raise ImeshError("screenshots and videos of the viewer need Chromium: "

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import atomic_path
+from .pyplot import pyplot
 
 
 def plot_physics(result, path: str | os.PathLike) -> None:
@@ -19,11 +20,7 @@ def plot_physics(result, path: str | os.PathLike) -> None:
         result: the PhysicsResult.
         path: output image, e.g. ``run.png``.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     with warnings.catch_warnings():  # rows after a fall are all NaN
         warnings.simplefilter("ignore", RuntimeWarning)
         _plot(result, path, plt)

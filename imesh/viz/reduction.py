@@ -8,16 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..reduction.chain import JOINTS
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
+from .pyplot import pyplot
 
 LEFT, RIGHT = "tab:blue", "tab:red"
 
@@ -29,7 +20,7 @@ def _time(result) -> np.ndarray:
 def plot_joints(result, path) -> None:
     """Fig. 6: hip, knee, ankle angles and torques of both legs; robot bold, human dashed,
     limits dotted."""
-    plt = _plt()
+    plt = pyplot()
     t = _time(result)
     ch = result.chain
     q = result.joint_angles()
@@ -64,7 +55,7 @@ def plot_joints(result, path) -> None:
 
 def plot_closure(result, path) -> None:
     """Fig. 8: the closed-loop index y_m (initial and final)."""
-    plt = _plt()
+    plt = pyplot()
     t = _time(result)
     o = result.optimization
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.6))
@@ -114,7 +105,7 @@ def grf_per_foot(result) -> dict:
 
 def plot_grf(result, path) -> None:
     """Fig. 9: vertical ground forces of both feet (solid: ball or roller, dashed: toe tip)."""
-    plt = _plt()
+    plt = pyplot()
     t = _time(result)
     f = grf_per_foot(result)
     fig, ax = plt.subplots(figsize=(9, 3.8))
@@ -136,7 +127,7 @@ def plot_grf(result, path) -> None:
 
 def plot_convergence(history_by_label: dict, path, title: str = "") -> None:
     """J_m and J_r per iteration (and time) for one or several runs."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
     for label, hist in history_by_label.items():
         it = [h.iteration if hasattr(h, "iteration") else h["iteration"] for h in hist]
@@ -158,7 +149,7 @@ def plot_convergence(history_by_label: dict, path, title: str = "") -> None:
 
 def plot_sequence(result, path, which: str = "final", every: int | None = None) -> None:
     """Figs 4/7: stick figures over one cycle (left leg blue, right red, torso black)."""
-    plt = _plt()
+    plt = pyplot()
     o = result.optimization
     phi = {"final": o.phi, "initial": o.initial.phi}[which]
     ch = result.chain
@@ -193,7 +184,7 @@ def plot_sequence(result, path, which: str = "final", every: int | None = None) 
 
 def plot_dart(report, result, path) -> None:
     """DART run: joint angles against the references, and the torso pitch."""
-    plt = _plt()
+    plt = pyplot()
     s = report.samples
     if not len(s.get("t", [])):
         return

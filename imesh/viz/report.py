@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..contacts.phases import SIDES
+from .pyplot import pyplot
 
 log = logging.getLogger(__name__)
 
@@ -35,22 +36,12 @@ BODY_PARTS: dict[str, tuple[str, ...]] = {
 }
 
 
-def _pyplot():
-    try:
-        import matplotlib
-    except ImportError:
-        raise ImportError("the report's figures need matplotlib: pip install matplotlib"
-                          ) from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _png(fig) -> str:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
-    _pyplot().close(fig)
+    pyplot().close(fig)
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -68,7 +59,7 @@ def figure_zmp(t: np.ndarray, zmp, polygons, support: np.ndarray) -> str:
         polygons: per frame the (K, 2) support polygon or None.
         support: (T, 2) bool feet in support.
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig = plt.figure(figsize=(12, 4.2))
     ax = fig.add_subplot(1, 2, 1)
     step = max(1, len(t) // 40)
@@ -109,7 +100,7 @@ def figure_zmp(t: np.ndarray, zmp, polygons, support: np.ndarray) -> str:
 def figure_soles(t: np.ndarray, soles, support: np.ndarray) -> str:
     """Lowest sole corner height and the sole's horizontal motion per frame, per foot, with the
     support phases shaded."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(12, 4.6), sharex=True)
     for k, side in enumerate(SIDES):
         low = soles.lowest(side) * 1e3
@@ -134,7 +125,7 @@ def figure_soles(t: np.ndarray, soles, support: np.ndarray) -> str:
 def figure_joints(t: np.ndarray, robot, q: np.ndarray, fps: float, n_worst: int = 8) -> str:
     """Joints against their limits (Kim 2005 Fig. 4): the ``n_worst`` joints closest to a
     position limit with their limits, and every joint's |velocity| / limit over time."""
-    plt = _pyplot()
+    plt = pyplot()
     qj = q[:, 7:]
     lo, hi = robot.q_lower, robot.q_upper
     closeness = np.maximum((qj - lo) / (hi - lo), (hi - qj) / (hi - lo)).max(axis=0)
@@ -172,7 +163,7 @@ def figure_joints(t: np.ndarray, robot, q: np.ndarray, fps: float, n_worst: int 
 def figure_torques(t: np.ndarray, dyn) -> str:
     """The largest joint torque / effort limit and the friction demand of every frame
     (:func:`imesh.metrics.dynamics.reference_dynamics`)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(12, 3.2))
     axes[0].plot(t, dyn.torque_ratios, color="tab:orange", lw=1.2)
     axes[0].axhline(1.0, color="tab:red", ls="--", lw=1, label="effort limit")
@@ -192,7 +183,7 @@ def figure_torques(t: np.ndarray, dyn) -> str:
 def figure_markers(t: np.ndarray, keypoints, markers) -> str:
     """RMS distance of the robot's key points from the adapted markers, per marker (grouped by
     body part) and per body part over time."""
-    plt = _pyplot()
+    plt = pyplot()
     names = [n for n in keypoints.names if n in markers.names]
     kp = keypoints.subset(names).positions_m
     mk = markers.subset(names).positions_m

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.lazy import optional
 from ..errors import ImeshError
 
 log = logging.getLogger(__name__)
@@ -31,11 +32,7 @@ def video_frames(n_motion: int, motion_fps: float, video_fps: float) -> np.ndarr
 
 
 def _ffmpeg_writer(path: Path, size: tuple[int, int], fps: float):
-    try:
-        import imageio_ffmpeg
-    except ImportError:
-        raise ImeshError("videos need imageio-ffmpeg: pip install 'imesh[viz]' (or pip install "
-                         "imageio-ffmpeg)") from None
+    imageio_ffmpeg = optional("imageio_ffmpeg", "pip install 'imesh[viz]'", "videos")
     writer = imageio_ffmpeg.write_frames(str(path), size, fps=fps, codec="libx264",
                                          pix_fmt_in="rgb24", pix_fmt_out="yuv420p",
                                          macro_block_size=2, quality=7,
