@@ -15,6 +15,7 @@ import json
 import logging
 import os
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -154,17 +155,27 @@ def rig_toml(table: RigTable, comments: list[str] | tuple[str, ...] = ()) -> str
     return "\n".join(lines) + "\n"
 
 
+def rig_of(names: Sequence[str]) -> str:
+    """The name of the first built-in rig table (by file name) whose ``detect`` names are all in
+    ``names`` (a file's joint or marker names), or "". The one place rigs are told by their
+    names: the readers record it as ``rig``, :func:`detect_rig` falls back on it."""
+    present = set(names)
+    for table in builtin_rigs().values():
+        if table.detect and set(table.detect) <= present:
+            return table.name
+    return ""
+
+
 def detect_rig(motion: MarkerMotion) -> RigTable:
     """The rig named by the reader (``motion.meta['rig']``) or the first whose ``detect`` names
-    are all present; MarkerMappingError when none fits."""
+    are all present (:func:`rig_of`); MarkerMappingError when none fits."""
     rigs = builtin_rigs()
     named = str(motion.meta.get("rig", ""))
     if named in rigs:
         return rigs[named]
-    names = set(motion.names)
-    for table in rigs.values():
-        if table.detect and set(table.detect) <= names:
-            return table
+    found = rig_of(motion.names)
+    if found:
+        return rigs[found]
     raise MarkerMappingError(
         f"{motion.source}: no built-in rig table recognises this marker set (pass rig= a .toml "
         f"table; built-in rigs: {', '.join(sorted(rigs))})",

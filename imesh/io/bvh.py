@@ -28,24 +28,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MotionFileError
+from ..human.markerset import rig_of
 from .raw import RawMotion
 from .skeleton import euler_to_matrix, forward_kinematics
 
 log = logging.getLogger(__name__)
 
-__all__ = ["read_bvh", "VALID_CHANNELS", "RIG_SIGNATURES", "detect_rig"]
+__all__ = ["read_bvh", "VALID_CHANNELS"]
 
 VALID_CHANNELS = ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")
 _CANONICAL = {c.lower(): c for c in VALID_CHANNELS}
-
-#: Joint names that identify a rig: all must be present (same lists as ``detect`` in
-#: ``imesh/data/rigs/<rig>.toml``; a test keeps them in sync).
-RIG_SIGNATURES: dict[str, tuple[str, ...]] = {
-    "cmu_cgspeed": ("LHipJoint", "LeftUpLeg", "LeftForeArm"),
-    "cc3": ("CC_Base_Hip", "CC_Base_L_Thigh", "CC_Base_L_Forearm"),
-    "second_life": ("hip", "abdomen", "lThigh", "lForeArm"),
-    "reactidle": ("pelvis", "spine.001", "forearm.L", "thigh.L"),
-}
 
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")
 
@@ -63,15 +55,6 @@ class _Node:
     offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     channels: list[str] = field(default_factory=list)
     end_site: bool = False
-
-
-def detect_rig(names: tuple[str, ...] | list[str]) -> str:
-    """Rig family whose signature joints are all in ``names``, or ""."""
-    have = set(names)
-    for rig, sig in RIG_SIGNATURES.items():
-        if have.issuperset(sig):
-            return rig
-    return ""
 
 
 class _HierarchyParser:
@@ -347,7 +330,7 @@ def _raw_motion(p: str, nodes: list[_Node], names: list[str], n_chan: int, frame
     n_frames, n_nodes = positions.shape[:2]
     bones = np.array([(n.parent, j) for j, n in enumerate(nodes) if n.parent >= 0],
                      dtype=np.int64).reshape(-1, 2)
-    rig = detect_rig(names)
+    rig = rig_of(names)
     hint = _unit_hint(nodes)
     n_end = sum(n.end_site for n in nodes)
     fps = 1.0 / frame_time

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MotionFileError
+from ..human.markerset import rig_of
 from .raw import RawMotion
 from .units import UP_AXES, _frame_extents
 
@@ -37,25 +38,8 @@ _UNIT_ALIASES: dict[str, str] = {
     "in": "in", "inch": "in", "inches": "in",
 }
 
-#: Marker names that identify a marker protocol (all must be present). Kept equal to the
-#: ``detect`` lists of the rig tables in ``imesh/data/rigs``.
-RIG_SIGNATURES: dict[str, tuple[str, ...]] = {
-    "qualisys": ("L_IAS", "R_IAS", "L_FLE"),
-    "bts": ("r asis", "l asis", "sacrum", "r knee 1", "l knee 1"),
-    "roboptim": ("HEADF", "RSHO", "LSHO", "RPEL", "LPEL", "STERNUP"),
-}
-
 #: POINT parameters listing labels of points that are not marker positions.
 _NON_MARKER_GROUPS = ("ANGLES", "FORCES", "MOMENTS", "POWERS", "SCALARS", "REACTIONS")
-
-
-def detect_rig(names: tuple[str, ...] | list[str]) -> str:
-    """Rig (marker protocol) name whose signature markers are all in ``names``, or ""."""
-    present = set(names)
-    for rig, needed in RIG_SIGNATURES.items():
-        if set(needed) <= present:
-            return rig
-    return ""
 
 
 def normalize_unit(text: str | None) -> str | None:
@@ -399,7 +383,7 @@ def read_c3d(path: str | os.PathLike) -> RawMotion:
     x_screen = _first_str(_param(params, "POINT", "X_SCREEN"))
     up, up_why = screen_up_axis(y_screen, positions, valid)
 
-    rig = detect_rig(names)
+    rig = rig_of(names)
     meta = {
         "c3d_first_frame": facts["first_frame"],
         "c3d_x_screen": x_screen,

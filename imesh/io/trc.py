@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MotionFileError
-from .c3d import detect_rig, normalize_unit, unique_names
+from ..human.markerset import rig_of
+from .c3d import normalize_unit, unique_names
 from .raw import RawMotion
 
 log = logging.getLogger(__name__)
@@ -200,7 +201,7 @@ def read_trc(path: str | os.PathLike) -> RawMotion:
     valid = np.asarray(np.isfinite(positions).all(axis=2))
     positions[~valid] = np.nan
     times = table[:, 1]
-    rig = detect_rig(names)
+    rig = rig_of(names)
     meta = {"trc_first_frame": float(table[0, 0]), "trc_start_time_s": float(times[0]),
             "trc_units": unit_text, "trc_header": header}
     if np.isfinite(times).all() and times.size > 1:
