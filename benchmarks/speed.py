@@ -13,9 +13,9 @@ Tables (each printed as it is measured; docs/speed.md quotes them):
   contacts), morph, fit, plan, capsule fit, the whole-body SQP split into assemble
   (``build_qp``), QP (``solve_qp``) and linearize + line search (the rest of
   ``solve_whole_body``), verify (the evaluator), write; "other" is imports and the CLI.
-  Each clip in a process of its own (``python -m cProfile -m imesh.cli``).
+  Each clip in a process of its own (``python -m cProfile -m imesh``).
   Then the functions of largest own time.
-* ``whole``: the same command as a separate process (``python -m imesh.cli``), timed from
+* ``whole``: the same command as a separate process (``python -m imesh``), timed from
   outside with ``/usr/bin/time -v``: wall seconds, source frames per second (the clip's frames
   at its own rate over the wall time, as per-frame IK tools count) and peak memory.
 * ``startup``: ``imesh --help`` wall time (median of 5 runs).
@@ -87,10 +87,10 @@ def _cumulative(stats: pstats.Stats, path: str, name: str) -> float:
 
 def profile_stages(clip: Path, robot: str, out: Path) -> tuple[dict[str, float], pstats.Stats]:
     """Run ``imesh retarget`` as its own process under cProfile (``python -m cProfile -m
-    imesh.cli``: imports included, nothing cached from another run); seconds per stage
+    imesh``: imports included, nothing cached from another run); seconds per stage
     (``STAGES``)."""
     prof = out / f"{clip.stem}.prof"
-    argv = [sys.executable, "-m", "cProfile", "-o", str(prof), "-m", "imesh.cli", "-q",
+    argv = [sys.executable, "-m", "cProfile", "-o", str(prof), "-m", "imesh", "-q",
             "retarget", str(clip), "--robot", robot, "-o", str(out / "profile.npz"),
             "--json", str(out / "profile.json")]
     proc = subprocess.run(argv, capture_output=True, text=True, env=_env())
@@ -150,7 +150,7 @@ def _env() -> dict:
 
 
 def _imesh(*args: str) -> list[str]:
-    return [sys.executable, "-m", "imesh.cli", *args]
+    return [sys.executable, "-m", "imesh", *args]
 
 
 def _source_frames(clip: Path) -> int:

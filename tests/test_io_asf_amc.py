@@ -244,8 +244,8 @@ def test_rig_table(raw):
 
 
 def test_to_standard(motion):
-    from imesh.human import markerset
-    std = markerset.to_standard(motion)
+    from imesh.human import markerset, standard
+    std = standard.to_standard(motion)
     assert std.names == markerset.STANDARD_MARKERS and len(std.names) == 21
     assert not np.isnan(std.positions_m).any()
     p = std.positions_m

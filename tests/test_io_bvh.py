@@ -10,7 +10,7 @@ import pytest
 
 import imesh.io as io
 from imesh.errors import MotionFileError
-from imesh.human.markerset import rig_of
+from imesh.human.rig_tables import rig_of
 from imesh.io.bvh import VALID_CHANNELS, read_bvh
 from imesh.io.skeleton import euler_to_matrix, forward_kinematics
 
@@ -335,10 +335,10 @@ def test_rig_tables_match_clips(loaded, rig):
 
 @pytest.mark.parametrize("name", NAMES)
 def test_to_standard(loaded, name):
-    from imesh.human import markerset
+    from imesh.human import standard
 
     _, motion = loaded[name]
-    std = markerset.to_standard(motion)
+    std = standard.to_standard(motion)
     assert std.names == STANDARD and std.meta["rig"] == motion.meta["rig"]
     assert not np.isnan(std.positions_m).any()
     p = std.positions_m

@@ -138,12 +138,12 @@ def test_truncated_c3d(tmp_path, mocap):
 
 # ---------------------------------------------------------------- standard marker set
 def test_qualisys_to_standard(loaded):
-    from imesh.human import markerset
+    from imesh.human import markerset, rig_tables, standard
     _, motion = loaded[QUALISYS]
-    std = markerset.to_standard(motion)
+    std = standard.to_standard(motion)
     assert std.names == markerset.STANDARD_MARKERS
     np.testing.assert_array_equal(std.bones, markerset.STANDARD_BONES)
-    table = markerset.load_rig("qualisys")
+    table = rig_tables.load_rig("qualisys")
     for k, name in enumerate(std.names):
         src = motion.indices([s for s, _ in table.markers[name]])
         all_valid = motion.valid[:, src].all(axis=1)
@@ -165,7 +165,7 @@ def _check_bone_lengths(std):
 
 def test_marker_missing_in_all_frames(tmp_path, mocap):
     """L_FLE gone in every frame: mapping fails naming L_FLE and knee_l."""
-    from imesh.human import markerset
+    from imesh.human import standard
     c = ezc3d.c3d(str(mocap(QUALISYS)))
     i = list(c["parameters"]["POINT"]["LABELS"]["value"]).index("L_FLE")
     pts = c["data"]["points"]
@@ -178,7 +178,7 @@ def test_marker_missing_in_all_frames(tmp_path, mocap):
     motion = io.load_motion(copy)
     assert not motion.valid[:, motion.index("L_FLE")].any()
     with pytest.raises(MissingMarkerError, match="L_FLE") as info:
-        markerset.to_standard(motion)
+        standard.to_standard(motion)
     assert "knee_l" in str(info.value)
     assert "L_FLE" in info.value.missing
 
@@ -186,11 +186,11 @@ def test_marker_missing_in_all_frames(tmp_path, mocap):
 def test_bts_partial_table(loaded):
     """The BTS protocol has no arms/head: mapping fails listing the standard markers lacking."""
     from imesh.errors import MarkerMappingError
-    from imesh.human import markerset
+    from imesh.human import standard
 
     _, motion = loaded[BTS]
     with pytest.raises(MarkerMappingError, match="bts") as info:
-        markerset.to_standard(motion)
+        standard.to_standard(motion)
     assert {"elbow_l", "wrist_r", "head"} <= set(info.value.missing)
 
 

@@ -137,11 +137,11 @@ def test_not_a_trc(tmp_path):
 
 # ---------------------------------------------------------------- standard marker set
 def test_trc_to_standard(motion):
-    from imesh.human import markerset
-    std = markerset.to_standard(motion)
+    from imesh.human import markerset, rig_tables, standard
+    std = standard.to_standard(motion)
     assert std.names == markerset.STANDARD_MARKERS
     np.testing.assert_array_equal(std.bones, markerset.STANDARD_BONES)
-    table = markerset.load_rig("roboptim")
+    table = rig_tables.load_rig("roboptim")
     for k, name in enumerate(std.names):
         src = motion.indices([s for s, _ in table.markers[name]])
         all_valid = motion.valid[:, src].all(axis=1)

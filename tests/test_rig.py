@@ -12,7 +12,7 @@ import pytest
 
 import imesh.io as io
 from imesh.cli import main
-from imesh.human import RigRecognitionError, UnitsError, markerset, recognize
+from imesh.human import RigRecognitionError, UnitsError, markerset, recognize, rig_tables, standard
 from imesh.io.units import UNIT_SCALES_M
 
 #: skeleton clips of the shared data and their hand-written rig tables
@@ -36,7 +36,7 @@ KNOWN = {("cmu_141_16_wave_hello.bvh", "chest"): (25.0, 35.0)}
 
 
 def table_motion(motion, rig: str):
-    return markerset.to_standard(motion, rig=rig)
+    return standard.to_standard(motion, rig=rig)
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +45,7 @@ def clips(mocap):
     out = {}
     for name, rig in CLIPS.items():
         motion = io.load_motion(mocap(name))
-        out[name] = (motion, markerset.to_standard(motion), table_motion(motion, rig))
+        out[name] = (motion, standard.to_standard(motion), table_motion(motion, rig))
     return out
 
 
@@ -68,7 +68,7 @@ def test_recognized_mapping_names_the_table_joints(clips):
     """Same joints as the tables (CC3's pelvis: CC_Base_Hip coincides with CC_Base_Pelvis)."""
     motion = clips["cmu_02_10_wash_self_cc3rig.bvh"][0]
     body = motion.meta["rig_recognition"]
-    table = markerset.load_rig("cc3").markers
+    table = rig_tables.load_rig("cc3").markers
     mine = body.markers(motion.meta["unit_scale_m"])
     differ = {m for m in table if dict(mine[m]) != dict(table[m])}
     assert differ == {"pelvis"} and mine["pelvis"] == (("CC_Base_Hip", 1.0),)
@@ -131,7 +131,7 @@ def test_same_height_in_any_unit(clips, walk, tmp_path, unit):
     assert motion.meta["standing_height_m"] == pytest.approx(ref.meta["standing_height_m"],
                                                             rel=1e-6)
     np.testing.assert_allclose(motion.positions_m, ref.positions_m, atol=1e-6)
-    np.testing.assert_allclose(markerset.to_standard(motion).positions_m, ref_std.positions_m,
+    np.testing.assert_allclose(standard.to_standard(motion).positions_m, ref_std.positions_m,
                                atol=1e-6)
 
 
@@ -146,7 +146,7 @@ def test_cmu_clip_with_other_names_is_not_read_as_inches(clips, walk, tmp_path):
     assert motion.meta["units"] == "cmu" and motion.meta["rig"] == "recognized"
     assert motion.meta["standing_height_m"] == pytest.approx(1.451, abs=0.001)
     assert 0.0254 * motion.meta["standing_height_m"] / UNIT_SCALES_M["cmu"] < 0.7  # as inches
-    np.testing.assert_allclose(markerset.to_standard(motion).positions_m,
+    np.testing.assert_allclose(standard.to_standard(motion).positions_m,
                                clips["cmu_02_01_walk.bvh"][1].positions_m, atol=1e-9)
 
 
@@ -212,7 +212,7 @@ def test_random_names_same_markers(clips, mocap, tmp_path, name):
     other = io.load_motion(bt.write(bvh, tmp_path / "random.bvh"))
     assert other.meta["rig"] == "recognized" and other.meta["units"] == motion.meta["units"]
     assert other.meta["up_axis"] == motion.meta["up_axis"]
-    std = markerset.to_standard(other)
+    std = standard.to_standard(other)
     np.testing.assert_allclose(std.positions_m, rec.positions_m, atol=1e-9)
     # the same joints, renamed
     mine = other.meta["rig_recognition"].markers(other.meta["unit_scale_m"])
@@ -249,7 +249,7 @@ def test_random_names_asf(clips, mocap, tmp_path):
     (tmp_path / "x_05.amc").write_text(sub(mocap("cmu_07_05.amc").read_text(), True))
     other = io.load_motion(tmp_path / "x_05.amc")
     assert set(other.names) & set(bones) == set()
-    np.testing.assert_allclose(markerset.to_standard(other).positions_m,
+    np.testing.assert_allclose(standard.to_standard(other).positions_m,
                                clips["cmu_07_05.amc"][1].positions_m, atol=1e-9)
 
 
@@ -305,7 +305,7 @@ def test_extra_bones_same_markers(clips, mocap, tmp_path, name):
     bt.rename(bvh, random_names(11))
     path = bt.write(bvh, tmp_path / "extra.bvh")
     other = io.load_motion(path, units=motion.meta["unit_scale_m"])
-    np.testing.assert_allclose(markerset.to_standard(other).positions_m, rec.positions_m,
+    np.testing.assert_allclose(standard.to_standard(other).positions_m, rec.positions_m,
                                atol=1e-9)
     assert other.meta["rig_recognition"].ignored > motion.meta["rig_recognition"].ignored + 10
 
@@ -351,7 +351,7 @@ def test_public_rigs_are_recognized(name, tmp_path):
     assert motion.meta["standing_height_m"] == pytest.approx(height, abs=0.002)
     mapping = motion.meta["rig_recognition"].markers(motion.meta["unit_scale_m"])
     assert {m: mapping[m][0][0] for m in joints} == joints
-    std = markerset.to_standard(motion)
+    std = standard.to_standard(motion)
     p = std.positions_m
 
     def length(a, b):
@@ -380,7 +380,7 @@ def test_missing_leg_names_the_part_and_prints_the_tree(walk, tmp_path):
     motion = io.load_motion(path, units="cmu")
     assert "rig_recognition" not in motion.meta  # loads, but is no human
     with pytest.raises(RigRecognitionError, match="Skeleton tree") as info:
-        markerset.to_standard(motion)
+        standard.to_standard(motion)
     err = info.value
     assert err.part == "second pair of limbs" and "LeftUpLeg" in err.tree
     assert "\n          LeftArm  0.2023\n" in err.tree  # indented, bone lengths [m]
@@ -392,14 +392,14 @@ def test_missing_toes_names_the_part(walk, tmp_path):
         bt.remove(bvh, bvh.find(f"{side}ToeBase"))
     motion = io.load_motion(bt.write(bvh, tmp_path / "no_toes.bvh"), units="cmu")
     with pytest.raises(RigRecognitionError) as info:
-        markerset.to_standard(motion)
+        standard.to_standard(motion)
     assert info.value.part == "toe" and "LeftFoot" in str(info.value)
 
 
 def test_rig_table_still_overrides(clips):
     """An explicit table (--rig) is used as written, for a skeleton too."""
     motion, _, tab = clips["cmu_141_16_wave_hello.bvh"]
-    std = markerset.to_standard(motion, rig="cmu_cgspeed")
+    std = standard.to_standard(motion, rig="cmu_cgspeed")
     np.testing.assert_array_equal(std.positions_m, tab.positions_m)
     assert std.meta["rig_table"] == "cmu_cgspeed"
 
@@ -417,15 +417,15 @@ def test_recognize_needs_no_loader(clips):
 def test_rig_toml_round_trips_every_builtin_table(tmp_path):
     """The writer's format is the rig files' format: each built-in table written and read back
     gives the same weights (lists for equal weights, inline tables otherwise)."""
-    for name, table in markerset.builtin_rigs().items():
+    for name, table in rig_tables.builtin_rigs().items():
         path = tmp_path / f"{name}.toml"
-        path.write_text(markerset.rig_toml(table, ["a comment", ""]))
-        back = markerset.load_rig(path)
+        path.write_text(rig_tables.rig_toml(table, ["a comment", ""]))
+        back = rig_tables.load_rig(path)
         assert back.name == name and back.detect == table.detect
         assert back.markers.keys() == table.markers.keys()
         for marker, combo in table.markers.items():
             assert dict(back.markers[marker]) == pytest.approx(dict(combo), abs=1e-6)
-    text = markerset.rig_toml(markerset.load_rig("reactidle"))
+    text = rig_tables.rig_toml(rig_tables.load_rig("reactidle"))
     assert 'chest = { "spine.001" = 0.3, "neck" = 0.7 }' in text
     assert 'spine = ["spine.001"]' in text
 
@@ -455,14 +455,14 @@ def test_rig_command_writes_a_reusable_table(clips, mocap, tmp_path, capsys):
     out = tmp_path / "cc3_mine.toml"
     assert main(["rig", str(mocap(name)), "-o", str(out)]) == 0
     assert "wrote rig table 'cc3_mine'" in capsys.readouterr().out
-    table = markerset.load_rig(out)
+    table = rig_tables.load_rig(out)
     motion, rec, _ = clips[name]
     assert table.name == "cc3_mine" and table.markers == \
         motion.meta["rig_recognition"].markers(motion.meta["unit_scale_m"])
     text = out.read_text()
     assert 'chest = ["CC_Base_Spine02", "CC_Base_NeckTwist01"]' in text
     assert "# Recognized from the skeleton, confidence 0.88" in text
-    np.testing.assert_array_equal(markerset.to_standard(motion, rig=out).positions_m,
+    np.testing.assert_array_equal(standard.to_standard(motion, rig=out).positions_m,
                                   rec.positions_m)
 
 

@@ -114,7 +114,7 @@ def test_inspect_of_a_30_minute_clip_stays_within_500_mb(mocap, tmp_path):
 
     clip = _concatenated(mocap("cmu_02_01_walk.bvh"), 216000, tmp_path / "long.bvh")
     probe = ("import resource, subprocess, sys; "
-             "r = subprocess.run([sys.executable, '-m', 'imesh.cli', 'inspect', '--json', "
+             "r = subprocess.run([sys.executable, '-m', 'imesh', 'inspect', '--json', "
              "sys.argv[1]], capture_output=True, text=True); "
              "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss); "
              "print(r.stdout)")

@@ -23,6 +23,8 @@ from ..core.robot_motion import RobotMotion
 from ..fit import FitConfig
 from ..fit.dls import ACCELERATION, POSITION, VELOCITY, joint_limits
 from ..fit.feasible import project_joint_trajectory
+from ..human.filtering import lowpass
+from ..morph.adapt import prepare_markers
 from .bounds import CHECK_TOL, JointLimits, Violations, check_limits, frame_box
 from .config import ArmsConfig
 from .errors import ArmsError
@@ -371,9 +373,6 @@ def solve_arms(robot, markers: MarkerMotion, q_ref: np.ndarray, *,
 def human_arm_markers(motion: MarkerMotion, lowpass_hz: float | None) -> MarkerMotion:
     """Standard markers of any loaded clip (:func:`imesh.morph.adapt.prepare_markers`), low-passed
     as in the main pipeline."""
-    from ..human.filtering import lowpass
-    from ..morph.adapt import prepare_markers
-
     human = prepare_markers(motion)
     return lowpass(human, lowpass_hz) if lowpass_hz is not None else human
 
@@ -433,8 +432,6 @@ def refine_arms(robot, robot_motion: RobotMotion, markers: MarkerMotion,
         raise ArmsError(f"refine_arms: the motion has {robot_motion.n_frames} frames, the markers "
                         f"{markers.n_frames}")
     if config.lowpass_hz is not None:
-        from ..human.filtering import lowpass
-
         markers = lowpass(markers, config.lowpass_hz)
     result = solve_arms(robot, markers, robot_motion.q, config=config)
     before = {side: arm_errors(a.arm, a.targets, robot_motion.q, a.limits, robot_motion.fps)

@@ -189,7 +189,7 @@ def _load(args, *, apply_rig: bool = True) -> MarkerMotion:
     if getattr(args, "fps", None):
         motion = motion.resample(args.fps)
     if apply_rig and getattr(args, "rig", None):
-        from ..human.markerset import to_standard
+        from ..human.standard import to_standard
 
         motion = to_standard(motion, rig=args.rig)
     if args.command in ("adapt", "retarget"):
@@ -212,7 +212,7 @@ def _rig_mapping(motion, rig: str | None) -> dict:
     """What maps the motion to the standard markers (``imesh inspect``): a table given with
     --rig, the recognized skeleton, or a marker-set table found by name; ``error`` otherwise."""
     from ..errors import MarkerMappingError
-    from ..human.markerset import detect_rig, load_rig
+    from ..human.rig_tables import detect_rig, load_rig
 
     def combos(markers: dict) -> dict:
         return {m: [[n, w] for n, w in c] for m, c in markers.items()}
@@ -301,7 +301,7 @@ def cmd_inspect(args) -> int:
 
 
 def cmd_rig(args) -> int:
-    from ..human.markerset import detect_rig, rig_toml
+    from ..human.rig_tables import detect_rig, rig_toml
     from ..io.atomic import atomic_path
 
     motion = _load(args, apply_rig=False)
@@ -346,7 +346,7 @@ def cmd_adapt(args) -> int:
         if args.fps:
             people = people.resample(args.fps)
         if args.rig:
-            from ..human.markerset import to_standard
+            from ..human.standard import to_standard
 
             people = to_standard(people, rig=args.rig)
     result = _run_adapt(args, motion, people)

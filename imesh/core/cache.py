@@ -4,7 +4,10 @@ generated from URDFs (imesh.robot.generate_files)."""
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
+
+import numpy as np
 
 #: The environment variable naming the cache folder ("" turns the capsule cache off).
 CACHE_ENV = "IMESH_CACHE_DIR"
@@ -21,8 +24,6 @@ def cache_root() -> Path:
 def read_cached(kind: str, key: str) -> dict | None:
     """The arrays stored under ``<cache>/<kind>/<key>.npz``, or None when absent or unreadable
     (a damaged file is then simply computed and written again)."""
-    import numpy as np
-
     path = cache_root() / kind / f"{key}.npz"
     if not path.is_file():
         return None
@@ -36,9 +37,6 @@ def read_cached(kind: str, key: str) -> dict | None:
 def write_cached(kind: str, key: str, **arrays) -> None:
     """Store arrays under ``<cache>/<kind>/<key>.npz`` atomically; a read-only cache folder is
     no error (the next run computes again)."""
-    import tempfile
-
-    import numpy as np
 
     folder = cache_root() / kind
     try:

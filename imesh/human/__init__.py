@@ -1,5 +1,13 @@
-"""The human body behind a motion file: recognition of its skeleton (no name tables) and the
-errors of that reading."""
+"""The human body behind a motion file, as the 21 standard markers, arranged for a robot.
+
+    markerset    the standard markers, the standard skeleton, the --scale bone groups
+    rig          recognition of a skeleton's body parts, whatever its joint names
+    rig_tables   marker-set protocols (TOML tables) told by their marker names
+    standard     any clip onto the standard markers (recognition or a table)
+    gaps         gap filling of marker trajectories
+    filtering    zero-phase low-pass of marker trajectories
+    arrange      the marker model arranged for a robot (Nakaoka & Komura 2012, sec. IV-A)
+"""
 
 from .errors import RigRecognitionError, UnitsError
 from .rig import RECOGNIZED, Arm, Leg, Recognition, recognize, recognize_motion, skeleton_tree

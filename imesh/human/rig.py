@@ -30,7 +30,7 @@ body by its structure and geometry.
    most frames. Names (``LeftLeg``/``RightLeg``, ``l``/``r``, ``.L``/``.R``) are only a hint, used
    when the geometry is unclear, and a disagreement is logged.
 
-The result, :class:`Recognition`, gives a :class:`~imesh.human.markerset.RigTable` for the 21
+The result, :class:`Recognition`, gives a :class:`~imesh.human.rig_tables.RigTable` for the 21
 standard markers (:meth:`Recognition.table`), the performer's standing height (for the unit choice)
 and how sure each part is.
 """
@@ -44,7 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import RigRecognitionError
-from .markerset import STANDARD_MARKERS, RigTable
+from .markerset import STANDARD_MARKERS
+from .rig_tables import RigTable
 
 log = logging.getLogger(__name__)
 

@@ -19,16 +19,18 @@ Conventions implemented (checked on the CMU cgspeed, CC3, Second Life and ReActI
 
 from __future__ import annotations
 
+import io
 import logging
 import re
 import sys
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import MotionFileError
-from ..human.markerset import rig_of
+from ..human.rig_tables import rig_of
 from .raw import RawMotion
 from .skeleton import euler_to_matrix, forward_kinematics
 
@@ -397,9 +399,6 @@ def _read_streamed(p: str, path) -> RawMotion | None:
     words, channel values and rotations it took 4 GB). Returns None for anything unusual (a
     malformed header, a bad number, a line that is not one frame, a count that differs): the
     full parser then reads the file and names the problem."""
-    import io
-    import warnings
-
     with open(path, "rb") as f:
         head = b""
         m = None

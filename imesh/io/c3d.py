@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MotionFileError
-from ..human.markerset import rig_of
+from ..human.rig_tables import rig_of
 from .raw import RawMotion
 from .units import UP_AXES, _frame_extents
 

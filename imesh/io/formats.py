@@ -31,14 +31,18 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
 from ..core.lazy import optional
 from ..core.robot_motion import RobotMotion
 from ..errors import ImeshError, MotionFileError, OptionError
+from ..robot import load_robot
 from .atomic import atomic_path
+from .npz import load_npz
 from .robot_motion import load_robot_motion, save_robot_motion
 
 log = logging.getLogger(__name__)
@@ -98,7 +102,6 @@ def resample_robot_motion(motion: RobotMotion, fps: float) -> RobotMotion:
         raise OptionError("--fps", fps, "a frame rate > 0")
     if abs(fps - motion.fps) <= 1e-12 * motion.fps:
         return motion
-    from scipy.spatial.transform import Rotation, Slerp
 
     t_old = np.arange(motion.n_frames) / motion.fps
     n_new = int(np.floor((motion.n_frames - 1) * fps / motion.fps + 1e-9)) + 1
@@ -249,8 +252,6 @@ def _is_headerless_csv(path: Path) -> bool:
 
 
 def _is_mujoco(path: Path) -> bool:
-    from .npz import load_npz
-
     return "qpos" in load_npz(path, "robot motion")
 
 
@@ -268,13 +269,10 @@ def robot_named_in(path: str | os.PathLike) -> str | None:
     """The robot a motion file names (None for a headerless CSV or a file that names none)."""
     path = Path(path)
     if path.suffix.lower() == ".npz":
-        from .npz import load_npz
-
         arrays = load_npz(path, "robot motion")
         return str(arrays["robot"]) if "robot" in arrays else None
     if _is_headerless_csv(path):
         return None
-    import re
 
     match = re.search(r"robot=(\S+)", _first_data_line(path))
     return match[1] if match else None
@@ -304,7 +302,6 @@ def _read_headerless_csv(path: Path, robot, fps: float | None) -> RobotMotion:
         if robot is None:
             raise MotionFileError(str(path), "a headerless CSV does not name its robot or "
                                   "joints: pass the robot (--robot)")
-        from ..api import load_robot
 
         robot = load_robot(robot)
     names = tuple(robot.joint_names)
@@ -323,8 +320,6 @@ def _read_headerless_csv(path: Path, robot, fps: float | None) -> RobotMotion:
 
 
 def _read_mujoco(path: Path) -> RobotMotion:
-    from .npz import load_npz
-
     a = load_npz(path, "MuJoCo qpos export")
     missing = [k for k in ("qpos", "fps", "robot", "qpos_joint_names", "filled_joints")
                if k not in a]

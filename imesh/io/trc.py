@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MotionFileError
-from ..human.markerset import rig_of
+from ..human.rig_tables import rig_of
 from .c3d import normalize_unit, unique_names
 from .raw import RawMotion
 

@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..robot.collision import fcl_geometry, pair_key
+from ..robot.collision import MeshCollisionChecker, fcl_geometry, pair_key
+from ..robot.collision import _fcl as load
 
 log = logging.getLogger(__name__)
 
@@ -30,8 +31,6 @@ FLOAT_M = 0.02
 
 
 def _fcl():
-    from ..robot.collision import _fcl as load
-
     return load()
 
 
@@ -241,8 +240,6 @@ def check_mesh_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
     pairs the capsules check. Only pairs whose capsules are closer than ``broad_m`` reach coal (the
     capsules enclose the geometry, so farther pairs cannot touch).
     """
-    from ..robot.collision import MeshCollisionChecker
-
     checker = MeshCollisionChecker(robot)
     model = robot.capsule_model()
     q = np.asarray(q, dtype=float)

@@ -15,8 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.motion import MarkerMotion
+from ..errors import OptionError
 from ..human.gaps import fill_gaps
-from ..human.markerset import BONE_GROUPS, STANDARD_MARKERS, to_standard
+from ..human.markerset import BONE_GROUPS, STANDARD_MARKERS
+from ..human.standard import to_standard
 from ..mesh.bones import bone_lengths, scale_bones_naive
 from ..metrics import close_pair_error
 from .problem import MorphConfig, build_morph_problem
@@ -67,8 +69,6 @@ def group_factors(motion: MarkerMotion, scales: dict[str, float]) -> np.ndarray:
     Bone groups (BONE_GROUPS) are named by the child marker of each standard bone; markers of a
     second performer carry a "b:" prefix, which is ignored for grouping.
     """
-    from ..errors import OptionError
-
     factor = np.ones(len(motion.bones))
     children = [motion.names[b].split(":")[-1] for _, b in motion.bones]
     for group, value in scales.items():

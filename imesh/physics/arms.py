@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.robot_motion import RobotMotion
+from . import PhysicsConfig, simulate_motion
 
 log = logging.getLogger(__name__)
 
@@ -76,8 +77,6 @@ def track_arms(robot, motion: RobotMotion, joints: Sequence[str] | None = None, 
         MissingDependencyError: dartpy missing (names the install command).
         PhysicsError: a model mismatch.
     """
-    from . import PhysicsConfig, simulate_motion
-
     config = PhysicsConfig(fixed_base=True, controller="pid", feedforward=feedforward,
                            kp_per_effort=kp_per_effort, settle_s=settle_s)
     result = simulate_motion(robot, motion, config=config)

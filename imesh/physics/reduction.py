@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from ..errors import ImeshError
 from ..reduction.chain import joint_matrix, rot
@@ -102,8 +103,6 @@ def planar_urdf_text(urdf_path=PLANAR_BIPED_URDF) -> str:
 
 
 def _periodic_spline(values: np.ndarray, period: float):
-    from scipy.interpolate import CubicSpline
-
     n = values.shape[0]
     t = np.arange(n + 1) * period / n
     return CubicSpline(t, np.concatenate([values, values[:1]], axis=0), bc_type="periodic",

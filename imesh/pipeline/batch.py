@@ -27,16 +27,28 @@ import glob
 import hashlib
 import json
 import logging
+import multiprocessing
 import os
 import signal
 import sys
+import threading
 import time
+import traceback
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
+from threadpoolctl import threadpool_limits
+from tqdm import tqdm
+
+from .. import __version__
+from ..api import _verify, load_robot, retarget
 from ..core.lazy import optional
 from ..errors import ImeshError, OptionError
+from ..io.atomic import atomic_path
+from ..io.formats import FORMATS, write_export
+from ..io.robot_motion import save_robot_motion
 
 log = logging.getLogger(__name__)
 
@@ -72,15 +84,11 @@ class BatchSettings:
 
     def digest(self) -> str:
         """SHA-256 of the settings and the imesh version (hex)."""
-        from .. import __version__
-
         data = {**dataclasses.asdict(self), "version": __version__}
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
 
     @property
     def suffix(self) -> str:
-        from ..io.formats import FORMATS
-
         return FORMATS[self.format]
 
 
@@ -185,7 +193,6 @@ def run_clip(clip: str, output: str, settings: BatchSettings) -> dict:
                     "settings_sha256": settings.digest()}
     try:
         record["input_sha256"] = file_sha256(clip)
-        from threadpoolctl import threadpool_limits
 
         with threadpool_limits(1):
             _retarget_clip(Path(clip), Path(output), settings, record)
@@ -194,25 +201,16 @@ def run_clip(clip: str, output: str, settings: BatchSettings) -> dict:
         record.update(status="error", error_type=type(exc).__name__,
                       error=" ".join(str(exc).split()) or repr(exc))
         if not isinstance(exc, ImeshError):
-            import traceback
-
             record["traceback"] = traceback.format_exc(limit=-3)
     record["seconds"] = round(time.perf_counter() - t0, 3)
     return record
 
 
 def _retarget_clip(clip: Path, output: Path, settings: BatchSettings, record: dict) -> None:
-    from ..api import load_robot, retarget
-    from ..io.atomic import atomic_path
-    from ..io.formats import write_export
-    from ..io.robot_motion import save_robot_motion
-
     input_sha = file_sha256(clip)
     robot = load_robot(settings.robot, urdf=settings.urdf)
     result = retarget(clip, robot, fps=settings.fps, balance=settings.balance)
     if not settings.force:
-        from ..api import _verify
-
         _verify(robot, result, name=str(clip), balanced=settings.balance != "none")
     if settings.format == "npz":
         save_robot_motion(output, result.motion, markers=result.adapted)
@@ -242,7 +240,6 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
     else:
         ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
                  logging_level=logging.WARNING, runtime_env=env)
-    import threading
 
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, interrupt)  # ray.init installs its own
@@ -269,9 +266,6 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
 
 def _process_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, workers: int
                      ) -> Iterator[dict]:
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
     with ProcessPoolExecutor(max_workers=workers,
                              mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = {pool.submit(run_clip, c, o, settings): (c, o) for c, o in jobs}
@@ -354,7 +348,6 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
         raise OptionError("--workers", workers, "an integer >= 1")
     if backend not in ("ray", "processes"):
         raise OptionError("--backend", backend, ["ray", "processes"])
-    from ..io.formats import FORMATS
 
     if settings.format not in FORMATS:
         raise OptionError("--format", settings.format, list(FORMATS))
@@ -393,8 +386,6 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
             else:
                 jobs.append((str(clip), str(out)))
         if jobs:
-            from tqdm import tqdm
-
             target = settings.robot or settings.urdf or "jvrc1"
             bar = tqdm(total=len(jobs), desc=f"batch -> {target}", unit="clip",
                        disable=not progress, file=sys.stderr, smoothing=0)

@@ -20,17 +20,30 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..arms.solve import refine_arms
+from ..balance import BalanceConfig, balance_loop, check_flight
 from ..contacts.phases import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_contacts
 from ..contacts.support import SupportConfig, flat_support, support_blend, support_foot_targets
 from ..core.motion import MarkerMotion
 from ..core.progress import ProgressCallback, notify
 from ..errors import OptionError
+from ..fit import FitConfig, fit_motion  # the fitting stage needs the robot stack
+from ..fit.dls import joint_limits
+from ..fit.targets import compile_targets
 from ..human.arrange import Arrangement, arrange_for_robot
 from ..human.filtering import lowpass
 from ..morph.adapt import prepare_markers
 from ..morph.problem import MorphConfig, build_morph_problem
 from ..morph.solver import MorphResult, MorphStepReport, solve_morph, window_layout
-from ..solve import WholeBodyConfig
+from ..robot.config import Direction
+from ..solve import (
+    WholeBodyConfig,
+    add_lead,
+    plan_whole_body,
+    smooth_initializer,
+    solve_whole_body,
+    windows,
+)
 
 if TYPE_CHECKING:  # pragma: no cover - typing only (the robot stack is imported lazily)
     from ..arms.config import ArmsConfig
@@ -232,8 +245,6 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
     Returns:
         (markers with the virtual markers appended, the extra Direction targets).
     """
-    from ..robot.config import Direction
-
     names = list(adapted.names)
     pos = adapted.positions_m
     pts = arrangement.robot_points_m
@@ -304,12 +315,6 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
             solve).
         SolverError: the whole-body solve failed.
     """
-    from ..balance import BalanceConfig, check_flight
-    from ..fit import FitConfig, fit_motion  # the fitting stage needs the robot stack
-    from ..fit.dls import joint_limits
-    from ..fit.targets import compile_targets
-    from ..solve import add_lead, plan_whole_body, smooth_initializer, solve_whole_body
-
     config = config or RetargetConfig()
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -381,7 +386,6 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     q_out = fit.motion.q
     arms_report = None
     if config.arms is not None:  # Kim 2005 for the arms, as part of the initial fit
-        from ..arms.solve import refine_arms
 
         t2 = time.perf_counter()
         refined, arms_report = refine_arms(robot, fit.motion, adapted, config.arms)
@@ -392,8 +396,6 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     unconstrained: list = []
     support_out = flat
     if config.balance == "nishiwaki":
-        from ..balance import balance_loop
-
         t3 = time.perf_counter()
         pelvis = source.index("pelvis")
         shape = source.positions_m.shape
@@ -438,8 +440,6 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
             notify(progress, "wholebody", done, total, n_out, f"SQP iteration {done}")
 
         if n_out > config.window_frames:
-            from ..solve import windows
-
             def window_step(done: int, total: int, text: str) -> None:
                 notify(progress, "wholebody", done, total, n_out, text)
 

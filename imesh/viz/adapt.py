@@ -7,8 +7,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ..contacts.phases import SIDES
 from ..errors import ImeshError
 from ..io.atomic import atomic_path
+from ..mesh.bones import bone_lengths
+from ..metrics.dynamics import reference_dynamics
+from ..metrics.kinematics import (
+    desired_zmp,
+    detect_support,
+    motion_derivatives,
+    sole_tracks,
+    support_polygons,
+    zmp_trajectory,
+)
 from .pyplot import pyplot
 
 
@@ -19,8 +30,6 @@ def plot_adaptation(result, path: str | os.PathLike) -> None:
         result: an :class:`imesh.morph.adapt.AdaptResult`.
         path: PNG file to write (atomically).
     """
-    from ..mesh.bones import bone_lengths
-
     plt = pyplot()
     src, ad, nv = result.source, result.adapted, result.naive
     t = np.arange(src.n_frames) / src.fps
@@ -62,17 +71,6 @@ def plot_wholebody(robot, motion, path: str | os.PathLike, title: str = "") -> N
         path: PNG file to write (atomically).
         title: figure title.
     """
-    from ..contacts.phases import SIDES
-    from ..metrics.dynamics import reference_dynamics
-    from ..metrics.kinematics import (
-        desired_zmp,
-        detect_support,
-        motion_derivatives,
-        sole_tracks,
-        support_polygons,
-        zmp_trajectory,
-    )
-
     plt = pyplot()
     q, fps = motion.q, motion.fps
     t = np.arange(len(q)) / fps

@@ -12,6 +12,8 @@ import os
 from importlib import resources
 from pathlib import Path
 
+from ..io.atomic import atomic_path
+
 PAGE = """<!DOCTYPE html>
 <html lang="en">
 <head>
@@ -88,8 +90,6 @@ def viewer_html(scene: dict | None) -> str:
 
 def write_viewer(path: str | os.PathLike, scene: dict) -> Path:
     """Write the self-contained viewer page of ``scene`` to ``path`` (atomically)."""
-    from ..io.atomic import atomic_path
-
     with atomic_path(path) as tmp:
         tmp.write_text(viewer_html(scene), encoding="utf-8")
     return Path(path)

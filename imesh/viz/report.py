@@ -16,13 +16,30 @@ import io
 import json
 import logging
 import os
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from ..contacts.phases import SIDES
+from ..evaluate.scoreboard import _fmt as fmt
+from ..evaluate.scoreboard import _note, evaluate_motion, load_motion_file
+from ..evaluate.verify import Gates, failed_gates
+from ..io.atomic import atomic_path
+from ..metrics.dynamics import reference_dynamics
+from ..metrics.kinematics import (
+    detect_support,
+    motion_derivatives,
+    sole_tracks,
+    support_polygons,
+    zmp_report,
+    zmp_trajectory,
+)
+from ..metrics.markers import keypoint_motion
+from .html import viewer_html
 from .pyplot import pyplot
+from .scene import build_scene
 
 log = logging.getLogger(__name__)
 
@@ -221,16 +238,11 @@ def figure_markers(t: np.ndarray, keypoints, markers) -> str:
 
 
 def _fmt(value) -> str:
-    from ..evaluate.scoreboard import _fmt as fmt
-
     return fmt(value)
 
 
 def metrics_rows(metrics: Mapping[str, dict], balanced: bool = True) -> list[dict]:
     """Rows of the report's table: name, value, unit, gate, status (pass/fail/-), note."""
-    from ..evaluate.scoreboard import _note
-    from ..evaluate.verify import Gates, failed_gates
-
     gates = Gates()
     gate_text = {"limit_violation_frames": f"<= {gates.limit_violation_frames}",
                  "ground_penetration_mm": f"<= {gates.ground_penetration_mm}",
@@ -343,19 +355,6 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
     Returns:
         the path written.
     """
-    from ..evaluate.scoreboard import evaluate_motion, load_motion_file
-    from ..io.atomic import atomic_path
-    from ..metrics.dynamics import reference_dynamics
-    from ..metrics.kinematics import (
-        detect_support,
-        motion_derivatives,
-        sole_tracks,
-        support_polygons,
-        zmp_report,
-        zmp_trajectory,
-    )
-    from ..metrics.markers import keypoint_motion
-
     motion = load_motion_file(motion_path, robot, fps=fps)
     if metrics is None:
         metrics = evaluate_motion(robot, motion)
@@ -375,9 +374,6 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
         figures["markers"] = figure_markers(t, keypoint_motion(robot, q, fps), adapted)
     page = None
     if viewer:
-        from .html import viewer_html
-        from .scene import build_scene
-
         if scene is None:
             scene = build_scene(robot, motion, source=source,
                                 title=f"{Path(motion_path).name} ({robot.name})")
@@ -395,8 +391,6 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
 
 def table_values(report_path: str | os.PathLike) -> dict:
     """``{metric: value}`` read back from a report's table (``data-value`` of each row)."""
-    import re
-
     text = Path(report_path).read_text(encoding="utf-8")
     return {m: json.loads(html.unescape(v))
             for m, v in re.findall(r'data-metric="([^"]+)" data-value="([^"]*)"', text)}

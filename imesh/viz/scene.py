@@ -18,9 +18,24 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+import trimesh
+from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES
+from ..errors import ImeshError
+from ..evaluate.scoreboard import arranged_source, metric_values
 from ..human.markerset import STANDARD_BONE_NAMES
+from ..mesh.interaction import tetrahedralize
+from ..metrics.collision import SELF_COLLISION_DEPTH_M, SelfCollisionChecker
+from ..metrics.kinematics import (
+    detect_support,
+    motion_derivatives,
+    sole_tracks,
+    support_polygons,
+    zmp_report,
+    zmp_trajectory,
+)
+from ..robot.model import _package_dirs, _pinocchio
 
 log = logging.getLogger(__name__)
 
@@ -60,8 +75,6 @@ def visual_meshes(robot, max_faces: int = 40_000, cell_m: float = 0.004) -> list
     Returns:
         list of VisualMesh, one per URDF visual element whose link exists in ``robot``.
     """
-    from ..robot.model import _package_dirs, _pinocchio
-
     pin = _pinocchio()
     full = pin.buildModelFromUrdf(str(robot.urdf), pin.JointModelFreeFlyer())
     geom = pin.buildGeomFromUrdf(full, str(robot.urdf), pin.GeometryType.VISUAL, None,
@@ -131,8 +144,6 @@ def decimate(vertices: np.ndarray, faces: np.ndarray, cell_m: float
 
 
 def _primitive(cls: str, geo) -> tuple[np.ndarray, np.ndarray] | None:
-    import trimesh
-
     if cls == "Box":
         m = trimesh.creation.box(extents=2 * np.asarray(geo.halfSide))
     elif cls == "Sphere":
@@ -190,8 +201,6 @@ def _marker_entry(positions: np.ndarray, names, label: str) -> dict:
 
 def _mesh_edges(positions: np.ndarray) -> dict:
     """(T, E, 2) uint16 Delaunay edges of every frame, padded with 65535."""
-    from ..mesh.interaction import tetrahedralize
-
     pos = np.nan_to_num(positions)
     edges = [tetrahedralize(p)[0] for p in pos]
     width = max((len(e) for e in edges), default=0)
@@ -222,16 +231,6 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
         (T,), ``zmp`` and ``zmp_desired`` (T, 2), ``collisions`` (per frame a list of link index
         pairs), ``limits`` (per frame the joints outside a limit), ``ground``.
     """
-    from scipy.spatial.transform import Rotation
-
-    from ..metrics.collision import SELF_COLLISION_DEPTH_M, SelfCollisionChecker
-    from ..metrics.kinematics import (
-        detect_support,
-        motion_derivatives,
-        support_polygons,
-        zmp_report,
-        zmp_trajectory,
-    )
 
     q = np.asarray(motion.q, dtype=float)
     T, fps = len(q), float(motion.fps)
@@ -264,15 +263,12 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
         log.warning("viewer: %d adapted-marker frames for %d motion frames: not drawn",
                     markers.n_frames, T)
     if source is not None:
-        from ..errors import ImeshError
-
         try:
             scene["source"] = _source_entry(source, robot, fps, T, lead)
         except ImeshError as exc:  # the robot motion is still worth showing
             log.warning("viewer: the human source is not drawn: %s", exc)
 
     # soles, support, ZMP
-    from ..metrics.kinematics import sole_tracks
 
     soles = sole_tracks(robot, q, fps)
     support = detect_support(soles).support
@@ -305,8 +301,6 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
     scene["collisions"] = collisions
     scene["limits"] = _limit_frames(robot, q, fps)
     if metrics is not None:
-        from ..evaluate.scoreboard import metric_values
-
         scene["metrics"] = {k: v for k, v in metric_values(metrics).items()}
     return scene
 
@@ -327,8 +321,6 @@ def _limit_frames(robot, q: np.ndarray, fps: float) -> list[list[str]]:
 def _source_entry(source, robot, fps: float, T: int, lead: tuple[int, int]) -> dict:
     """The arranged human clip at the motion's rate, frames shifted by the lead-in (held still
     over the lead-in/out), placed 1 m to the robot's left."""
-    from ..evaluate.scoreboard import arranged_source
-
     src = arranged_source(source, robot)
     if abs(src.fps - fps) > 1e-6 * fps:
         src = src.resample(fps)

@@ -11,13 +11,18 @@ import base64
 import io
 import logging
 import os
+import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from ..core.lazy import optional
 from ..errors import ImeshError
+from ..io.atomic import atomic_path
+from .browser import chromium_page, open_viewer
+from .html import viewer_html
 
 log = logging.getLogger(__name__)
 
@@ -60,17 +65,10 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
     """
     from PIL import Image
 
-    from ..io.atomic import atomic_path
-    from .browser import chromium_page, open_viewer
-    from .html import viewer_html
-
     fps = float(fps or scene["fps"])
     frames = video_frames(int(scene["frames"]), float(scene["fps"]), fps)
     bar = None
     if progress:
-        import sys
-
-        from tqdm import tqdm
 
         bar = tqdm(total=len(frames), desc=progress, unit="frame", file=sys.stderr)
     with tempfile.TemporaryDirectory(prefix="imesh-video-") as tmpdir:
