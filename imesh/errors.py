@@ -23,6 +23,12 @@ def _listing(options: Iterable[str], limit: int = 40) -> str:
     return ", ".join(items)
 
 
+def _located(path: object, **where: object) -> str:
+    """``"walk.bvh, line 12, frame 3"``: the path and each part of ``where`` that is not None,
+    in the order given."""
+    return ", ".join([str(path), *(f"{k} {v}" for k, v in where.items() if v is not None)])
+
+
 class ImeshError(Exception):
     """Root of every error imesh raises on bad input or infeasible problems."""
 
@@ -38,12 +44,7 @@ class MotionFileError(ImeshError):
 
     def __init__(self, path: str, message: str, *, line: int | None = None,
                  frame: int | None = None):
-        where = str(path)
-        if line is not None:
-            where += f", line {line}"
-        if frame is not None:
-            where += f", frame {frame}"
-        super().__init__(f"{where}: {message}")
+        super().__init__(f"{_located(path, line=line, frame=frame)}: {message}")
         self.path = str(path)
         self.line = line
         self.frame = frame
@@ -128,12 +129,8 @@ class ImplausibleMotionError(InvalidMotionError):
     def __init__(self, path: str, check: str, message: str, *, valid: str,
                  frame: int | None = None, marker: str | None = None,
                  value: float | None = None):
-        where = str(path)
-        if frame is not None:
-            where += f", frame {frame}"
-        if marker is not None:
-            where += f", marker {marker}"
-        super().__init__(f"{where}: {message}; valid: {valid}")
+        super().__init__(f"{_located(path, frame=frame, marker=marker)}: {message}; "
+                         f"valid: {valid}")
         self.path = str(path)
         self.check = check
         self.frame = frame

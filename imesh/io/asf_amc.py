@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MotionFileError
-from .raw import RawMotion
+from .raw import RawMotion, is_float
 from .skeleton import euler_to_matrix, forward_kinematics
 
 log = logging.getLogger(__name__)
@@ -315,7 +315,7 @@ def _parse_amc(path: Path, skel: _Skeleton) -> tuple[dict[str, np.ndarray], int,
         if arr is None or arr.size != n_frames * n_dof:
             # error path: the first line with a wrong count or a non-number
             fields = [m.group(1).split() for m in matches]
-            bad = np.nonzero([len(f) != n_dof or not all(_is_float(w) for w in f)
+            bad = np.nonzero([len(f) != n_dof or not all(is_float(w) for w in f)
                               for f in fields])[0]
             k = int(bad[0])
             raise MotionFileError(p, f"bone {name}: expected {n_dof} numbers, found "
@@ -329,14 +329,6 @@ def _parse_amc(path: Path, skel: _Skeleton) -> tuple[dict[str, np.ndarray], int,
                                   f"{n_dof})", line=line_at(int(pos[t])), frame=t)
         values[name] = arr
     return values, n_frames, angle
-
-
-def _is_float(word: str) -> bool:
-    try:
-        float(word)
-    except ValueError:
-        return False
-    return True
 
 
 def read_asf_amc(amc_path: str | os.PathLike[str], asf_path: str | os.PathLike[str] | None = None,

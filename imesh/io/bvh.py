@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import MotionFileError
 from ..human.rig_tables import rig_of
-from .raw import RawMotion
+from .raw import RawMotion, is_float
 from .skeleton import euler_to_matrix, forward_kinematics
 
 log = logging.getLogger(__name__)
@@ -307,7 +307,7 @@ def read_bvh(path: str | Path) -> RawMotion:
     try:
         values = np.array(words, dtype=np.float64)
     except ValueError:
-        k = next(i for i, w in enumerate(words) if not _is_float(w))  # error path only
+        k = next(i for i, w in enumerate(words) if not is_float(w))  # error path only
         raise MotionFileError(
             p, f"bad number {words[k]!r} in channel {chan_label[k % n_chan]}",
             line=_line_of_token(data, k, data_line), frame=k // n_chan) from None
@@ -485,11 +485,3 @@ def _unit_hint(nodes: list[_Node]) -> dict:
               f"{SL_SCALED_UNIT_M:.4f} m")
     log.info("unit hint: %s", reason)
     return {"unit_hint_m": SL_SCALED_UNIT_M, "unit_hint_reason": reason}
-
-
-def _is_float(word: str) -> bool:
-    try:
-        float(word)
-    except ValueError:
-        return False
-    return True

@@ -45,3 +45,12 @@ class RawMotion:
     declared_up: str | None = None
     rig: str = ""
     meta: dict = field(default_factory=dict)
+
+
+def is_float(word: str) -> bool:
+    """Whether a word of a text motion file is a number (Python's float syntax)."""
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
