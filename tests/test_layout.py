@@ -108,3 +108,26 @@ def test_core_imports_nothing_of_imesh_but_errors():
     """core/ holds the shared types: it may import only errors (no stage, no reader)."""
     used = {u for f in _files("core") for u in _imported_units(f)} - {"core", "errors"}
     assert not used, f"imesh/core imports {sorted(used)}"
+
+
+def _heavy_imports(path: Path) -> set[str]:
+    """Top-level names of the modules ``path`` imports, also through ``optional("name", ...)``
+    (imesh.core.lazy)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            found.add(node.module.split(".")[0])
+        elif (isinstance(node, ast.Call) and getattr(node.func, "id", None) == "optional"
+              and node.args and isinstance(node.args[0], ast.Constant)):
+            found.add(str(node.args[0].value).split(".")[0])
+    return found
+
+
+@pytest.mark.parametrize(("module", "home"), [("pinocchio", "robot"), ("dartpy", "physics")])
+def test_pinocchio_only_in_robot_and_dart_only_in_physics(module, home):
+    outside = sorted(str(f.relative_to(PACKAGE)) for f in PACKAGE.rglob("*.py")
+                     if f.relative_to(PACKAGE).parts[0] != home and module in _heavy_imports(f))
+    assert not outside, f"{module} imported outside imesh/{home}/: {outside}"
+    assert any(module in _heavy_imports(f) for f in _files(home)), "the check sees nothing"

@@ -6,6 +6,10 @@ lazily; never imported by the solvers).
 - Fig. 4: every arm joint over time (solid) with its time-varying upper (dashed) and lower
   (dotted) bounds from the position and velocity limits (eqs 9, 13); the thin band is the box
   with the acceleration bounds (eq. 14) as well.
+
+Both figure functions take ``(arm_result, fps, path, title="")``: an
+:class:`imesh.arms.ArmResult`, its frame rate [1/s], the PNG file (written atomically) and a
+title (default: one naming the arm and its error).
 """
 
 from __future__ import annotations
@@ -29,14 +33,8 @@ def _save(fig, path: str | os.PathLike, plt) -> None:
 
 
 def plot_hand_points(arm_result, fps: float, path: str | os.PathLike, title: str = "") -> None:
-    """Fig. 3 of the paper for one arm.
-
-    Args:
-        arm_result: an :class:`imesh.arms.ArmResult`.
-        fps: frame rate [1/s].
-        path: PNG file (written atomically).
-        title: figure title.
-    """
+    """Fig. 3 of the paper for one arm: the hand points of actor and robot (arguments: see
+    the module docstring)."""
     plt = pyplot()
     target = 1e3 * arm_result.targets.hand_m
     robot = 1e3 * arm_result.robot_points_m[:, :3]
@@ -58,14 +56,8 @@ def plot_hand_points(arm_result, fps: float, path: str | os.PathLike, title: str
 
 
 def plot_joint_bounds(arm_result, fps: float, path: str | os.PathLike, title: str = "") -> None:
-    """Fig. 4 of the paper for one arm: joints with their time-varying bounds.
-
-    Args:
-        arm_result: an :class:`imesh.arms.ArmResult`.
-        fps: frame rate [1/s].
-        path: PNG file (written atomically).
-        title: figure title.
-    """
+    """Fig. 4 of the paper for one arm: joints with their time-varying bounds (arguments: see
+    the module docstring)."""
     plt = pyplot()
     theta = np.degrees(arm_result.theta)
     lo, hi = np.degrees(arm_result.posvel_lo), np.degrees(arm_result.posvel_hi)
