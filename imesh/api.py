@@ -280,7 +280,7 @@ def _robot_named_in(path: Path) -> str:
 
 
 def _load_for_evaluate(path: Path, robot: Robot, fps: float | None) -> RobotMotion:
-    from .evaluate.scoreboard import load_motion_file
+    from .evaluate.motion_files import load_motion_file
     from .io.formats import is_export
 
     if is_export(path):

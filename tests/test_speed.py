@@ -196,7 +196,8 @@ def _border_checks(robot, written, borders) -> None:
 
 
 def _written_figures(robot, res, tmp_path):
-    from imesh.evaluate.scoreboard import evaluate_motion, load_motion_file, metric_values
+    from imesh.evaluate.motion_files import load_motion_file
+    from imesh.evaluate.scoreboard import evaluate_motion, metric_values
     from imesh.io.npz import save_marker_motion
     from imesh.io.robot_motion import save_robot_motion
 

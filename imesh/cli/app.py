@@ -429,7 +429,8 @@ def cmd_retarget(args) -> int:
         # verify before writing: the summary and the gates are the evaluator's report of the
         # motion as it will be written (the file holds exactly these float64 configurations)
         from ..errors import VerificationError
-        from ..evaluate.scoreboard import evaluate_motion, format_table
+        from ..evaluate.scoreboard import evaluate_motion
+        from ..evaluate.table import format_table
         from ..evaluate.verify import failed_gates
 
         bar.stage("verify", robot_motion.n_frames)

@@ -38,7 +38,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """Run ``imesh evaluate`` with parsed arguments; returns the exit status."""
-    from ..evaluate.scoreboard import evaluate_motion, format_table, load_motion_file
+    from ..evaluate.motion_files import load_motion_file
+    from ..evaluate.scoreboard import evaluate_motion
+    from ..evaluate.table import format_table
     from ..io.atomic import write_json
     from ..robot import load_robot
 

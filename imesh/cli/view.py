@@ -66,7 +66,7 @@ def add_parsers(sub) -> None:
 
 def run_view(args) -> int:
     """``imesh view``."""
-    from ..evaluate.scoreboard import load_motion_file
+    from ..evaluate.motion_files import load_motion_file
     from ..robot import load_robot
     from ..viz.scene import build_scene
 
@@ -111,7 +111,9 @@ def run_demo(args) -> int:
 
     from ..core.progress import retarget_bar
     from ..errors import VerificationError
-    from ..evaluate.scoreboard import evaluate_motion, format_table, load_motion_file
+    from ..evaluate.motion_files import load_motion_file
+    from ..evaluate.scoreboard import evaluate_motion
+    from ..evaluate.table import format_table
     from ..evaluate.verify import failed_gates
     from ..io import load_motion
     from ..io.atomic import write_json

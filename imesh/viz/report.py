@@ -230,14 +230,14 @@ def figure_markers(t: np.ndarray, keypoints, markers) -> str:
 
 
 def _fmt(value) -> str:
-    from ..evaluate.scoreboard import _fmt as fmt
+    from ..evaluate.table import _fmt as fmt
 
     return fmt(value)
 
 
 def metrics_rows(metrics: Mapping[str, dict], balanced: bool = True) -> list[dict]:
     """Rows of the report's table: name, value, unit, gate, status (pass/fail/-), note."""
-    from ..evaluate.scoreboard import _note
+    from ..evaluate.table import _note
     from ..evaluate.verify import Gates, failed_gates
 
     gates = Gates()
@@ -352,7 +352,8 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
     Returns:
         the path written.
     """
-    from ..evaluate.scoreboard import evaluate_motion, load_motion_file
+    from ..evaluate.motion_files import load_motion_file
+    from ..evaluate.scoreboard import evaluate_motion
     from ..io.atomic import atomic_path
     from ..metrics.dynamics import reference_dynamics
     from ..metrics.kinematics import (

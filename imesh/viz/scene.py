@@ -327,7 +327,7 @@ def _limit_frames(robot, q: np.ndarray, fps: float) -> list[list[str]]:
 def _source_entry(source, robot, fps: float, T: int, lead: tuple[int, int]) -> dict:
     """The arranged human clip at the motion's rate, frames shifted by the lead-in (held still
     over the lead-in/out), placed 1 m to the robot's left."""
-    from ..evaluate.scoreboard import arranged_source
+    from ..evaluate.motion_files import arranged_source
 
     src = arranged_source(source, robot)
     if abs(src.fps - fps) > 1e-6 * fps:
