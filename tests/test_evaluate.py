@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from conftest import load_test_robot
 
-from imesh.cli.evaluate import add_parser, run
+from imesh.cli.evaluate import run
+from imesh.cli.parsers import add_evaluate as add_parser
 from imesh.core.robot_motion import RobotMotion
 from imesh.errors import ImeshError, MotionFileError
 from imesh.evaluate.motion_files import load_motion_file
