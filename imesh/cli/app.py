@@ -26,8 +26,6 @@ from .. import __version__
 from ..errors import ImeshError
 from . import parsers
 
-log = logging.getLogger("imesh")
-
 #: Command -> the module of :mod:`imesh.cli` that runs it, in the order of ``imesh --help``:
 #: (function adding its parser, module with ``run(args) -> int``).
 COMMANDS = {

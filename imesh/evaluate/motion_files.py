@@ -96,6 +96,7 @@ def _stored_markers(path: Path, arrays: Mapping[str, np.ndarray]) -> MarkerMotio
 
 def _load_plain_npz(path: Path, data: Mapping[str, np.ndarray], robot, fps: float | None
                     ) -> RobotMotion:
+    """A motion of plain ``.npz`` arrays (module docstring), joints in ``robot``'s order."""
     keys = set(data)
     quat_keys = [k for k in _QUAT_KEYS if k in keys]
     need = ["joint_names", "joint_positions", "base_position"]

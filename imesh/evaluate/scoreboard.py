@@ -169,7 +169,8 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
-        motion: its RobotMotion (imesh output or :func:`load_motion_file`).
+        motion: its RobotMotion (imesh output or
+            :func:`~imesh.evaluate.motion_files.load_motion_file`).
         source: the human source: a motion file path or MarkerMotion (raw clip, or arranged
             markers), for ``close_pair_error`` and, without ``adapted``, ``marker_rms_mm``
             against the arranged source. None: both are null.
@@ -375,8 +376,8 @@ def _physics_metrics(robot, motion: RobotMotion, config, plot: str | os.PathLike
                      ) -> tuple[dict[str, dict], float]:
     """The DART check's metrics (``physics_*``, ``tracking_rms_rad``, ``torque_ratio_max``) and
     the seconds the simulation took; writes its figure to ``plot`` when given."""
-    from ..physics import PhysicsConfig, simulate_motion  # DART: an optional extra, imported
-    # only when the check runs (``import imesh.evaluate`` must not need it)
+    # the physics check (DART, an optional extra; scipy.interpolate) is imported when it runs
+    from ..physics import PhysicsConfig, simulate_motion
 
     t0 = time.perf_counter()
     res = simulate_motion(robot, motion, config=config or PhysicsConfig())
