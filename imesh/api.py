@@ -10,7 +10,8 @@ script needs no other import::
     result = imesh.retarget("walk.bvh", "g1", output="walk_g1.npz")
     report = imesh.evaluate("walk_g1.npz")
 
-Heavy modules (scipy, pinocchio, the solvers) are imported when a function is first called.
+``import imesh`` loads this module (and with it scipy, pinocchio and the solvers) when one of
+these names is first used (:mod:`imesh`'s lazy exports).
 """
 
 from __future__ import annotations
@@ -18,14 +19,23 @@ from __future__ import annotations
 import dataclasses
 import logging
 import os
+from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:  # pragma: no cover - typing only
-    from .core.motion import MarkerMotion
-    from .core.robot_motion import RobotMotion
-    from .pipeline.retarget import RetargetConfig, RetargetResult
-    from .robot import Robot
+from .core.motion import MarkerMotion
+from .core.robot_motion import RobotMotion
+from .errors import MotionFileError, VerificationError
+from .evaluate.motion_files import load_motion_file
+from .evaluate.scoreboard import evaluate_motion
+from .evaluate.verify import failed_gates
+from .io import load_motion
+from .io.formats import is_export, read_export, robot_named_in, write_export
+from .io.robot_motion import _match_joints, save_robot_motion
+from .pipeline.retarget import RetargetConfig, RetargetResult
+from .pipeline.retarget import retarget as _retarget
+from .robot import Robot
+from .robot import load_robot as _load_robot
 
 log = logging.getLogger(__name__)
 
@@ -40,8 +50,6 @@ def demo_clip() -> Path:
         >>> imesh.demo_clip().name
         'cmu_02_01_walk.bvh'
     """
-    from importlib import resources
-
     return Path(str(resources.files("imesh").joinpath("data", "demo", "cmu_02_01_walk.bvh")))
 
 
@@ -68,8 +76,6 @@ def load_robot(name: str | PathLike | None = None, urdf: PathLike | None = None)
         >>> robot.name, len(robot.joint_names)
         ('jvrc1', 32)
     """
-    from .robot import load_robot as _load_robot
-
     return _load_robot(None if name is None else str(name),
                        urdf=None if urdf is None else str(urdf))
 
@@ -82,8 +88,6 @@ def _robot(robot: Robot | str | PathLike, urdf: PathLike | None = None) -> Robot
 
 def _human(clip: MarkerMotion | PathLike) -> MarkerMotion:
     if isinstance(clip, str | os.PathLike):
-        from .io import load_motion
-
         return load_motion(clip)
     return clip
 
@@ -126,9 +130,6 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
         >>> motion.robot, motion.fps, motion.q.shape[1] == 7 + len(motion.joint_names)
         ('jvrc1', 30.0, True)
     """
-    from .pipeline.retarget import RetargetConfig
-    from .pipeline.retarget import retarget as _retarget
-
     robot = _robot(robot, urdf)
     human = _human(clip)
     config = config or RetargetConfig()
@@ -139,8 +140,6 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
     config = dataclasses.replace(config, **changes)
     result = _retarget(human, robot, config=config)
     if output is not None:
-        from .io.robot_motion import save_robot_motion
-
         if verify:
             _verify(robot, result, name=str(clip) if isinstance(clip, str | os.PathLike)
                     else "clip", balanced=config.balance != "none")
@@ -151,10 +150,6 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
 def _verify(robot: Robot, result: RetargetResult, name: str, balanced: bool) -> dict:
     """The command line's verification: the metrics of the motion as it will be written;
     raises VerificationError when a gate fails."""
-    from .errors import VerificationError
-    from .evaluate.scoreboard import evaluate_motion
-    from .evaluate.verify import failed_gates
-
     metrics = evaluate_motion(robot, result.motion, adapted=result.adapted,
                               seconds=result.seconds)
     failed = failed_gates(metrics, balanced=balanced)
@@ -188,8 +183,6 @@ def load_robot_motion(path: PathLike, robot: Robot | str | None = None) -> Robot
         >>> imesh.load_robot_motion(path).joint_positions[:, 0].tolist()
         [0.1, 0.2]
     """
-    from .io.formats import read_export
-
     return read_export(path, robot)
 
 
@@ -212,8 +205,6 @@ def export_motion(motion: RobotMotion | PathLike, output: PathLike, fmt: str | N
     Raises:
         OptionError: unknown format (lists the valid ones), a robot without an MJCF.
     """
-    from .io.formats import write_export
-
     if isinstance(motion, str | os.PathLike):
         motion = load_robot_motion(motion, robot)
     write_export(motion, Path(output), fmt, fps=fps, mjcf=mjcf)
@@ -253,8 +244,6 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
         >>> report["limit_violation_frames"]["value"]
         0
     """
-    from .evaluate.scoreboard import evaluate_motion
-
     if isinstance(motion, str | os.PathLike):
         path = Path(motion)
         if robot is None:
@@ -268,11 +257,8 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
 
 
 def _robot_named_in(path: Path) -> str:
-    from .errors import MotionFileError
-
+    """The robot a motion file names (``robot=`` of :func:`evaluate` left out)."""
     if path.suffix.lower() in (".npz", ".csv") and path.is_file():
-        from .io.formats import robot_named_in
-
         name = robot_named_in(path)
         if name:
             return name
@@ -280,15 +266,10 @@ def _robot_named_in(path: Path) -> str:
 
 
 def _load_for_evaluate(path: Path, robot: Robot, fps: float | None) -> RobotMotion:
-    from .evaluate.scoreboard import load_motion_file
-    from .io.formats import is_export
-
+    """A motion file to evaluate: an export (:mod:`imesh.io.formats`) or what
+    :func:`imesh.evaluate.motion_files.load_motion_file` reads."""
     if is_export(path):
-        from .io.formats import read_export
-
         motion = read_export(path, robot)
-        from .io.robot_motion import _match_joints
-
         q, names = _match_joints(path, motion.joint_positions, motion.joint_names,
                                  tuple(robot.joint_names))
         return type(motion).from_parts(motion.base_position, motion.base_quat_xyzw, q,

@@ -88,16 +88,29 @@ def test_bad_scale_group_lists_valid_groups(mocap, tmp_path, capsys):
 
 
 def test_help_imports_no_heavy_module():
-    """``imesh --help`` builds every sub-command's parser without importing scipy, pinocchio or
-    the solvers (the package's public names are lazy), so it starts in a fraction of a second."""
-    code = ("import sys; from imesh.cli import main\n"
-            "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
-            "heavy = sorted(m for m in ('scipy', 'pinocchio', 'dartpy', 'imesh.solve', "
-            "'imesh.fit', 'imesh.evaluate') if m in sys.modules)\n"
-            "print('HEAVY', heavy)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout
-    assert "HEAVY []" in out
+    """``imesh --help`` and ``imesh retarget --help`` build the parsers without importing numpy,
+    scipy, pinocchio or the solvers (the package's public names are lazy, the command modules
+    are imported when their command runs), so they start in a fraction of a second."""
+    for argv in (["--help"], ["retarget", "--help"]):
+        code = ("import sys; from imesh.cli import main\n"
+                f"try:\n    main({argv!r})\nexcept SystemExit:\n    pass\n"
+                "heavy = sorted(m for m in ('numpy', 'scipy', 'pinocchio', 'dartpy', "
+                "'imesh.solve', 'imesh.fit', 'imesh.evaluate', 'imesh.cli.retarget') "
+                "if m in sys.modules)\n"
+                "print('HEAVY', heavy)")
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             check=True).stdout
+        assert "HEAVY []" in out, (argv, out)
+
+
+def test_parser_side_names_agree_with_the_library():
+    """The light parser module repeats two names of the library it must not import."""
+    from imesh.api import demo_clip
+    from imesh.arms.config import SOLVERS
+    from imesh.cli.parsers import ARM_SOLVERS, DEMO_CLIP
+
+    assert ARM_SOLVERS == SOLVERS
+    assert demo_clip().name == DEMO_CLIP
 
 
 def test_lazy_public_names():

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from imesh.cli import main
-from imesh.cli.app import PIPELINE_MIN_FRAMES
+from imesh.cli.loading import PIPELINE_MIN_FRAMES
 from imesh.errors import (
     ImplausibleMotionError,
     MotionFileError,

@@ -11,16 +11,13 @@ import numpy as np
 import pytest
 from conftest import load_test_robot
 
-from imesh.cli.evaluate import add_parser, run
+from imesh.cli.evaluate import run
+from imesh.cli.parsers import add_evaluate as add_parser
 from imesh.core.robot_motion import RobotMotion
 from imesh.errors import ImeshError, MotionFileError
-from imesh.evaluate.scoreboard import (
-    METRIC_NAMES,
-    evaluate_motion,
-    format_table,
-    load_motion_file,
-    metric_values,
-)
+from imesh.evaluate.motion_files import load_motion_file
+from imesh.evaluate.scoreboard import METRIC_NAMES, evaluate_motion, metric_values
+from imesh.evaluate.table import format_table
 from imesh.io.robot_motion import save_robot_motion
 from imesh.metrics import close_pair_error, keypoint_motion, marker_rms_mm
 from imesh.metrics.collision import (

@@ -323,7 +323,8 @@ def test_dart_run_does_not_fall(reduced):
 
 
 def test_cli_writes_motion_and_report(tmp_path, mocap):
-    from imesh.cli.reduction import add_parser, run
+    from imesh.cli.parsers import add_reduce as add_parser
+    from imesh.cli.reduction import run
     from imesh.reduction.pipeline import NPZ_KEYS
 
     parser = argparse.ArgumentParser()

@@ -153,7 +153,8 @@ def test_windows_have_one_length_but_the_last_and_cover_the_clip(n_frames, windo
 
 
 def test_solve_workers_flag_reaches_the_retarget_config():
-    from imesh.cli.app import _retarget_config, build_parser
+    from imesh.cli.app import build_parser
+    from imesh.cli.retarget import _retarget_config
 
     for argv, workers in ((["retarget", "c.bvh", "-o", "o.npz"], 1),
                           (["retarget", "c.bvh", "-o", "o.npz", "--solve-workers", "2"], 2)):
@@ -196,7 +197,8 @@ def _border_checks(robot, written, borders) -> None:
 
 
 def _written_figures(robot, res, tmp_path):
-    from imesh.evaluate.scoreboard import evaluate_motion, load_motion_file, metric_values
+    from imesh.evaluate.motion_files import load_motion_file
+    from imesh.evaluate.scoreboard import evaluate_motion, metric_values
     from imesh.io.npz import save_marker_motion
     from imesh.io.robot_motion import save_robot_motion
 

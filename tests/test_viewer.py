@@ -63,7 +63,7 @@ def test_demo_writes_motion_report_and_viewer(demo):
 
 
 def test_demo_clip_is_shipped_with_its_terms():
-    from imesh.cli.view import demo_clip
+    from imesh.api import demo_clip
 
     clip = demo_clip()
     assert clip.is_file() and clip.stat().st_size < 1_000_000

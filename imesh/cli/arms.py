@@ -1,42 +1,23 @@
-"""Command-line glue of the arm imitation for ``imesh retarget``: ``--mode arms`` (arms only,
-base and legs at the nominal pose) and ``--fit sqp`` (the main pipeline with its arm joints
-re-solved by :func:`imesh.arms.refine_arms`)."""
+"""``imesh retarget CLIP --mode arms``: the arm imitation of Kim 2005 (arms only, base and legs at
+the nominal pose; :func:`imesh.arms.solve_arms`). Its options (``--mode``, ``--fit``,
+``--solver``, ``--plots``) are in :func:`imesh.cli.parsers.add_retarget`; ``--fit sqp`` (the
+main pipeline with its arm joints re-solved) is :func:`imesh.cli.retarget._arms_config`."""
 
 from __future__ import annotations
 
-import argparse
-import logging
 from pathlib import Path
 
-from ..arms.config import SOLVERS
-
-log = logging.getLogger(__name__)
-
-
-def add_options(p: argparse.ArgumentParser) -> None:
-    """Add ``--mode``, ``--fit``, ``--solver`` and ``--plots`` to the retarget sub-command."""
-    p.add_argument("--mode", choices=("full", "arms"), default="full",
-                   help="full: the whole pipeline (default); arms: only the arms imitate the "
-                   "clip (Kim 2005), base, legs and torso stay at the nominal pose")
-    p.add_argument("--fit", choices=("dls", "sqp"), default="dls",
-                   help="full mode's fitting: dls (default) or dls with the arm joints re-solved "
-                   "by Kim's SQP")
-    p.add_argument("--solver", choices=SOLVERS, default="gn",
-                   help="per-frame solver of the arm problem: gn (box-constrained "
-                   "Gauss-Newton, default) or slsqp (scipy)")
-    p.add_argument("--plots", help="write figures (PNG) into this folder: arms mode Kim's "
-                   "Fig. 3 and Fig. 4 for every arm, full mode the balance plots")
+from ..arms.config import ArmsConfig
+from ..arms.solve import human_arm_markers, solve_arms
+from ..io.atomic import write_json
+from ..io.npz import save_marker_motion
+from ..io.robot_motion import save_robot_motion
+from ..viz.arms import write_plots
 
 
 def run_arms(args, robot, motion) -> int:
-    """``imesh retarget CLIP --mode arms``: solve, save the motion (and markers, report, plots),
-    print one line; returns the exit status."""
-    from ..arms.config import ArmsConfig
-    from ..arms.solve import human_arm_markers, solve_arms
-    from ..io.atomic import write_json
-    from ..io.npz import save_marker_motion
-    from ..io.robot_motion import save_robot_motion
-
+    """Solve, save the motion (and markers, report, plots), print one line; returns the exit
+    status."""
     config = ArmsConfig(solver=args.solver)
     human = human_arm_markers(motion, config.lowpass_hz)
     result = solve_arms(robot, human, robot.q_nominal, config=config)
@@ -45,8 +26,6 @@ def run_arms(args, robot, motion) -> int:
     if getattr(args, "markers", None):
         save_marker_motion(args.markers, human)
     if args.plots:
-        from ..viz.arms import write_plots
-
         files = write_plots(result, args.plots, prefix=f"{robot.name}_")
         report["plots"] = [str(f) for f in files]
     if args.report:
@@ -60,5 +39,3 @@ def run_arms(args, robot, motion) -> int:
           f"{out['velocity']}/{out['acceleration']}; {report['ms_per_frame_per_arm']:.2f} "
           f"ms/frame/arm ({args.solver}) -> {args.output}")
     return 0
-
-

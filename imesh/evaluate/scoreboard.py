@@ -4,47 +4,29 @@ other retargeters' outputs alike.
 :func:`evaluate_motion` returns a dict whose keys are exactly :data:`METRIC_NAMES`; each value
 is a JSON-ready dict ``{"value": number | bool | None, "unit": str, ...details}``, with a
 ``"reason"`` when the value is None (not computable: no source markers given, physics not run,
-no support frame...). :func:`metric_values` flattens it to ``{name: value}``.
+no support frame...). :func:`metric_values` flattens it to ``{name: value}``. It is composed of
+one function per group of metrics: markers, collisions and ground, support and kinematics
+(skid, soles, limits, reference dynamics, ZMP), physics, timing.
 
 Support phases come from the robot motion itself (soles within 1 cm of the ground and slower
 than 0.5 m/s, with hysteresis), so plain arrays from other tools are scored on the same terms.
 
-Motion files (:func:`load_motion_file`):
-
-- imesh robot motions (``.npz``/``.csv`` written by
-  :func:`imesh.io.robot_motion.save_robot_motion`), including files of other tools written in that
-  layout;
-- plain ``.npz`` arrays: ``joint_names`` (n,) str, ``joint_positions`` (T, n) [rad],
-  ``base_position`` (T, 3) [m] (world, Z up, ground z = 0), the base orientation as
-  ``base_quat_xyzw`` or ``base_quat_wxyz`` (T, 4) (the key names the order), ``fps`` (or pass
-  fps=), optionally ``robot`` (must match). The base is the URDF root link.
-
-The command line (``imesh evaluate``) is :func:`add_parser` + :func:`run`.
+Motion files are read by :mod:`imesh.evaluate.motion_files`, the report printed as a table by
+:mod:`imesh.evaluate.table`; the command line is ``imesh evaluate`` (:mod:`imesh.cli.evaluate`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import logging
 import math
 import os
 import time
 from collections.abc import Mapping
-from pathlib import Path
 
 import numpy as np
 
-from ..core.motion import MarkerMotion
 from ..core.robot_motion import RobotMotion
-from ..errors import (
-    ImeshError,
-    InvalidMotionError,
-    MotionFileError,
-    SourceMismatchError,
-    _listing,
-)
-from ..io.npz import load_npz
-from ..io.robot_motion import NPZ_KEYS, load_robot_motion
+from ..errors import ImeshError, _listing
 from ..metrics.collision import (
     SELF_COLLISION_DEPTH_M,
     PairHit,
@@ -54,6 +36,7 @@ from ..metrics.collision import (
 from ..metrics.dynamics import MU, reference_dynamics
 from ..metrics.kinematics import (
     SKID_THRESHOLD_MM,
+    SoleTracks,
     SupportDetection,
     detect_support,
     foot_skid,
@@ -66,8 +49,7 @@ from ..metrics.kinematics import (
     zmp_trajectory,
 )
 from ..metrics.markers import close_pair_error, keypoint_motion, marker_rms_mm
-
-log = logging.getLogger(__name__)
+from .motion_files import align_markers, arranged_source, read_markers
 
 #: The metric names of DESIGN.md, in report order (the keys of every report).
 METRIC_NAMES: tuple[str, ...] = (
@@ -89,185 +71,14 @@ UNITS: dict[str, str] = {
     "seconds_per_frame": "s/frame",
 }
 
-_QUAT_KEYS = {"base_quat_xyzw": (0, 1, 2, 3), "base_quat_wxyz": (1, 2, 3, 0)}
-
-
-# ----------------------------------------------------------------------------------------------
-# loading
-
-
-def load_motion_file(path: str | os.PathLike, robot, fps: float | None = None) -> RobotMotion:
-    """Read a robot motion to evaluate: an imesh robot motion or plain arrays (module docstring).
-
-    Args:
-        path: ``.npz`` or ``.csv`` file.
-        robot: the :class:`imesh.robot.Robot` the motion is for (names and joints are checked;
-            columns are reordered into ``robot.joint_names`` order).
-        fps: frame rate for files that store none [1/s].
-
-    Raises:
-        MotionFileError: unreadable file, wrong shapes or joint count, unknown or missing joint
-            names (listing the valid ones), non-finite values, a motion of another robot.
-    """
-    path = Path(path)
-    adapted = None
-    if path.suffix.lower() == ".npz" and path.is_file():
-        arrays = load_npz(path, "robot motion")
-        if not set(NPZ_KEYS) <= set(arrays):
-            return _load_plain_npz(path, arrays, robot, fps)
-        adapted = _stored_markers(path, arrays)
-    motion = load_robot_motion(path, robot)
-    if adapted is not None:
-        if adapted.n_frames != motion.n_frames:
-            raise MotionFileError(str(path), f"adapted_positions_m has {adapted.n_frames} "
-                                  f"frames, the motion {motion.n_frames}")
-        motion = dataclasses.replace(motion, meta={**motion.meta, "adapted_markers": adapted})
-    if fps is not None and abs(fps - motion.fps) > 1e-6 * motion.fps:
-        log.warning("%s: the file says %g fps; using %g fps as asked", path, motion.fps, fps)
-        motion = RobotMotion(q=motion.q, fps=fps, robot=motion.robot,
-                             joint_names=motion.joint_names, meta=motion.meta)
-    return motion
-
-
-def _stored_markers(path: Path, arrays: Mapping[str, np.ndarray]) -> MarkerMotion | None:
-    """The adapted markers an imesh motion file carries (``save_robot_motion(markers=)``)."""
-    if "adapted_positions_m" not in arrays:
-        return None
-    try:
-        pos = np.asarray(arrays["adapted_positions_m"], dtype=np.float64)
-        names = tuple(str(n) for n in np.asarray(arrays["adapted_marker_names"]).reshape(-1))
-        return MarkerMotion(positions_m=pos, fps=float(arrays["fps"]), names=names,
-                            # any array when pos is not (T, M, 3): MarkerMotion rejects pos
-                            valid=np.asarray(np.isfinite(pos).all(axis=-1)) if pos.ndim == 3
-                            else pos,
-                            source=f"{path}:adapted_positions_m")
-    except (KeyError, TypeError, ValueError, ImeshError) as exc:
-        raise MotionFileError(str(path), f"unreadable adapted markers ({exc})") from None
-
-
-def _load_plain_npz(path: Path, data: Mapping[str, np.ndarray], robot, fps: float | None
-                    ) -> RobotMotion:
-    keys = set(data)
-    quat_keys = [k for k in _QUAT_KEYS if k in keys]
-    need = ["joint_names", "joint_positions", "base_position"]
-    missing = [k for k in need if k not in keys] + ([] if quat_keys else ["base_quat_xyzw"])
-    if missing or len(quat_keys) > 1:
-        raise MotionFileError(str(path), f"missing keys {missing}; a motion .npz has "
-                              "joint_names (n,), joint_positions (T, n) [rad], base_position "
-                              "(T, 3) [m], base_quat_xyzw or base_quat_wxyz (T, 4), fps and "
-                              f"optionally robot; this file has {sorted(keys)}"
-                              if missing else "give one base quaternion key, not both")
-    try:
-        names = tuple(str(n) for n in np.asarray(data["joint_names"]).reshape(-1))
-        joints = np.asarray(data["joint_positions"], dtype=float)
-        base = np.asarray(data["base_position"], dtype=float)
-        quat = np.asarray(data[quat_keys[0]], dtype=float)
-        file_fps = float(data["fps"]) if "fps" in keys else None
-        name = str(data["robot"]) if "robot" in keys else robot.name
-    except (TypeError, ValueError) as exc:
-        raise MotionFileError(str(path), f"wrong array types ({exc})") from None
-    if name != robot.name:
-        raise MotionFileError(str(path), f"this is a motion of robot {name!r}, not of "
-                              f"{robot.name!r}")
-    fps = fps if fps is not None else file_fps
-    if fps is None:
-        raise MotionFileError(str(path), "the file has no fps: pass the frame rate (--fps)")
-    if joints.ndim != 2 or joints.shape[1] != len(names):
-        raise MotionFileError(str(path), f"joint_positions has shape {joints.shape}, expected "
-                              f"(T, {len(names)}) for {len(names)} joint names")
-    if quat.ndim == 2 and quat.shape[1] == 4:
-        quat = quat[:, list(_QUAT_KEYS[quat_keys[0]])]
-    unknown = [n for n in names if n not in robot.joint_names]
-    if unknown:
-        raise MotionFileError(str(path), f"unknown joint names {_listing(unknown)}; valid "
-                              f"joints of {robot.name}: {_listing(robot.joint_names, 100)}")
-    absent = [n for n in robot.joint_names if n not in names]
-    if absent or len(names) != len(robot.joint_names):
-        raise MotionFileError(str(path), f"{len(names)} joint columns, robot {robot.name} has "
-                              f"{robot.dof} joints; missing {_listing(absent)}")
-    order = [names.index(n) for n in robot.joint_names]
-    try:
-        return RobotMotion.from_parts(base, quat, joints[:, order], fps=fps, robot=robot.name,
-                                      joint_names=robot.joint_names)
-    except InvalidMotionError as exc:
-        raise MotionFileError(str(path), str(exc)) from None
-
 
 def _check_motion(robot, motion: RobotMotion) -> None:
+    """Refuse a motion of another robot or with other joints (ImeshError)."""
     if motion.robot != robot.name:
         raise ImeshError(f"the motion is for robot {motion.robot!r}, not {robot.name!r}")
     if tuple(motion.joint_names) != tuple(robot.joint_names):
         raise ImeshError(f"the motion's joints differ from robot {robot.name!r}'s: "
                          f"{_listing(motion.joint_names)} vs {_listing(robot.joint_names)}")
-
-
-def arranged_source(source, robot) -> MarkerMotion:
-    """The human source motion arranged for the robot (the pipeline's first stages:
-    standard markers, gaps filled, arrangement per markers.toml, scaled to the robot).
-
-    Args:
-        source: a motion file path, a loaded MarkerMotion (raw, standard or already arranged:
-            a motion whose markers all are key points of the robot is used as is) or an
-            :class:`imesh.human.arrange.Arrangement`.
-        robot: the robot.
-    """
-    from ..human.arrange import arrange_for_robot
-    from ..morph.adapt import prepare_markers
-
-    if isinstance(source, str | os.PathLike):
-        from ..io import load_motion
-
-        source = load_motion(source)
-    elif not isinstance(source, MarkerMotion) and isinstance(getattr(source, "motion", None),
-                                                             MarkerMotion):
-        source = source.motion  # an imesh.human.arrange.Arrangement
-    keypoints = robot.keypoint_arrays()[0]
-    if all(n in keypoints for n in source.names):
-        return source
-    return arrange_for_robot(prepare_markers(source), robot).motion
-
-
-def _markers(markers, what: str) -> MarkerMotion:
-    if isinstance(markers, str | os.PathLike):
-        from ..io.npz import load_marker_motion
-
-        return load_marker_motion(markers)  # MotionFileError on anything unreadable
-    return markers
-
-
-def _align(markers: MarkerMotion, fps: float, n_frames: int, what: str,
-           resample: bool = False) -> tuple[MarkerMotion, str]:
-    """Markers at the motion's fps and frame count; a note if they were changed.
-
-    Without ``resample`` a frame-rate or frame-count mismatch is refused: the markers are then
-    not of the take the motion was made from. With it, the markers are resampled to the motion's
-    fps and the first common frames are compared.
-
-    Raises:
-        SourceMismatchError: fps or frame count differ and ``resample`` is False.
-    """
-    fps_differs = abs(markers.fps - fps) > 1e-6 * fps
-    if not resample and (fps_differs or markers.n_frames != n_frames):
-        key = "fps" if fps_differs else "frames"
-        raise SourceMismatchError(
-            f"{what} {markers.source or ''} has {markers.n_frames} frames at {markers.fps:g} "
-            f"fps, the motion {n_frames} frames at {fps:g} fps: not the take the motion was made "
-            "from? valid: the same frame count and fps, or --resample (resample=True) to "
-            "compare the first common frames at the motion's fps",
-            what=key, expected=fps if fps_differs else n_frames,
-            found=markers.fps if fps_differs else markers.n_frames)
-    note = ""
-    if fps_differs:
-        note = f"markers resampled from {markers.fps:g} fps; "
-        markers = markers.resample(fps)
-    if markers.n_frames != n_frames:
-        note += f"{markers.n_frames} marker frames vs {n_frames} motion frames: first " \
-                f"{min(markers.n_frames, n_frames)} compared"
-    return markers, note
-
-
-# ----------------------------------------------------------------------------------------------
-# evaluation
 
 
 def _clean(value):
@@ -358,7 +169,8 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
-        motion: its RobotMotion (imesh output or :func:`load_motion_file`).
+        motion: its RobotMotion (imesh output or
+            :func:`~imesh.evaluate.motion_files.load_motion_file`).
         source: the human source: a motion file path or MarkerMotion (raw clip, or arranged
             markers), for ``close_pair_error`` and, without ``adapted``, ``marker_rms_mm``
             against the arranged source. None: both are null.
@@ -385,29 +197,58 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
             ``resample``).
     """
     _check_motion(robot, motion)
-    timing: dict[str, float] = {}
     q, fps, T = motion.q, motion.fps, motion.n_frames
-    out: dict[str, dict] = {}
+    timing: dict[str, float] = {}  # the evaluator's own seconds per group
 
-    # --- markers -----------------------------------------------------------------------------
     t0 = time.perf_counter()
-    src = None
-    if source is not None:
-        src = arranged_source(source, robot)
+    out = _marker_metrics(robot, motion, source, adapted, resample)
+    timing["markers"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    soles = sole_tracks(robot, q, fps)
+    support = detect_support(soles, support_config).support
+    out.update(_collision_metrics(robot, q, soles, support_config))
+    timing["collision"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    out.update(_kinematics_metrics(robot, q, fps, soles, support, support_config))
+    timing["kinematics"] = time.perf_counter() - t0
+
+    if physics:
+        physics_metrics, timing["physics"] = _physics_metrics(robot, motion, physics_config,
+                                                              plot)
+        out.update(physics_metrics)
+    else:
+        for name in ("physics_fell", "physics_survived_s", "tracking_rms_rad",
+                     "torque_ratio_max"):
+            out[name] = _missing(name, "physics check not run (physics=True / --physics)")
+
+    out["seconds_per_frame"] = _seconds_metric(
+        seconds if seconds is not None else motion.meta.get("seconds"), timing, T)
+    return {name: _clean(out[name]) for name in METRIC_NAMES}
+
+
+def _marker_metrics(robot, motion: RobotMotion, source, adapted, resample: bool
+                    ) -> dict[str, dict]:
+    """``marker_rms_mm`` (against the adapted markers: given, stored in the motion file, or the
+    arranged source without them) and ``close_pair_error`` (against the arranged source)."""
+    src = arranged_source(source, robot) if source is not None else None
     ref_markers, ref_kind = None, ""
     if adapted is None and motion.meta.get("adapted_markers") is not None:
         adapted = motion.meta["adapted_markers"]  # stored in the motion file by retarget
     if adapted is not None:
-        ref_markers, ref_kind = _markers(adapted, "adapted markers"), "adapted markers"
+        ref_markers, ref_kind = read_markers(adapted), "adapted markers"
     elif src is not None:
         ref_markers, ref_kind = src, "arranged source markers (no adapted markers given)"
-    kp_all = keypoint_motion(robot, q, fps)
+    kp_all = keypoint_motion(robot, motion.q, motion.fps)
+    out: dict[str, dict] = {}
     if ref_markers is None:
         out["marker_rms_mm"] = _missing("marker_rms_mm", "needs the adapted markers (--adapted) "
                                         "or the source clip (--source)")
     else:
-        aligned, note = _align(ref_markers, fps, T, ref_kind.split(" (")[0], resample)
-        n = min(aligned.n_frames, T)
+        aligned, note = align_markers(ref_markers, motion.fps, motion.n_frames,
+                                      ref_kind.split(" (")[0], resample)
+        n = min(aligned.n_frames, motion.n_frames)
         common = [m for m in kp_all.names if m in aligned.names]
         value = marker_rms_mm(kp_all.frames(0, n).subset(common), aligned.frames(0, n))
         out["marker_rms_mm"] = _metric("marker_rms_mm", value, reference=ref_kind,
@@ -416,8 +257,8 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         out["close_pair_error"] = _missing("close_pair_error", "needs the source clip "
                                            "(--source)")
     else:
-        aligned, note = _align(src, fps, T, "source", resample)
-        n = min(aligned.n_frames, T)
+        aligned, note = align_markers(src, motion.fps, motion.n_frames, "source", resample)
+        n = min(aligned.n_frames, motion.n_frames)
         names = [m for m in aligned.names if m in kp_all.names]
         sub = aligned.frames(0, n).subset(names)
         robot_pts = kp_all.frames(0, n).subset(names).replace(bones=sub.bones)
@@ -425,28 +266,52 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         out["close_pair_error"] = _metric("close_pair_error", value,
                                           compared="arranged source vs robot key points",
                                           markers=len(names), frames=n, note=note or None)
-    timing["markers"] = time.perf_counter() - t0
+    return out
 
-    # --- collisions and ground ----------------------------------------------------------------
-    t0 = time.perf_counter()
+
+def _collision_metrics(robot, q: np.ndarray, soles: SoleTracks,
+                       support_config: SupportDetection | None) -> dict[str, dict]:
+    """``self_collision_frames`` (capsule proxies) and ``ground_penetration_mm``."""
     selfc = _self_collisions_blocked(robot, q, SELF_COLLISION_DEPTH_M)
-    out["self_collision_frames"] = _metric(
-        "self_collision_frames", selfc.n_frames, frames_total=T,
-        depth_threshold_mm=1e3 * selfc.depth_m, worst_pairs=selfc.summary()["worst_pairs"],
-        deepest_mm=round(1e3 * float(selfc.max_depth_m.max(initial=0.0)), 2),
-        proxies="capsules (Robot.capsule_model, robots/<name>/collision_pairs.toml)")
-    soles = sole_tracks(robot, q, fps)
-    contacts = detect_support(soles, support_config)
     ground = check_ground(robot, q, planted=planted_feet(soles, support_config))
-    out["ground_penetration_mm"] = _metric("ground_penetration_mm", ground.penetration_mm,
-                                           **{k: v for k, v in ground.summary().items()
-                                              if k != "penetration_mm"})
-    timing["collision"] = time.perf_counter() - t0
+    return {
+        "self_collision_frames": _metric(
+            "self_collision_frames", selfc.n_frames, frames_total=len(q),
+            depth_threshold_mm=1e3 * selfc.depth_m, worst_pairs=selfc.summary()["worst_pairs"],
+            deepest_mm=round(1e3 * float(selfc.max_depth_m.max(initial=0.0)), 2),
+            proxies="capsules (Robot.capsule_model, robots/<name>/collision_pairs.toml)"),
+        "ground_penetration_mm": _metric("ground_penetration_mm", ground.penetration_mm,
+                                         **{k: v for k, v in ground.summary().items()
+                                            if k != "penetration_mm"}),
+    }
 
-    # --- support, skid, limits, ZMP ------------------------------------------------------------
-    t0 = time.perf_counter()
-    support = contacts.support
-    sup_frames = int(support.any(axis=1).sum())
+
+def _kinematics_metrics(robot, q: np.ndarray, fps: float, soles: SoleTracks,
+                        support: np.ndarray, support_config: SupportDetection | None
+                        ) -> dict[str, dict]:
+    """The soles during support (skid, deviation, tilt), the joint limits, the reference
+    dynamics (torques, friction) and the ZMP; ``support`` (T, 2) bool per sole."""
+    out = _sole_metrics(soles, support, support_config)
+    lim = limit_violations(robot, q, fps)
+    out["limit_violation_frames"] = _metric(
+        "limit_violation_frames", int(lim.any.sum()), position=int(lim.position.sum()),
+        velocity=int(lim.velocity.sum()), acceleration=int(lim.acceleration.sum()),
+        worst_position_excess_rad=lim.worst_position_rad,
+        worst_velocity_ratio=lim.worst_velocity_ratio,
+        worst_acceleration_ratio=lim.worst_acceleration_ratio,
+        position_joints=lim.position_joints, velocity_joints=lim.velocity_joints,
+        acceleration_joints=lim.acceleration_joints)
+    v, a = motion_derivatives(q, fps)
+    out.update(_dynamics_metrics(robot, q, v, a, support))
+    out.update(_zmp_metrics(robot, q, v, a, soles, support))
+    return out
+
+
+def _sole_metrics(soles: SoleTracks, support: np.ndarray,
+                  support_config: SupportDetection | None) -> dict[str, dict]:
+    """``foot_skid_mm_per_frame``, ``sole_deviation_mm`` and ``sole_tilt_deg`` over the
+    support frames."""
+    out: dict[str, dict] = {}
     skid = foot_skid(soles, support)
     if skid.samples:
         out["foot_skid_mm_per_frame"] = _metric(
@@ -468,130 +333,87 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
     else:
         for name in ("sole_deviation_mm", "sole_tilt_deg"):
             out[name] = _missing(name, "no support frame detected")
-    lim = limit_violations(robot, q, fps)
-    out["limit_violation_frames"] = _metric(
-        "limit_violation_frames", int(lim.any.sum()), position=int(lim.position.sum()),
-        velocity=int(lim.velocity.sum()), acceleration=int(lim.acceleration.sum()),
-        worst_position_excess_rad=lim.worst_position_rad,
-        worst_velocity_ratio=lim.worst_velocity_ratio,
-        worst_acceleration_ratio=lim.worst_acceleration_ratio,
-        position_joints=lim.position_joints, velocity_joints=lim.velocity_joints,
-        acceleration_joints=lim.acceleration_joints)
-    v, a = motion_derivatives(q, fps)
-    if sup_frames:
-        dyn = _reference_dynamics_blocked(robot, q, v, a, support)
-        out["torque_ratio_ref"] = _metric("torque_ratio_ref", dyn.torque_ratio,
-                                          joint=dyn.torque_joint, frame=dyn.torque_frame,
-                                          note="inverse dynamics, sole wrenches least-norm")
-        out["friction_ratio_max"] = _metric("friction_ratio_max", dyn.friction_ratio,
-                                            frame=dyn.friction_frame, mu=MU)
-    else:
-        for name in ("torque_ratio_ref", "friction_ratio_max"):
-            out[name] = _missing(name, "no support frame detected")
+    return out
+
+
+def _dynamics_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                      support: np.ndarray) -> dict[str, dict]:
+    """``torque_ratio_ref`` and ``friction_ratio_max`` of the motion's inverse dynamics."""
+    if not support.any():
+        return {name: _missing(name, "no support frame detected")
+                for name in ("torque_ratio_ref", "friction_ratio_max")}
+    dyn = _reference_dynamics_blocked(robot, q, v, a, support)
+    return {
+        "torque_ratio_ref": _metric("torque_ratio_ref", dyn.torque_ratio,
+                                    joint=dyn.torque_joint, frame=dyn.torque_frame,
+                                    note="inverse dynamics, sole wrenches least-norm"),
+        "friction_ratio_max": _metric("friction_ratio_max", dyn.friction_ratio,
+                                      frame=dyn.friction_frame, mu=MU),
+    }
+
+
+def _zmp_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, soles: SoleTracks,
+                 support: np.ndarray) -> dict[str, dict]:
+    """``zmp_inside_fraction`` and ``zmp_error_mm`` of the multibody ZMP, with the frame counts
+    of the support phases."""
     zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
+    sup_frames = int(support.any(axis=1).sum())
     phases = {"support_frames": sup_frames, "double_support_frames":
-              int(support.all(axis=1).sum()), "flight_frames": int(T - sup_frames)}
-    if sup_frames:
-        out["zmp_inside_fraction"] = _metric("zmp_inside_fraction", zmp.inside_fraction,
-                                             max_outside_mm=zmp.max_outside_mm, **phases)
-        out["zmp_error_mm"] = _metric("zmp_error_mm", zmp.error_mm,
-                                      desired="sole centre (single), hull centre (double)",
-                                      **phases)
-    else:
+              int(support.all(axis=1).sum()), "flight_frames": int(len(q) - sup_frames)}
+    if not sup_frames:
         reason = "no support frame detected: the soles never touch the ground"
-        out["zmp_inside_fraction"] = _missing("zmp_inside_fraction", reason, **phases)
-        out["zmp_error_mm"] = _missing("zmp_error_mm", reason, **phases)
-    timing["kinematics"] = time.perf_counter() - t0
+        return {"zmp_inside_fraction": _missing("zmp_inside_fraction", reason, **phases),
+                "zmp_error_mm": _missing("zmp_error_mm", reason, **phases)}
+    return {
+        "zmp_inside_fraction": _metric("zmp_inside_fraction", zmp.inside_fraction,
+                                       max_outside_mm=zmp.max_outside_mm, **phases),
+        "zmp_error_mm": _metric("zmp_error_mm", zmp.error_mm,
+                                desired="sole centre (single), hull centre (double)", **phases),
+    }
 
-    # --- physics -------------------------------------------------------------------------------
-    if physics:
-        from ..physics import PhysicsConfig, simulate_motion
 
-        t0 = time.perf_counter()
-        res = simulate_motion(robot, motion, config=physics_config or PhysicsConfig())
-        timing["physics"] = time.perf_counter() - t0
-        summary = res.summary()
-        m = res.metrics()
-        details = {k: summary[k] for k in ("fall_reason", "real_time_factor", "base_drift_m",
-                                           "base_height_drift_m", "zmp_contact_error_mm",
-                                           "saturation_fraction", "controller")}
-        out["physics_fell"] = _metric("physics_fell", m["physics_fell"], **details)
-        out["physics_survived_s"] = _metric("physics_survived_s", m["physics_survived_s"],
-                                            duration_s=summary["duration_s"])
-        out["tracking_rms_rad"] = _metric("tracking_rms_rad", m["tracking_rms_rad"])
-        out["torque_ratio_max"] = _metric("torque_ratio_max", m["torque_ratio_max"],
-                                          note="demanded torque before clamping / limit")
-        if plot is not None:
-            res.plot(plot)
-    else:
-        for name in ("physics_fell", "physics_survived_s", "tracking_rms_rad",
-                     "torque_ratio_max"):
-            out[name] = _missing(name, "physics check not run (physics=True / --physics)")
+def _physics_metrics(robot, motion: RobotMotion, config, plot: str | os.PathLike | None
+                     ) -> tuple[dict[str, dict], float]:
+    """The DART check's metrics (``physics_*``, ``tracking_rms_rad``, ``torque_ratio_max``) and
+    the seconds the simulation took; writes its figure to ``plot`` when given."""
+    # the physics check (DART, an optional extra; scipy.interpolate) is imported when it runs
+    from ..physics import PhysicsConfig, simulate_motion
 
-    # --- timing -------------------------------------------------------------------------------
-    seconds = seconds if seconds is not None else motion.meta.get("seconds")
-    evaluation = {k: v / T for k, v in timing.items()}
-    if seconds:
-        stages = {k: float(v) / T for k, v in seconds.items() if k != "total"}
-        total = float(seconds.get("total", sum(seconds.values()))) / T
-        out["seconds_per_frame"] = _metric("seconds_per_frame", total, stages=stages,
-                                           evaluation=evaluation)
-    else:
-        out["seconds_per_frame"] = _missing(
+    t0 = time.perf_counter()
+    res = simulate_motion(robot, motion, config=config or PhysicsConfig())
+    seconds = time.perf_counter() - t0
+    summary = res.summary()
+    m = res.metrics()
+    details = {k: summary[k] for k in ("fall_reason", "real_time_factor", "base_drift_m",
+                                       "base_height_drift_m", "zmp_contact_error_mm",
+                                       "saturation_fraction", "controller")}
+    out = {
+        "physics_fell": _metric("physics_fell", m["physics_fell"], **details),
+        "physics_survived_s": _metric("physics_survived_s", m["physics_survived_s"],
+                                      duration_s=summary["duration_s"]),
+        "tracking_rms_rad": _metric("tracking_rms_rad", m["tracking_rms_rad"]),
+        "torque_ratio_max": _metric("torque_ratio_max", m["torque_ratio_max"],
+                                    note="demanded torque before clamping / limit"),
+    }
+    if plot is not None:
+        res.plot(plot)
+    return out, seconds
+
+
+def _seconds_metric(seconds: Mapping[str, float] | None, timing: Mapping[str, float],
+                    n_frames: int) -> dict:
+    """``seconds_per_frame`` from the pipeline's stage times (None: not computable), with the
+    evaluator's own ``timing`` per frame as a detail."""
+    evaluation = {k: v / n_frames for k, v in timing.items()}
+    if not seconds:
+        return _missing(
             "seconds_per_frame", "the pipeline's timing is not stored in a motion file (pass "
             "seconds= from RetargetResult.seconds)", evaluation=evaluation)
-    return {name: _clean(out[name]) for name in METRIC_NAMES}
+    stages = {k: float(v) / n_frames for k, v in seconds.items() if k != "total"}
+    total = float(seconds.get("total", sum(seconds.values()))) / n_frames
+    return _metric("seconds_per_frame", total, stages=stages, evaluation=evaluation)
 
 
 def metric_values(report: Mapping[str, dict]) -> dict:
     """``{name: value}`` of a report of :func:`evaluate_motion`."""
     return {name: report[name]["value"] for name in report}
-
-
-def _fmt(value) -> str:
-    if value is None:
-        return "n/a"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, int):
-        return str(value)
-    if abs(value) >= 100:
-        return f"{value:.0f}"
-    if abs(value) >= 1:
-        return f"{value:.2f}"
-    return f"{value:.4f}" if value else "0"
-
-
-def _note(name: str, entry: dict) -> str:
-    if entry.get("value") is None:
-        return entry.get("reason", "")
-    if name == "self_collision_frames" and entry.get("worst_pairs"):
-        p = entry["worst_pairs"][0]
-        return f"worst {p['pair'][0]}-{p['pair'][1]} {p['max_depth_mm']} mm"
-    if name == "ground_penetration_mm":
-        text = f"worst link {entry.get('worst_link')}" if entry.get("worst_link") else ""
-        if entry.get("floating_frames"):
-            text += f"; floating {entry['floating_frames']} frames"
-        return text.strip("; ")
-    if name == "foot_skid_mm_per_frame":
-        return f"{100 * entry['fraction_over_10mm']:.1f} % of support frames > 10 mm"
-    if name == "limit_violation_frames":
-        return f"position {entry['position']}, velocity {entry['velocity']}"
-    if name == "marker_rms_mm":
-        return f"vs {entry['reference']}"
-    if name == "physics_fell":
-        return entry.get("fall_reason") or f"real-time factor {entry['real_time_factor']:.2f}"
-    if name == "seconds_per_frame":
-        return ", ".join(f"{k} {v:.4f}" for k, v in entry.get("stages", {}).items())
-    return ""
-
-
-def format_table(report: Mapping[str, dict]) -> str:
-    """A plain-text table of a report (metric, value, unit, note)."""
-    rows = [(name, _fmt(e["value"]), e["unit"], _note(name, e)) for name, e in report.items()]
-    w = [max(len(r[k]) for r in rows) for k in range(3)]
-    return "\n".join(f"{a:<{w[0]}}  {b:>{w[1]}}  {c:<{w[2]}}  {d}".rstrip() for a, b, c, d in rows)
-
-
-# ----------------------------------------------------------------------------------------------
-# command line

@@ -23,8 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from ..contacts.phases import SIDES
-from ..evaluate.scoreboard import _fmt as fmt
-from ..evaluate.scoreboard import _note, evaluate_motion, load_motion_file
+from ..evaluate.motion_files import load_motion_file
+from ..evaluate.scoreboard import evaluate_motion
+from ..evaluate.table import _fmt as fmt
+from ..evaluate.table import _note
 from ..evaluate.verify import Gates, failed_gates
 from ..io.atomic import atomic_path
 from ..metrics.dynamics import reference_dynamics

@@ -23,7 +23,8 @@ from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES
 from ..errors import ImeshError
-from ..evaluate.scoreboard import arranged_source, metric_values
+from ..evaluate.motion_files import arranged_source
+from ..evaluate.scoreboard import metric_values
 from ..human.markerset import STANDARD_BONE_NAMES
 from ..mesh.interaction import tetrahedralize
 from ..metrics.collision import SELF_COLLISION_DEPTH_M, SelfCollisionChecker

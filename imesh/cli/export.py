@@ -1,0 +1,21 @@
+"""``imesh export MOTION -o FILE``: a robot motion converted to another format
+(:mod:`imesh.io.formats`, docs/exports.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..io.formats import read_export, write_export
+
+
+def run(args) -> int:
+    """Read the motion (any format imesh writes), write it in the asked format (by default by
+    the output's suffix), print one line; returns the exit status."""
+    motion = read_export(args.motion, args.robot, fps=args.source_fps)
+    fmt = args.format
+    if fmt is None and Path(args.output).suffix.lower() == ".csv":
+        fmt = "csv"
+    write_export(motion, args.output, fmt, fps=args.fps, mjcf=args.mjcf)
+    print(f"exported {args.motion} -> {args.output} ({fmt or 'npz'}, "
+          f"{args.fps or motion.fps:g} fps)")
+    return 0

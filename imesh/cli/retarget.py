@@ -1,0 +1,108 @@
+"""``imesh retarget CLIP -o MOTION``: the whole pipeline (:func:`imesh.pipeline.retarget.retarget`),
+verified by the evaluator before the motion is written; ``--mode arms`` is :mod:`imesh.cli.arms`."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from ..arms.solve import REFINE_CONFIG
+from ..contacts.support import SupportConfig
+from ..core.progress import retarget_bar
+from ..errors import VerificationError
+from ..evaluate.scoreboard import evaluate_motion
+from ..evaluate.table import format_table
+from ..evaluate.verify import failed_gates
+from ..io.atomic import write_json
+from ..io.formats import write_export
+from ..io.npz import save_marker_motion
+from ..io.robot_motion import save_robot_motion
+from ..pipeline.retarget import RetargetConfig, retarget
+from ..robot import load_robot
+from ..viz.balance import plot_balance
+from ..viz.report import write_report
+from .arms import run_arms
+from .loading import load_clip
+
+
+def run(args) -> int:
+    """Retarget, verify and write (motion, markers, reports, plots), print the summary and the
+    metrics table; returns the exit status (VerificationError: 3, unless ``--force``)."""
+    if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
+        robot = load_robot(args.robot, urdf=args.urdf)
+        motion = load_clip(args)
+        status = run_arms(args, robot, motion)
+        if args.report_html:
+            write_report(args.report_html, robot, args.output, source=motion, balanced=False,
+                         facts={"source clip": args.clip, "mode": "arms (Kim 2005)"})
+        return status
+    motion = load_clip(args)
+    config = _retarget_config(args, args.steps, args.window_frames, support=not args.no_support,
+                              balance=args.balance)
+    bar = retarget_bar(args.quiet, f"{Path(args.clip).name} -> {args.robot}", motion, config)
+    try:
+        bar.stage("load", detail=f"robot {args.robot}")
+        robot = load_robot(args.robot, urdf=args.urdf)
+        result = retarget(motion, robot, config=config, progress=bar)
+        report = result.report()
+        if args.plots and result.balance is not None:
+            report["balance_plots"] = plot_balance(result.balance, args.plots, robot.name)
+        robot_motion = result.motion
+        # verify before writing: the summary and the gates are the evaluator's report of the
+        # motion as it will be written (the file holds exactly these float64 configurations)
+        bar.stage("verify", robot_motion.n_frames)
+        metrics = evaluate_motion(robot, robot_motion, adapted=result.adapted,
+                                  seconds=result.seconds)
+        report["metrics"] = metrics
+        failed = failed_gates(metrics, balanced=args.balance != "none")
+        report["verification"] = {"passed": not failed,
+                                  "failed": {k: {"value": v[0], "gate": v[1]}
+                                             for k, v in failed.items()}}
+        if failed and not args.force:
+            raise VerificationError(f"retargeted motion of {args.clip} for {robot.name}", failed)
+        bar.stage("write", robot_motion.n_frames)
+        if args.format in (None, "npz"):
+            save_robot_motion(args.output, robot_motion, markers=result.adapted)
+        else:
+            write_export(robot_motion, args.output, args.format, mjcf=args.mjcf)
+        if args.markers:
+            save_marker_motion(args.markers, result.adapted)
+        if args.report:
+            write_json(args.report, report)
+        if args.report_html:
+            write_report(args.report_html, robot, args.output, source=motion,
+                         balanced=args.balance != "none",
+                         facts={"source clip": args.clip,
+                                "retarget time": f"{report['seconds']['total']:.1f} s"})
+        bar.finish()
+    finally:
+        bar.close()
+    print(f"retargeted {report['frames']} frames to {robot.name} in "
+          f"{report['seconds']['total']:.2f} s -> {args.output}")
+    if report["unconstrained_frames"]:
+        print(f"flight frames without support or ZMP constraint: "
+              f"{report['unconstrained_frames']}")
+    print(format_table(metrics))
+    return 0
+
+
+def _retarget_config(args, steps: int, window_frames: int = 2000, support: bool = True,
+                     balance: str = "wholebody") -> RetargetConfig:
+    """The pipeline's configuration from the parsed options (defaults of RetargetConfig for
+    options a caller's namespace lacks)."""
+    base = RetargetConfig()
+    return RetargetConfig(morph=dataclasses.replace(base.morph, steps=steps,
+                                                    window_frames=window_frames),
+                          support=SupportConfig() if support else None, balance=balance,
+                          fps=getattr(args, "fps", None) or base.fps,
+                          allow_flight=getattr(args, "allow_flight", False),
+                          lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s,
+                          workers=getattr(args, "solve_workers", base.workers),
+                          arms=_arms_config(args))
+
+
+def _arms_config(args):
+    """``--fit sqp``: the initial fit's arms by Kim's SQP (imesh/arms), else None."""
+    if getattr(args, "fit", "dls") != "sqp":
+        return None
+    return dataclasses.replace(REFINE_CONFIG, solver=args.solver)

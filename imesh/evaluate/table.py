@@ -1,0 +1,54 @@
+"""The plain-text table of an evaluator report (:func:`imesh.evaluate.scoreboard.evaluate_motion`):
+what ``imesh evaluate``, ``imesh retarget`` and ``imesh demo`` print; the HTML report
+(:mod:`imesh.viz.report`) formats its cells with the same :func:`_fmt` and :func:`_note`."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+
+def _fmt(value) -> str:
+    """A metric value as the table shows it: n/a, yes/no, or 0 to 4 decimals by magnitude."""
+    if value is None:
+        return "n/a"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return str(value)
+    if abs(value) >= 100:
+        return f"{value:.0f}"
+    if abs(value) >= 1:
+        return f"{value:.2f}"
+    return f"{value:.4f}" if value else "0"
+
+
+def _note(name: str, entry: dict) -> str:
+    """The note column of a metric: why it is n/a, or its most telling detail."""
+    if entry.get("value") is None:
+        return entry.get("reason", "")
+    if name == "self_collision_frames" and entry.get("worst_pairs"):
+        p = entry["worst_pairs"][0]
+        return f"worst {p['pair'][0]}-{p['pair'][1]} {p['max_depth_mm']} mm"
+    if name == "ground_penetration_mm":
+        text = f"worst link {entry.get('worst_link')}" if entry.get("worst_link") else ""
+        if entry.get("floating_frames"):
+            text += f"; floating {entry['floating_frames']} frames"
+        return text.strip("; ")
+    if name == "foot_skid_mm_per_frame":
+        return f"{100 * entry['fraction_over_10mm']:.1f} % of support frames > 10 mm"
+    if name == "limit_violation_frames":
+        return f"position {entry['position']}, velocity {entry['velocity']}"
+    if name == "marker_rms_mm":
+        return f"vs {entry['reference']}"
+    if name == "physics_fell":
+        return entry.get("fall_reason") or f"real-time factor {entry['real_time_factor']:.2f}"
+    if name == "seconds_per_frame":
+        return ", ".join(f"{k} {v:.4f}" for k, v in entry.get("stages", {}).items())
+    return ""
+
+
+def format_table(report: Mapping[str, dict]) -> str:
+    """A plain-text table of a report (metric, value, unit, note)."""
+    rows = [(name, _fmt(e["value"]), e["unit"], _note(name, e)) for name, e in report.items()]
+    w = [max(len(r[k]) for r in rows) for k in range(3)]
+    return "\n".join(f"{a:<{w[0]}}  {b:>{w[1]}}  {c:<{w[2]}}  {d}".rstrip() for a, b, c, d in rows)
