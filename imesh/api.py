@@ -25,10 +25,10 @@ from typing import Any
 
 from .core.motion import MarkerMotion
 from .core.robot_motion import RobotMotion
-from .errors import MotionFileError, VerificationError
+from .errors import MotionFileError
 from .evaluate.motion_files import load_motion_file
 from .evaluate.scoreboard import evaluate_motion
-from .evaluate.verify import failed_gates
+from .evaluate.verify import verify_motion
 from .io import load_motion
 from .io.formats import is_export, read_export, robot_named_in, write_export
 from .io.robot_motion import _match_joints, save_robot_motion
@@ -141,21 +141,11 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
     result = _retarget(human, robot, config=config)
     if output is not None:
         if verify:
-            _verify(robot, result, name=str(clip) if isinstance(clip, str | os.PathLike)
-                    else "clip", balanced=config.balance != "none")
+            verify_motion(robot, result.motion, adapted=result.adapted, seconds=result.seconds,
+                          name=str(clip) if isinstance(clip, str | os.PathLike) else "clip",
+                          balanced=config.balance != "none")
         save_robot_motion(output, result.motion, markers=result.adapted)
     return result
-
-
-def _verify(robot: Robot, result: RetargetResult, name: str, balanced: bool) -> dict:
-    """The command line's verification: the metrics of the motion as it will be written;
-    raises VerificationError when a gate fails."""
-    metrics = evaluate_motion(robot, result.motion, adapted=result.adapted,
-                              seconds=result.seconds)
-    failed = failed_gates(metrics, balanced=balanced)
-    if failed:
-        raise VerificationError(f"retargeted motion of {name} for {robot.name}", failed)
-    return metrics
 
 
 def load_robot_motion(path: PathLike, robot: Robot | str | None = None) -> RobotMotion:

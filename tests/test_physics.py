@@ -16,6 +16,7 @@ from imesh.core.robot_motion import RobotMotion
 from imesh.errors import ImeshError, MissingDependencyError
 from imesh.robot import ROBOTS_DIR, load_robot_config
 from imesh.robot.registry import package_available
+from imesh.viz.physics import plot_physics
 
 pytest.importorskip("dartpy")
 
@@ -195,7 +196,7 @@ def test_result_metrics_and_plot(jvrc1, tmp_path):
     assert result.torques_nm.shape == (T, jvrc1.dof)
     summary = result.summary()
     assert summary["real_time_factor"] > 0 and summary["controller"] == "spd"
-    result.plot(tmp_path / "run.png")
+    plot_physics(result, tmp_path / "run.png")
     assert (tmp_path / "run.png").stat().st_size > 10_000
 
 

@@ -280,17 +280,20 @@ def test_two_chains_and_their_join_window_hold_both_ends_and_every_border(
 def test_evaluator_in_blocks_of_frames_gives_the_same_report(mocap, monkeypatch):
     """The capsule distances and the inverse dynamics run over blocks of frames (9 GB on a
     30-minute clip at once): the report is the same to the last digit."""
-    import imesh.evaluate.scoreboard  # noqa: F401  (the module, not the top-level function)
+    from imesh.evaluate import scoreboard as ev  # the module that reads the block size
 
-    ev = sys.modules["imesh.evaluate"]
     robot = load_test_robot("g1")
     res = retarget(load_motion(mocap("cmu_02_10_wash_self_cc3rig.bvh")), robot,
                    config=RetargetConfig(balance="none"))
     monkeypatch.setattr(ev, "EVAL_BLOCK_FRAMES", 10 ** 9)
     whole = ev.evaluate_motion(robot, res.motion, adapted=res.adapted)
+    calls = []  # frames per capsule check: one block of 50 at a time
+    check = ev.check_capsule_collisions
+    monkeypatch.setattr(ev, "check_capsule_collisions",
+                        lambda robot, q, depth: calls.append(len(q)) or check(robot, q, depth))
     monkeypatch.setattr(ev, "EVAL_BLOCK_FRAMES", 50)
     blocked = ev.evaluate_motion(robot, res.motion, adapted=res.adapted)
-    assert res.motion.n_frames > 4 * 50
+    assert max(calls) == 50 and sum(calls) == res.motion.n_frames > 4 * 50
     assert whole["self_collision_frames"]["value"] > 0  # the wash: hands on the body
     for report in (whole, blocked):
         report.pop("seconds_per_frame")  # the evaluator's own timing

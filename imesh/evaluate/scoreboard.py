@@ -49,6 +49,8 @@ from ..metrics.kinematics import (
     zmp_trajectory,
 )
 from ..metrics.markers import close_pair_error, keypoint_motion, marker_rms_mm
+from ..physics import PhysicsConfig, simulate_motion
+from ..viz.physics import plot_physics
 from .motion_files import align_markers, arranged_source, read_markers
 
 #: The metric names of DESIGN.md, in report order (the keys of every report).
@@ -376,9 +378,6 @@ def _physics_metrics(robot, motion: RobotMotion, config, plot: str | os.PathLike
                      ) -> tuple[dict[str, dict], float]:
     """The DART check's metrics (``physics_*``, ``tracking_rms_rad``, ``torque_ratio_max``) and
     the seconds the simulation took; writes its figure to ``plot`` when given."""
-    # the physics check (DART, an optional extra; scipy.interpolate) is imported when it runs
-    from ..physics import PhysicsConfig, simulate_motion
-
     t0 = time.perf_counter()
     res = simulate_motion(robot, motion, config=config or PhysicsConfig())
     seconds = time.perf_counter() - t0
@@ -396,7 +395,7 @@ def _physics_metrics(robot, motion: RobotMotion, config, plot: str | os.PathLike
                                     note="demanded torque before clamping / limit"),
     }
     if plot is not None:
-        res.plot(plot)
+        plot_physics(res, plot)
     return out, seconds
 
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .scoreboard import metric_values
+from ..errors import VerificationError
+from .scoreboard import evaluate_motion, metric_values
 
 
 @dataclass(frozen=True)
@@ -51,3 +52,29 @@ def failed_gates(report: dict, gates: Gates | None = None, balanced: bool = True
         if not ok:
             out[name] = (value, f"{op} {limit}")
     return out
+
+
+def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
+                  balanced: bool = True) -> dict:
+    """Score a robot motion as it will be written and check it against the gates (what
+    ``imesh retarget`` and ``imesh batch`` do before writing).
+
+    Args:
+        robot: the Robot.
+        motion: the RobotMotion about to be written.
+        adapted: the adapted markers it was fitted to (for ``marker_rms_mm``), or None.
+        seconds: the pipeline's stage timings (for ``seconds_per_frame``), or None.
+        name: the clip, for the message.
+        balanced: whether the balance gates apply (not with ``balance="none"``).
+
+    Returns:
+        The evaluator's report (:func:`~imesh.evaluate.scoreboard.evaluate_motion`).
+
+    Raises:
+        VerificationError: a gate fails (lists every failed gate).
+    """
+    metrics = evaluate_motion(robot, motion, adapted=adapted, seconds=seconds)
+    failed = failed_gates(metrics, balanced=balanced)
+    if failed:
+        raise VerificationError(f"retargeted motion of {name} for {robot.name}", failed)
+    return metrics

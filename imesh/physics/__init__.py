@@ -4,7 +4,8 @@ Example:
     >>> from imesh.physics import PhysicsConfig, simulate_motion
     >>> result = simulate_motion(robot, motion, config=PhysicsConfig())
     >>> result.metrics()     # physics_fell, physics_survived_s, tracking_rms_rad, torque_ratio_max
-    >>> result.plot("run.png")
+    >>> from imesh.viz.physics import plot_physics
+    >>> plot_physics(result, "run.png")      # its figure
 
 Every dartpy call of imesh lives in this package; dartpy is imported when a world is built, so
 ``import imesh.physics`` works without it (``simulate_motion`` then says ``pip install dartpy``).

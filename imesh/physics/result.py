@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -123,10 +122,3 @@ class PhysicsResult:
             "controller": self.config.controller,
             "fixed_base": self.config.fixed_base,
         }
-
-    def plot(self, path: str | os.PathLike) -> None:
-        """Write a figure of the run (joint error, base height, torque ratio, ZMP) to ``path``
-        (any matplotlib format, e.g. .png), atomically."""
-        from ..viz.physics import plot_physics
-
-        plot_physics(self, path)

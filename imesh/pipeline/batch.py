@@ -43,12 +43,15 @@ from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from .. import __version__
-from ..api import _verify, load_robot, retarget
 from ..core.lazy import optional
 from ..errors import ImeshError, OptionError
+from ..evaluate.verify import verify_motion
+from ..io import load_motion
 from ..io.atomic import atomic_path
 from ..io.formats import FORMATS, write_export
 from ..io.robot_motion import save_robot_motion
+from ..robot import load_robot
+from .retarget import RetargetConfig, retarget
 
 log = logging.getLogger(__name__)
 
@@ -209,9 +212,13 @@ def run_clip(clip: str, output: str, settings: BatchSettings) -> dict:
 def _retarget_clip(clip: Path, output: Path, settings: BatchSettings, record: dict) -> None:
     input_sha = file_sha256(clip)
     robot = load_robot(settings.robot, urdf=settings.urdf)
-    result = retarget(clip, robot, fps=settings.fps, balance=settings.balance)
+    config = RetargetConfig(balance=settings.balance)
+    if settings.fps is not None:
+        config = dataclasses.replace(config, fps=float(settings.fps))
+    result = retarget(load_motion(clip), robot, config=config)
     if not settings.force:
-        _verify(robot, result, name=str(clip), balanced=settings.balance != "none")
+        verify_motion(robot, result.motion, adapted=result.adapted, seconds=result.seconds,
+                      name=str(clip), balanced=settings.balance != "none")
     if settings.format == "npz":
         save_robot_motion(output, result.motion, markers=result.adapted)
     else:
