@@ -481,7 +481,7 @@ def cmd_robots(args) -> int:
         return cmd_robots_init(args.path, args.output, args.robot_name)
     if args.collisions or args.name:
         from ..robot import load_robot
-        from ..robot.capsules import describe_collisions
+        from ..robot.capsules.robot import describe_collisions
 
         if not args.name:
             raise ImeshError("imesh robots --collisions needs a robot name")

@@ -241,7 +241,7 @@ def check_mesh_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
     pairs the capsules check. Only pairs whose capsules are closer than ``broad_m`` reach coal (the
     capsules enclose the geometry, so farther pairs cannot touch).
     """
-    from ..robot.collision import MeshCollisionChecker
+    from ..robot.capsules.mesh_check import MeshCollisionChecker
 
     checker = MeshCollisionChecker(robot)
     model = robot.capsule_model()

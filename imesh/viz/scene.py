@@ -60,7 +60,8 @@ def visual_meshes(robot, max_faces: int = 40_000, cell_m: float = 0.004) -> list
     Returns:
         list of VisualMesh, one per URDF visual element whose link exists in ``robot``.
     """
-    from ..robot.model import _package_dirs, _pinocchio
+    from ..robot.build import _package_dirs
+    from ..robot.pin import _pinocchio
 
     pin = _pinocchio()
     full = pin.buildModelFromUrdf(str(robot.urdf), pin.JointModelFreeFlyer())
