@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .capsules.model import CapsuleModel
 from .collision import CollisionShape, GeometryItem, build_proxies, derive_sole
 from .config import (
     SIDES,
@@ -34,8 +35,6 @@ from .pin import _pinocchio, find_frame, frame_names
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     import pinocchio  # no type information: its classes are Any to mypy
-
-    from .capsules.model import CapsuleModel
 
 log = logging.getLogger(__name__)
 
