@@ -27,7 +27,9 @@ def capsule_cache_dir() -> Path | None:
 
 
 def fit_key(inputs: Sequence[tuple[str, np.ndarray, np.ndarray | None]],
-             split_excess: float | None) -> str:
+            split_excess: float | None) -> str:
+    """The cache key of a fit: a hash of the fit's settings and of every body's name, (N, 3)
+    points [m] and (F, 3, 3) triangles (or None), in order."""
     h = hashlib.sha256(repr((FIT_VERSION, MAX_CAPSULES, SPLIT_GAIN, SPLIT_RADIUS,
                              SPLIT_MAX_EDGE_M, split_excess)).encode())
     for body, pts, tris in inputs:
@@ -59,6 +61,11 @@ def write_capsules(path: Path, capsules: Sequence[Capsule]) -> None:
 
 
 def read_capsules(path: Path) -> list[Capsule]:
+    """The capsules :func:`write_capsules` wrote to ``path``.
+
+    Raises:
+        OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile: a missing or damaged file.
+    """
     with np.load(path, allow_pickle=False) as z:
         return [Capsule(name=str(n), body=str(b), frame=str(f), a=a.copy(), b=e.copy(),
                         radius=float(r))

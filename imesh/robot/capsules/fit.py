@@ -27,6 +27,7 @@ FIT_VERSION = 1
 
 
 def _axes(points: np.ndarray) -> list[np.ndarray]:
+    """Candidate capsule axes (3,) for (N, 3) points: the principal axes, then x, y, z."""
     c = points - points.mean(axis=0)
     try:
         _, vecs = np.linalg.eigh(np.cov(c.T))
@@ -75,6 +76,7 @@ def _capsule_on_axis(points: np.ndarray, axis: np.ndarray, exact: bool = False
 
 
 def _hull(points: np.ndarray) -> np.ndarray:
+    """The convex hull's vertices of (N, 3) points (the capsule around them is the same)."""
     try:
         return points[ConvexHull(points).vertices]
     except Exception:  # flat or degenerate point sets
@@ -99,6 +101,7 @@ def fit_capsule(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def _vol(c: tuple[np.ndarray, np.ndarray, float]) -> float:
+    """[m^3] volume of a capsule given as (a, b, radius)."""
     return capsule_volume(c[2], float(np.linalg.norm(c[1] - c[0])))
 
 

@@ -14,6 +14,7 @@ from .model import CapsuleModel, body_key
 
 #: Pairs closer than this in the nominal standing pose are ignored (designed to be that close).
 NOMINAL_CLEARANCE_M = 0.01
+#: The ignore list of a robot, beside its robot.toml.
 PAIRS_FILE = "collision_pairs.toml"
 
 
@@ -21,7 +22,8 @@ def ignore_rule(model: CapsuleModel, body_parent: dict[str, str | None], feet: S
                 nominal_placements: np.ndarray) -> dict[tuple[str, str], str]:
     """Body pairs never checked, with the reason: ``parent`` (a body and its parent body),
     ``feet`` (both feet: their footprints keep them apart), ``nominal`` (capsules closer than
-    ``NOMINAL_CLEARANCE_M`` in the nominal pose, distance in mm); :func:`capsule_ignore_rule`
+    ``NOMINAL_CLEARANCE_M`` in the nominal pose, distance in mm);
+    :func:`imesh.robot.capsules.robot.capsule_ignore_rule`
     adds the pairs whose URDF collision geometry touches in the nominal pose.
 
     Args:
@@ -50,6 +52,8 @@ def ignore_rule(model: CapsuleModel, body_parent: dict[str, str | None], feet: S
 
 def format_pairs_toml(robot_name: str, rule: dict[tuple[str, str], str],
                       source: str = "collision", split_excess: float | None = None) -> str:
+    """The text of a robot's ``collision_pairs.toml``: the pairs of ``rule`` (body pair ->
+    reason), and the fit settings that differ from the defaults."""
     lines = [f"# Body pairs of {robot_name} never checked for self-collision (capsule proxies,",
              "# imesh/robot/capsules/): a body and its parent, both feet (their footprints",
              f"# keep them apart), pairs closer than {1e3 * NOMINAL_CLEARANCE_M:.0f} mm in the "
@@ -73,6 +77,7 @@ def format_pairs_toml(robot_name: str, rule: dict[tuple[str, str], str],
 
 
 def read_pairs_toml(path: Path) -> set[tuple[str, str]]:
+    """The ignored body pairs (sorted name pairs) of a ``collision_pairs.toml``."""
     with open(path, "rb") as fh:
         data = tomllib.load(fh)
     return {body_key(str(a), str(b)) for a, b in data.get("ignore", [])}
@@ -84,6 +89,7 @@ def pairs_file(robot) -> Path:
 
 
 def _pairs_settings(robot) -> dict:
+    """The robot's ``collision_pairs.toml`` as a dict ({} when it has none)."""
     path = pairs_file(robot)
     if path.is_file():
         with open(path, "rb") as fh:
@@ -99,8 +105,9 @@ def capsule_source(robot) -> str:
 
 
 def capsule_split_excess(robot) -> float | None:
-    """``split_excess`` of the robot's collision_pairs.toml (:func:`fit_capsules`), or None:
-    HRP-4C's detailed visual meshes taper (knee to ankle), and single capsules as wide as
-    their widest part overlap in stances where the meshes are 30 mm apart."""
+    """``split_excess`` of the robot's collision_pairs.toml
+    (:func:`imesh.robot.capsules.fit.fit_capsules`), or None: HRP-4C's detailed visual meshes
+    taper (knee to ankle), and single capsules as wide as their widest part overlap in stances
+    where the meshes are 30 mm apart."""
     value = _pairs_settings(robot).get("split_excess")
     return None if value is None else float(value)

@@ -27,10 +27,11 @@ log = logging.getLogger(__name__)
 
 
 def fit_robot_capsules(robot, cache: bool = True) -> list[Capsule]:
-    """Capsules of every body of the robot (:func:`fit_capsules` on its URDF collision
-    geometry, in the body's frame).
+    """Capsules of every body of the robot (:func:`imesh.robot.capsules.fit.fit_capsules` on
+    its URDF collision geometry, in the body's frame).
 
-    The fit takes 1-6 s per robot, so its result is kept on disk (:func:`capsule_cache_dir`),
+    The fit takes 1-6 s per robot, so its result is kept on disk
+    (:func:`imesh.robot.capsules.cache.capsule_cache_dir`),
     keyed by a hash of exactly what it is computed from: every body's name, points and
     triangles, and the fit's settings and ``FIT_VERSION``. Another mesh, URDF origin,
     ``use_visual``/``skip`` list or fit setting gives another key (a robot generated from a
@@ -71,7 +72,9 @@ def fit_robot_capsules(robot, cache: bool = True) -> list[Capsule]:
 
 def capsule_ignore_rule(robot, capsules: Sequence[Capsule] | None = None
                         ) -> dict[tuple[str, str], str]:
-    """:func:`ignore_rule` for a robot (what ``collision_pairs.toml`` must list)."""
+    """:func:`imesh.robot.capsules.pairs.ignore_rule` for a robot (what its
+    ``collision_pairs.toml`` must list), plus the body pairs whose URDF geometry touches in the
+    nominal pose."""
     capsules = fit_robot_capsules(robot) if capsules is None else list(capsules)
     model = CapsuleModel(capsules, set())
     _, parent = robot_bodies(robot)
