@@ -444,6 +444,48 @@ class CollisionWorld:
         return out
 
 
+class FramePairDistances:
+    """Signed distances between the proxies of frame pairs (the minimum over each pair's
+    shapes), on a :class:`CollisionWorld`.
+
+    The world of the last set of pairs asked for is kept: asked again with the same exclusions
+    (the usual case), its fcl objects are re-posed instead of built again.
+
+    Args:
+        shapes: the proxies.
+    """
+
+    def __init__(self, shapes: Sequence[CollisionShape]):
+        self.shapes = list(shapes)
+        self._world: CollisionWorld | None = None
+        self._pairs: tuple | None = None
+
+    def _checked_pairs(self, exclude: set[tuple[str, str]]) -> tuple:
+        """Index pairs (i, j) of shapes on different frames whose frame pair is not excluded."""
+        shapes = self.shapes
+        return tuple((i, j) for i in range(len(shapes)) for j in range(i + 1, len(shapes))
+                     if shapes[i].frame != shapes[j].frame
+                     and pair_key(shapes[i].frame, shapes[j].frame) not in exclude)
+
+    def _world_for(self, pairs: tuple) -> CollisionWorld:
+        if self._world is None or self._pairs != pairs:
+            self._world = CollisionWorld(self.shapes, list(pairs))
+            self._pairs = pairs
+        return self._world
+
+    def distances(self, poses: np.ndarray, exclude: set[tuple[str, str]]
+                  ) -> dict[tuple[str, str], float]:
+        """Signed distance [m] (negative = penetration depth) of every frame pair not in
+        ``exclude``, keyed by sorted frame-name pairs, with the shapes at ``poses`` (S, 4, 4)."""
+        world = self._world_for(self._checked_pairs(exclude))
+        world.set_poses(poses)
+        out: dict[tuple[str, str], float] = {}
+        for (i, j), d in zip(world.pairs, world.distances(), strict=True):
+            key = pair_key(self.shapes[i].frame, self.shapes[j].frame)
+            out[key] = min(out.get(key, np.inf), float(d))
+        return out
+
+
 def adjacent_frame_pairs(frame_joint: Mapping[str, int], joint_parent: Sequence[int]
                          ) -> set[tuple[str, str]]:
     """Frame pairs that are rigidly attached to the same joint or to a joint and its parent.

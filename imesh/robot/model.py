@@ -30,7 +30,7 @@ import numpy as np
 from .build import BuiltModel, build_model, resolve_urdf
 from .capsules.model import CapsuleModel
 from .capsules.robot import build_capsule_model
-from .collision import CollisionShape, CollisionWorld, adjacent_frame_pairs, pair_key
+from .collision import CollisionShape, FramePairDistances, adjacent_frame_pairs, pair_key
 from .config import (
     MarkerConfig,
     RobotConfig,
@@ -196,9 +196,7 @@ class Robot:
         self.collision_shapes: list[CollisionShape] = list(built.shapes)
         self.ignored_pairs: set[tuple[str, str]] = set(built.ignored)
         self._frame_cache: dict[str, int] = {}
-        # the proxies' collision world, rebuilt when another set of pairs is asked for
-        self._world: CollisionWorld | None = None
-        self._world_pairs: tuple | None = None
+        self._proxy_distances = FramePairDistances(self.collision_shapes)
 
     def __repr__(self) -> str:
         return (f"Robot({self.name!r}, dof={self.nv - 6}, mass={self.mass:.1f} kg, "
@@ -448,31 +446,13 @@ class Robot:
         return np.array([oMf[self.frame_id(s.frame)].homogeneous @ s.placement
                          for s in self.collision_shapes])
 
-    def _collision_world(self, pairs: tuple) -> CollisionWorld:
-        if self._world is None or self._world_pairs != pairs:
-            self._world = CollisionWorld(self.collision_shapes, list(pairs))
-            self._world_pairs = pairs
-        return self._world
-
-    def _checked_pairs(self, exclude: set[tuple[str, str]]) -> tuple:
-        shapes = self.collision_shapes
-        return tuple((i, j) for i in range(len(shapes)) for j in range(i + 1, len(shapes))
-                     if shapes[i].frame != shapes[j].frame
-                     and pair_key(shapes[i].frame, shapes[j].frame) not in exclude)
-
     def shape_pair_distances(self, q, exclude: set[tuple[str, str]] | None = None
                              ) -> dict[tuple[str, str], float]:
         """Signed distances [m] between the proxies of every frame pair not in ``exclude``
         (default: ``ignored_pairs``); negative = penetration depth; minimum over the frames'
         shapes; keys are sorted frame-name pairs."""
         exclude = self.ignored_pairs if exclude is None else exclude
-        world = self._collision_world(self._checked_pairs(exclude))
-        world.set_poses(self.shape_poses(q))
-        out: dict[tuple[str, str], float] = {}
-        for (i, j), d in zip(world.pairs, world.distances(), strict=True):
-            key = pair_key(self.collision_shapes[i].frame, self.collision_shapes[j].frame)
-            out[key] = min(out.get(key, np.inf), float(d))
-        return out
+        return self._proxy_distances.distances(self.shape_poses(q), exclude)
 
     def self_collisions(self, q, depth: float = 0.005) -> list[tuple[str, str, float]]:
         """Non-ignored frame pairs penetrating deeper than ``depth`` [m] at ``q``.

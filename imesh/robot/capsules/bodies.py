@@ -3,12 +3,17 @@ capsules are fitted to it."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .pairs import capsule_source
 
+if TYPE_CHECKING:  # pragma: no cover - typing only (the Robot uses this package)
+    from ..model import Robot
 
-def robot_bodies(robot) -> tuple[dict[str, list[str]], dict[str, str | None]]:
+
+def robot_bodies(robot: Robot) -> tuple[dict[str, list[str]], dict[str, str | None]]:
     """The robot's bodies with geometry: body name (its first link) -> links, and body ->
     parent body (the nearest ancestor joint's body that has geometry; None at the root)."""
     model = robot.model
@@ -39,7 +44,7 @@ def _triangles(geo) -> np.ndarray | None:
     return np.array([[geo.tri_indices(i)[k] for k in range(3)] for i in range(n)], dtype=int)
 
 
-def body_points(robot, body: str, links: list[str]) -> tuple[np.ndarray, np.ndarray | None]:
+def body_points(robot: Robot, body: str, links: list[str]) -> tuple[np.ndarray, np.ndarray | None]:
     """The body's geometry points in its frame, and its surface triangles (F, 3, 3) when it is
     all meshes (None when it has URDF primitives: such a body gets one capsule)."""
     geometry = robot.link_geometry()

@@ -4,11 +4,19 @@ on the real geometry (:func:`imesh.metrics.collision.check_mesh_collisions`)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .bodies import robot_bodies
-from .model import body_key
+from .model import CapsuleModel, body_key
 from .pairs import capsule_source
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (the Robot uses this package)
+    from ..model import Robot
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (the Robot uses this package)
+    pass
 
 
 class MeshCollisionChecker:
@@ -25,11 +33,13 @@ class MeshCollisionChecker:
         ignored: body pairs not checked (default: the capsules' ignore list).
     """
 
-    def __init__(self, robot, ignored: set[tuple[str, str]] | None = None):
+    def __init__(self, robot: Robot, ignored: set[tuple[str, str]] | None = None):
         import coal  # installed with pinocchio; imported on use, as pinocchio is
 
         self._coal = coal
         self.robot = robot
+        #: the robot's capsule model when its ignore list is used, else None
+        self.model: CapsuleModel | None
         if ignored is None:
             self.model = robot.capsule_model()
             ignored = self.model.ignored

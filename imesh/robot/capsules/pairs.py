@@ -7,10 +7,14 @@ from __future__ import annotations
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .model import CapsuleModel, body_key
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (the Robot uses this package)
+    from ..model import Robot
 
 #: Pairs closer than this in the nominal standing pose are ignored (designed to be that close).
 NOMINAL_CLEARANCE_M = 0.01
@@ -83,12 +87,12 @@ def read_pairs_toml(path: Path) -> set[tuple[str, str]]:
     return {body_key(str(a), str(b)) for a, b in data.get("ignore", [])}
 
 
-def pairs_file(robot) -> Path:
+def pairs_file(robot: Robot) -> Path:
     """``collision_pairs.toml`` next to the robot's robot.toml."""
     return Path(robot.config.path).parent / PAIRS_FILE
 
 
-def _pairs_settings(robot) -> dict:
+def _pairs_settings(robot: Robot) -> dict:
     """The robot's ``collision_pairs.toml`` as a dict ({} when it has none)."""
     path = pairs_file(robot)
     if path.is_file():
@@ -97,14 +101,14 @@ def _pairs_settings(robot) -> dict:
     return {}
 
 
-def capsule_source(robot) -> str:
+def capsule_source(robot: Robot) -> str:
     """``collision`` (default) or ``visual``: the geometry the capsules are fitted to, from
     ``source = "visual"`` in the robot's collision_pairs.toml (HRP-4C: its URDF collision
     geometry is a few coarse boxes and cylinders much larger than the links)."""
     return str(_pairs_settings(robot).get("source", "collision"))
 
 
-def capsule_split_excess(robot) -> float | None:
+def capsule_split_excess(robot: Robot) -> float | None:
     """``split_excess`` of the robot's collision_pairs.toml
     (:func:`imesh.robot.capsules.fit.fit_capsules`), or None: HRP-4C's detailed visual meshes
     taper (knee to ankle), and single capsules as wide as their widest part overlap in stances

@@ -7,6 +7,7 @@ from __future__ import annotations
 import logging
 import zipfile
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from .bodies import body_points, robot_bodies
 from .cache import capsule_cache_dir, fit_key, read_capsules, write_capsules
@@ -23,10 +24,13 @@ from .pairs import (
     read_pairs_toml,
 )
 
+if TYPE_CHECKING:  # pragma: no cover - typing only (the Robot uses this package)
+    from ..model import Robot
+
 log = logging.getLogger(__name__)
 
 
-def fit_robot_capsules(robot, cache: bool = True) -> list[Capsule]:
+def fit_robot_capsules(robot: Robot, cache: bool = True) -> list[Capsule]:
     """Capsules of every body of the robot (:func:`imesh.robot.capsules.fit.fit_capsules` on
     its URDF collision geometry, in the body's frame).
 
@@ -70,7 +74,7 @@ def fit_robot_capsules(robot, cache: bool = True) -> list[Capsule]:
     return out
 
 
-def capsule_ignore_rule(robot, capsules: Sequence[Capsule] | None = None
+def capsule_ignore_rule(robot: Robot, capsules: Sequence[Capsule] | None = None
                         ) -> dict[tuple[str, str], str]:
     """:func:`imesh.robot.capsules.pairs.ignore_rule` for a robot (what its
     ``collision_pairs.toml`` must list), plus the body pairs whose URDF geometry touches in the
@@ -94,7 +98,7 @@ def capsule_ignore_rule(robot, capsules: Sequence[Capsule] | None = None
     return rule
 
 
-def build_capsule_model(robot) -> CapsuleModel:
+def build_capsule_model(robot: Robot) -> CapsuleModel:
     """The robot's capsules with the ignore list of its ``collision_pairs.toml`` (the rule's
     output when the robot has no such file, e.g. a user's URDF)."""
     capsules = fit_robot_capsules(robot)
@@ -111,7 +115,7 @@ def build_capsule_model(robot) -> CapsuleModel:
     return model
 
 
-def describe_collisions(robot, write: bool = False) -> str:
+def describe_collisions(robot: Robot, write: bool = False) -> str:
     """Text for ``imesh robots NAME --collisions``: the capsules, the ignored pairs and their
     reasons, whether ``collision_pairs.toml`` matches the rule (``write``: write it)."""
     capsules = fit_robot_capsules(robot)
