@@ -322,12 +322,8 @@ class Robot:
         """(F, 3, nv) float world-aligned linear Jacobians of points fixed in frames.
 
         ``d p_world = J @ v`` for a velocity ``v`` in pinocchio's convention, so a finite step
-        ``integrate(q, eps * dv)`` moves the point by ``eps * J @ dv`` to first order.
-
-        Args:
-            q: (nq,) configuration, or None to reuse the last forward().
-            frames: F frame indices (or names).
-            offsets: (F, 3) float [m] point positions in their frames; None = frame origins.
+        ``integrate(q, eps * dv)`` moves the point by ``eps * J @ dv`` to first order. The
+        arguments are those of :meth:`frame_positions`.
         """
         return self.configuration.point_jacobians(q, self._ids(frames), offsets)
 
