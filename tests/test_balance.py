@@ -13,7 +13,7 @@ from imesh.contacts.phases import detect_contacts, runs
 from imesh.metrics.kinematics import motion_derivatives, zmp_trajectory
 from imesh.morph.adapt import prepare_markers
 from imesh.pipeline.retarget import RetargetConfig, retarget
-from imesh.robot.model import GRAVITY
+from imesh.robot.configuration import GRAVITY
 
 ROBOTS = ("jvrc1", "g1", "hrp4c")
 

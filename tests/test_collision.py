@@ -7,14 +7,10 @@ import pytest
 import scipy.sparse as sp
 from conftest import load_test_robot
 
-from imesh.robot.capsules import (
-    NOMINAL_CLEARANCE_M,
-    capsule_ignore_rule,
-    fit_capsules,
-    pairs_file,
-    read_pairs_toml,
-    segment_closest_points,
-)
+from imesh.robot.capsules.fit import capsule_excess, fit_capsules
+from imesh.robot.capsules.model import segment_closest_points
+from imesh.robot.capsules.pairs import NOMINAL_CLEARANCE_M, pairs_file, read_pairs_toml
+from imesh.robot.capsules.robot import capsule_ignore_rule, fit_robot_capsules
 from imesh.solve.collision import collision_qp_rows, collision_violation, linearize_collisions
 from imesh.solve.qp import QpProblem, solve_qp
 
@@ -76,8 +72,6 @@ def test_split_by_excess_follows_a_tapered_body():
     every point and waste at most 85 % of that."""
     from scipy.spatial import ConvexHull
 
-    from imesh.robot.capsules import capsule_excess
-
     angles = np.linspace(0, 2 * np.pi, 24, endpoint=False)
     z = np.linspace(0.0, 0.3, 7)
     pts = np.array([[(0.06 - 0.1 * h) * np.cos(t), (0.06 - 0.1 * h) * np.sin(t), h]
@@ -136,7 +130,7 @@ def test_nominal_pose_has_no_collision(name):
 def test_hrp4c_is_scored_on_its_visual_meshes():
     """HRP-4C's URDF collision boxes are 1.4-2x its links' volume: its capsules and the mesh
     check use the visual meshes (docs/collision.md); G1 keeps its collision elements."""
-    from imesh.robot.collision import MeshCollisionChecker
+    from imesh.robot.capsules.mesh_check import MeshCollisionChecker
 
     hrp4c = MeshCollisionChecker(load_test_robot("hrp4c"))
     assert hrp4c.source == "visual"
@@ -220,7 +214,7 @@ def test_two_frame_solve_stops_at_the_margin():
 def test_capsule_cache_round_trip(tmp_path, monkeypatch, caplog):
     """The fit is stored under IMESH_CACHE_DIR/capsules, read back bit for bit, fitted again
     when the file is damaged, and not stored when the variable is empty."""
-    from imesh.robot.capsules import CACHE_ENV, fit_robot_capsules
+    from imesh.core.cache import CACHE_ENV
 
     robot = load_test_robot("jvrc1")
     fresh = fit_robot_capsules(robot, cache=False)
@@ -237,7 +231,7 @@ def test_capsule_cache_round_trip(tmp_path, monkeypatch, caplog):
     assert len(files) == 1 and not list((tmp_path / "capsules").glob("*.tmp"))
     assert same(fit_robot_capsules(robot), fresh)  # read back
     files[0].write_bytes(files[0].read_bytes()[:100])  # a truncated zip
-    with caplog.at_level("WARNING", logger="imesh.robot.capsules"):
+    with caplog.at_level("WARNING", logger="imesh.robot.capsules.robot"):
         assert same(fit_robot_capsules(robot), fresh)
     assert "unreadable" in caplog.text
     assert same(fit_robot_capsules(robot), fresh)  # rewritten

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import solve_banded
 
-from ..robot.model import GRAVITY
+from ..robot.configuration import GRAVITY
 
 
 def nishiwaki_correction(zmp_change_m: np.ndarray, com_height_m: np.ndarray,

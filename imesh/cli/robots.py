@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..errors import ImeshError
 from ..robot import list_robots, load_robot
-from ..robot.capsules import describe_collisions
+from ..robot.capsules.robot import describe_collisions
 from ..robot.generate import generate_robot_config
 from ..robot.generate_files import report_text, write_generated
 from ..viz.adapt import plot_keypoints

@@ -19,8 +19,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..robot.collision import MeshCollisionChecker, fcl_geometry, pair_key
+from ..robot.capsules.mesh_check import MeshCollisionChecker
 from ..robot.collision import _fcl as load
+from ..robot.collision import fcl_geometry, pair_key
 
 log = logging.getLogger(__name__)
 

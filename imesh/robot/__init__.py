@@ -11,6 +11,7 @@ Example:
     >>> robot.frame_positions(q, [robot.frame_id("L_KNEE_S")])
 """
 
+from .build import resolve_urdf
 from .collision import CollisionShape, fit_primitive
 from .config import (
     ROBOTS_DIR,
@@ -24,7 +25,7 @@ from .config import (
     load_markers_config,
     load_robot_config,
 )
-from .model import Robot, load_robot, resolve_urdf
+from .model import Robot, load_robot
 from .registry import list_robots, resolve_robot_toml, robot_names
 
 __all__ = [

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
 from ..core.cache import read_cached, write_cached
 from ..errors import ImeshError
@@ -142,7 +143,8 @@ class GeometryItem:
 # proxy fitting
 
 
-def _fibonacci_directions(k: int) -> np.ndarray:
+def fibonacci_directions(k: int) -> np.ndarray:
+    """(k, 3) unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
     i = np.arange(k) + 0.5
     z = 1 - 2 * i / k
     phi = np.pi * (1 + 5 ** 0.5) * i
@@ -154,14 +156,12 @@ def _extreme_subset(points: np.ndarray, k: int = 200) -> np.ndarray:
     """The points extreme along ``k`` evenly spread directions (a small stand-in for the convex
     hull, used to search shape orientations quickly; final sizes use all points)."""
     try:
-        from scipy.spatial import ConvexHull
-
         points = points[ConvexHull(points).vertices]
     except Exception:  # flat or degenerate point sets: keep them all
         pass
     if len(points) <= k:
         return points
-    idx = np.unique(np.argmax(points @ _fibonacci_directions(k).T, axis=0))
+    idx = np.unique(np.argmax(points @ fibonacci_directions(k).T, axis=0))
     return points[idx]
 
 
@@ -444,6 +444,48 @@ class CollisionWorld:
         return out
 
 
+class FramePairDistances:
+    """Signed distances between the proxies of frame pairs (the minimum over each pair's
+    shapes), on a :class:`CollisionWorld`.
+
+    The world of the last set of pairs asked for is kept: asked again with the same exclusions
+    (the usual case), its fcl objects are re-posed instead of built again.
+
+    Args:
+        shapes: the proxies.
+    """
+
+    def __init__(self, shapes: Sequence[CollisionShape]):
+        self.shapes = list(shapes)
+        self._world: CollisionWorld | None = None
+        self._pairs: tuple | None = None
+
+    def _checked_pairs(self, exclude: set[tuple[str, str]]) -> tuple:
+        """Index pairs (i, j) of shapes on different frames whose frame pair is not excluded."""
+        shapes = self.shapes
+        return tuple((i, j) for i in range(len(shapes)) for j in range(i + 1, len(shapes))
+                     if shapes[i].frame != shapes[j].frame
+                     and pair_key(shapes[i].frame, shapes[j].frame) not in exclude)
+
+    def _world_for(self, pairs: tuple) -> CollisionWorld:
+        if self._world is None or self._pairs != pairs:
+            self._world = CollisionWorld(self.shapes, list(pairs))
+            self._pairs = pairs
+        return self._world
+
+    def distances(self, poses: np.ndarray, exclude: set[tuple[str, str]]
+                  ) -> dict[tuple[str, str], float]:
+        """Signed distance [m] (negative = penetration depth) of every frame pair not in
+        ``exclude``, keyed by sorted frame-name pairs, with the shapes at ``poses`` (S, 4, 4)."""
+        world = self._world_for(self._checked_pairs(exclude))
+        world.set_poses(poses)
+        out: dict[tuple[str, str], float] = {}
+        for (i, j), d in zip(world.pairs, world.distances(), strict=True):
+            key = pair_key(self.shapes[i].frame, self.shapes[j].frame)
+            out[key] = min(out.get(key, np.inf), float(d))
+        return out
+
+
 def adjacent_frame_pairs(frame_joint: Mapping[str, int], joint_parent: Sequence[int]
                          ) -> set[tuple[str, str]]:
     """Frame pairs that are rigidly attached to the same joint or to a joint and its parent.
@@ -465,85 +507,3 @@ def adjacent_frame_pairs(frame_joint: Mapping[str, int], joint_parent: Sequence[
 def pair_key(a: str, b: str) -> tuple[str, str]:
     """The canonical (sorted) key of a frame pair as stored in ``Robot.ignored_pairs``."""
     return (a, b) if a <= b else (b, a)
-
-
-# ----------------------------------------------------------------------------------------------
-# the URDF's own collision geometry (coal), to validate the capsules
-
-
-class MeshCollisionChecker:
-    """Signed distances between the URDF's own geometry of body pairs (coal, the library
-    pinocchio loads the geometry with): its collision elements, or its visual meshes for a
-    robot whose ``collision_pairs.toml`` says ``source = "visual"`` (HRP-4C). URDF primitives
-    are exact. Meshes: the distance between the triangle meshes themselves (coal's BVH
-    distance, exact) when they are apart; when they intersect, the penetration depth of their
-    convex hulls (GJK/EPA, an upper bound of the meshes' depth). Pairs are the robot's checked
-    capsule pairs (same bodies, same ignore list).
-
-    Args:
-        robot: an :class:`imesh.robot.Robot`.
-        ignored: body pairs not checked (default: the capsules' ignore list).
-    """
-
-    def __init__(self, robot, ignored: set[tuple[str, str]] | None = None):
-        import coal
-
-        from .capsules import body_key, capsule_source, robot_bodies
-
-        self._coal = coal
-        self.robot = robot
-        if ignored is None:
-            self.model = robot.capsule_model()
-            ignored = self.model.ignored
-        else:
-            self.model = None
-        links, _ = robot_bodies(robot)
-        geometry = robot.link_geometry()
-        #: "collision" (the URDF's collision elements) or "visual" (its visual meshes, for a
-        #: robot whose capsules are fitted to them: HRP-4C's collision boxes are much larger
-        #: than its links and overlap in the standing pose, docs/collision.md)
-        self.source = capsule_source(robot)
-        # body -> [(link, placement in link, exact geometry, convex geometry)]
-        self.items: dict[str, list[tuple[str, np.ndarray, object, object]]] = {}
-        for body, members in links.items():
-            for link in members:
-                for it in geometry[link][self.source] or geometry[link]["collision"]:
-                    geo = it.native
-                    if geo is None:
-                        continue
-                    hull = geo
-                    if type(geo).__name__.startswith("BVHModel"):
-                        if geo.convex is None:
-                            geo.buildConvexHull(True, "Qt")
-                        hull = geo.convex
-                    self.items.setdefault(body, []).append((link, it.placement, geo, hull))
-        self.frames = list(dict.fromkeys(i[0] for v in self.items.values() for i in v))
-        bodies = sorted(self.items)
-        self.pairs = [(a, b) for k, a in enumerate(bodies) for b in bodies[k + 1:]
-                      if body_key(a, b) not in ignored]
-        self._request = coal.DistanceRequest()
-
-    def distances(self, q: np.ndarray, pairs=None) -> dict[tuple[str, str], float]:
-        """Signed distance [m] of each body pair at ``q`` (minimum over their geometry;
-        negative = penetration depth)."""
-        coal = self._coal
-        M = dict(zip(self.frames, self.robot.frame_placements(q, self.frames), strict=True))
-        out = {}
-
-        def tf(T):
-            return coal.Transform3s(T[:3, :3], T[:3, 3])
-
-        for a, b in (self.pairs if pairs is None else pairs):
-            best = np.inf
-            for la, Pa, ga, ha in self.items[a]:
-                ta = tf(M[la] @ Pa)
-                for lb, Pb, gb, hb in self.items[b]:
-                    tb = tf(M[lb] @ Pb)
-                    d = float(coal.distance(ga, ta, gb, tb, self._request,
-                                            coal.DistanceResult()))
-                    if d <= 0.0 and (ga is not ha or gb is not hb):  # meshes intersect
-                        d = min(0.0, float(coal.distance(ha, ta, hb, tb, self._request,
-                                                         coal.DistanceResult())))
-                    best = min(best, d)
-            out[(a, b)] = best
-        return out

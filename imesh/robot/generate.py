@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import TypedDict
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from .config import SIDES, RobotConfigError
 from .urdf_tree import (
@@ -466,8 +467,6 @@ def generate_robot_config(urdf: str | os.PathLike, name: str | None = None) -> G
 def _nominal_pose(tree: UrdfTree, limbs: Mapping[str, Limb], kp: dict, frame: _Frame
                   ) -> np.ndarray:
     """Zero pose with each leg and arm moved by a bounded least-squares IK (module docstring)."""
-    from scipy.optimize import least_squares
-
     m, pin = tree.model, tree.pin
     jid, up, forward, left = tree.jid, frame.up, frame.forward, frame.left
     data = m.createData()

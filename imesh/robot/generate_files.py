@@ -13,7 +13,7 @@ import numpy as np
 from ..core.cache import cache_root
 from ..errors import ImeshError
 from ..human.markerset import STANDARD_MARKERS
-from .config import SIDES
+from .config import SIDES, load_markers_config
 from .generate import (
     CHEST_BELOW_SHOULDERS,
     DEFAULTS,
@@ -174,8 +174,9 @@ def write_generated(gen: GeneratedConfig, directory: str | os.PathLike) -> list[
     Raises:
         RobotConfigError: the written configuration does not load (nothing is left behind).
     """
+    # Import cycles, resolved here once every module is loaded: model.py imports this module
+    # (load_robot(None, urdf) generates the files first), and imesh.arms imports imesh.robot.
     from ..arms.geometry import suggest_hand_points
-    from .config import load_markers_config
     from .model import load_robot
 
     out = Path(directory)

@@ -16,7 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .build import _package_dirs
 from .config import RobotConfigError
+from .geometry import geometry_items
+from .pin import _pinocchio
 
 log = logging.getLogger(__name__)
 
@@ -112,8 +115,6 @@ class UrdfTree:
     """The URDF's pinocchio model in its zero pose with the facts the rules need."""
 
     def __init__(self, urdf: Path):
-        from .model import _geometry_items, _package_dirs, _pinocchio  # noqa: PLC0415 (cycle)
-
         pin = _pinocchio()
         self.pin = pin
         self.urdf = urdf
@@ -133,7 +134,7 @@ class UrdfTree:
                 log.warning("%s: cannot load the %s geometry (%s): key points that need it "
                             "use joint positions only", urdf.name, kind, exc)
                 continue
-            self.items += _geometry_items(pin, m, gm, kind)
+            self.items += geometry_items(m, gm, kind)
         self.names = list(m.names)
         self.jid = {n: i for i, n in enumerate(self.names)}
         self.children: dict[int, list[int]] = {j: [] for j in range(m.njoints)}

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..robot.capsules import CapsuleModel, sample_rows
+from ..robot.capsules.model import CapsuleModel, sample_rows
 
 
 @dataclass(frozen=True, eq=False)

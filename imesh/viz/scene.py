@@ -36,7 +36,7 @@ from ..metrics.kinematics import (
     zmp_report,
     zmp_trajectory,
 )
-from ..robot.model import _package_dirs, _pinocchio
+from ..robot.visuals import visual_elements
 
 log = logging.getLogger(__name__)
 
@@ -76,36 +76,23 @@ def visual_meshes(robot, max_faces: int = 40_000, cell_m: float = 0.004) -> list
     Returns:
         list of VisualMesh, one per URDF visual element whose link exists in ``robot``.
     """
-    pin = _pinocchio()
-    full = pin.buildModelFromUrdf(str(robot.urdf), pin.JointModelFreeFlyer())
-    geom = pin.buildGeomFromUrdf(full, str(robot.urdf), pin.GeometryType.VISUAL, None,
-                                 _package_dirs(robot.urdf))
-    known = set(robot.frame_names)
     out = []
-    for g in geom.geometryObjects:
-        frame = full.frames[g.parentFrame]
-        if frame.name not in known:
-            continue
-        T = (frame.placement.inverse() * g.placement).homogeneous
-        geo = g.geometry
-        cls = type(geo).__name__
-        if cls.startswith("BVHModel") or cls.startswith("Convex"):
-            verts = np.array(geo.vertices(), dtype=float).reshape(-1, 3)
-            faces = np.array([[geo.tri_indices(i)[k] for k in range(3)]
-                              for i in range(geo.num_tris)], dtype=np.uint32).reshape(-1, 3)
+    for element in visual_elements(robot.urdf, set(robot.frame_names)):
+        if element.vertices is not None and element.faces is not None:
+            verts, faces = element.vertices, element.faces
         else:
-            mesh = _primitive(cls, geo)
+            mesh = _primitive(element.kind, element.dims)
             if mesh is None:
-                log.info("visual %s of %s: unsupported geometry %s, not drawn", g.name,
-                         frame.name, cls)
+                log.info("visual %s of %s: unsupported geometry %s, not drawn", element.name,
+                         element.link, element.kind)
                 continue
             verts, faces = mesh
+        T = element.placement
         verts = verts @ T[:3, :3].T + T[:3, 3]
-        red, green, blue = (float(c) for c in np.asarray(g.meshColor)[:3])  # RGBA
-        color = (red, green, blue)
+        color = element.color
         if np.allclose(color, 0.0):
             color = (0.7, 0.7, 0.7)
-        out.append(VisualMesh(link=frame.name, vertices=verts.astype(np.float32),
+        out.append(VisualMesh(link=element.link, vertices=verts.astype(np.float32),
                               faces=faces.astype(np.uint32), color=color))
     n_faces = sum(len(m.faces) for m in out)
     if n_faces > max_faces:  # e.g. the G1's 290k triangles: 4 mm clusters keep its look
@@ -144,15 +131,16 @@ def decimate(vertices: np.ndarray, faces: np.ndarray, cell_m: float
     return merged.astype(np.float32), f[keep].astype(np.uint32)
 
 
-def _primitive(cls: str, geo) -> tuple[np.ndarray, np.ndarray] | None:
-    if cls == "Box":
-        m = trimesh.creation.box(extents=2 * np.asarray(geo.halfSide))
-    elif cls == "Sphere":
-        m = trimesh.creation.icosphere(subdivisions=2, radius=float(geo.radius))
-    elif cls == "Cylinder":
-        m = trimesh.creation.cylinder(radius=float(geo.radius), height=2 * float(geo.halfLength))
-    elif cls == "Capsule":
-        m = trimesh.creation.capsule(radius=float(geo.radius), height=2 * float(geo.halfLength))
+def _primitive(kind: str, dims: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray] | None:
+    """Triangles of a URDF primitive (:class:`~imesh.robot.visuals.VisualElement` sizes)."""
+    if kind == "box":
+        m = trimesh.creation.box(extents=np.asarray(dims))
+    elif kind == "sphere":
+        m = trimesh.creation.icosphere(subdivisions=2, radius=dims[0])
+    elif kind == "cylinder":
+        m = trimesh.creation.cylinder(radius=dims[0], height=dims[1])
+    elif kind == "capsule":
+        m = trimesh.creation.capsule(radius=dims[0], height=dims[1])
     else:
         return None
     return np.asarray(m.vertices, dtype=float), np.asarray(m.faces, dtype=np.uint32)

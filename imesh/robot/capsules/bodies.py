@@ -1,0 +1,73 @@
+"""A robot's bodies (the links one joint moves) and their geometry, in the body frame, as the
+capsules are fitted to it."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .pairs import capsule_source
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (the Robot uses this package)
+    from ..model import Robot
+
+
+def robot_bodies(robot: Robot) -> tuple[dict[str, list[str]], dict[str, str | None]]:
+    """The robot's bodies with geometry: body name (its first link) -> links, and body ->
+    parent body (the nearest ancestor joint's body that has geometry; None at the root)."""
+    model = robot.model
+    geometry = robot.link_geometry()
+    skip = set(robot.config.collision.skip)
+    joint_body: dict[int, str] = {}
+    links: dict[str, list[str]] = {}
+    for link in geometry:
+        if link in skip:
+            continue
+        jid = int(model.frames[robot.frame_id(link)].parentJoint)
+        body = joint_body.setdefault(jid, link)
+        links.setdefault(body, []).append(link)
+    parent: dict[str, str | None] = {}
+    for jid, body in joint_body.items():
+        p = int(model.parents[jid])
+        while p > 0 and p not in joint_body:
+            p = int(model.parents[p])
+        parent[body] = joint_body.get(p)
+    return links, parent
+
+
+def _triangles(geo) -> np.ndarray | None:
+    """(F, 3) vertex indices of a coal mesh's triangles, or None."""
+    n = getattr(geo, "num_tris", 0) if geo is not None else 0
+    if not n:
+        return None
+    return np.array([[geo.tri_indices(i)[k] for k in range(3)] for i in range(n)], dtype=int)
+
+
+def body_points(robot: Robot, body: str, links: list[str]) -> tuple[np.ndarray, np.ndarray | None]:
+    """The body's geometry points in its frame, and its surface triangles (F, 3, 3) when it is
+    all meshes (None when it has URDF primitives: such a body gets one capsule)."""
+    geometry = robot.link_geometry()
+    use_visual = set(robot.config.collision.use_visual)
+    if capsule_source(robot) == "visual":
+        use_visual |= set(links)
+    placements = robot.frame_placements(robot.q_nominal, [body, *links])
+    inv = np.linalg.inv(placements[0])
+    pts: list[np.ndarray] = []
+    tris: list[np.ndarray] | None = []
+    for link, M in zip(links, placements[1:], strict=True):
+        d = geometry[link]
+        items = (d["visual"] if link in use_visual and d["visual"] else
+                 d["collision"] or d["visual"])
+        T = inv @ M
+        for it in items:
+            p = it.points_in_frame() @ T[:3, :3].T + T[:3, 3]
+            pts.append(p)
+            tri = _triangles(it.native) if it.kind == "mesh" else None
+            if tris is not None and tri is not None and len(tri) and tri.max() < len(p):
+                tris.append(p[tri])
+            else:
+                tris = None
+    if not pts:
+        return np.zeros((0, 3)), None
+    return np.concatenate(pts), (np.concatenate(tris) if tris else None)

@@ -1,0 +1,131 @@
+"""Kinematics and dynamics along a whole trajectory of configurations ``q`` (T, nq): frame
+placements and Jacobians, centroidal momentum rates, inverse dynamics and its derivatives.
+
+pinocchio computes one configuration at a time; these loops fill (T, ...) arrays with one pass
+of calls per configuration. They run on a Data of their own (:class:`TrajectoryData`), so that
+a :class:`imesh.robot.configuration.Configuration` keeps what it holds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .pin import _pinocchio
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    import pinocchio  # no type information: its classes are Any to mypy
+
+
+@dataclass(frozen=True, eq=False)
+class TrajectoryKinematics:
+    """Kinematics of a configuration trajectory (:meth:`TrajectoryData.kinematics`).
+
+    Attributes:
+        placements: (T, F, 4, 4) float world poses of the frames.
+        jacobians: (T, F, 6, nv) float world-aligned frame Jacobians (rows 0-2 the origin's
+            linear velocity, 3-5 the angular velocity).
+        com: (T, 3) float [m] centre of mass.
+        com_jacobians: (T, 3, nv) float Jacobians of the centre of mass.
+    """
+
+    placements: np.ndarray
+    jacobians: np.ndarray
+    com: np.ndarray
+    com_jacobians: np.ndarray
+
+
+class TrajectoryData:
+    """A pinocchio Data for computing along trajectories of one robot model.
+
+    Args:
+        model: the robot's pinocchio Model (shared, not modified).
+    """
+
+    def __init__(self, model: pinocchio.Model):
+        self._pin = _pinocchio()
+        self.model = model
+        self.data = model.createData()
+        self.nv: int = int(model.nv)
+
+    def kinematics(self, q: np.ndarray, ids: list[int]) -> TrajectoryKinematics:
+        """Placements and world-aligned Jacobians of frames, CoM and its Jacobian, at every
+        configuration of a trajectory (one pass of pinocchio calls per configuration: joint
+        Jacobians once, then the frames and the CoM from them).
+
+        Args:
+            q: (T, nq) float configurations.
+            ids: F frame indices.
+        """
+        pin, model, data = self._pin, self.model, self.data
+        q = np.asarray(q, dtype=float)
+        T = len(q)
+        place = np.empty((T, len(ids), 4, 4))
+        jac = np.empty((T, len(ids), 6, self.nv))
+        com = np.empty((T, 3))
+        jcom = np.empty((T, 3, self.nv))
+        world = pin.LOCAL_WORLD_ALIGNED
+        for t in range(T):  # pinocchio is per configuration; ~30 us per frame
+            pin.computeJointJacobians(model, data, q[t])
+            pin.updateFramePlacements(model, data)
+            jcom[t] = pin.jacobianCenterOfMass(model, data, True)
+            com[t] = data.com[0]
+            for k, i in enumerate(ids):
+                place[t, k] = data.oMf[i].homogeneous
+                jac[t, k] = pin.getFrameJacobian(model, data, i, world)
+        return TrajectoryKinematics(placements=place, jacobians=jac, com=com,
+                                    com_jacobians=jcom)
+
+    def centroidal(self, q: np.ndarray, v: np.ndarray, a: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centroidal quantities along a trajectory (pinocchio ``ccrba`` and
+        ``computeCentroidalMomentumTimeVariation``).
+
+        Args:
+            q: (T, nq) configurations; v, a: (T, nv) velocities and accelerations.
+
+        Returns:
+            (com (T, 3) [m], dh (T, 6) rate of the centroidal momentum [linear N, angular Nm]
+            about the CoM, Ag (T, 6, nv) centroidal momentum matrix: ``h = Ag v``).
+        """
+        pin, model, data = self._pin, self.model, self.data
+        T = len(q)
+        com, dh, ag = np.empty((T, 3)), np.empty((T, 6)), np.empty((T, 6, self.nv))
+        for t in range(T):  # pinocchio is per configuration
+            ag[t] = pin.ccrba(model, data, q[t], v[t])
+            dh[t] = pin.computeCentroidalMomentumTimeVariation(model, data, q[t], v[t],
+                                                               a[t]).np
+            com[t] = data.com[0]
+        return com, dh, ag
+
+    def inverse_dynamics(self, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                         derivatives: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """Inverse dynamics along a trajectory (pinocchio ``rnea``; where asked, also
+        ``computeRNEADerivatives``).
+
+        Args:
+            q: (T, nq) configurations; v, a: (T, nv) velocities and accelerations.
+            derivatives: (T,) bool frames whose partial derivatives are wanted (None: none).
+
+        Returns:
+            (tau (T, nv), dtau (T, 3, nv, nv)): generalized forces (the base's wrench in the base
+            frame, then joint torques [Nm]) and, at the frames asked for, ``[dtau/dq, dtau/dv,
+            dtau/da]`` (with respect to a tangent perturbation of q); zeros elsewhere.
+        """
+        pin, model, data = self._pin, self.model, self.data
+        T = len(q)
+        tau = np.empty((T, self.nv))
+        dtau = np.zeros((T, 3, self.nv, self.nv))
+        want = np.zeros(T, bool) if derivatives is None else np.asarray(derivatives, bool)
+        upper = np.triu(np.ones((self.nv, self.nv), bool), 1)
+        for t in range(T):  # pinocchio is per configuration
+            tau[t] = pin.rnea(model, data, q[t], v[t], a[t])
+            if want[t]:
+                dq, dv, da = pin.computeRNEADerivatives(model, data, q[t], v[t], a[t])
+                dtau[t, 0], dtau[t, 1], dtau[t, 2] = dq, dv, da
+                # pinocchio fills only the upper triangle of dtau/da (the mass matrix)
+                dtau[t, 2][upper.T] = dtau[t, 2].T[upper.T]
+        return tau, dtau
