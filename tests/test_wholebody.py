@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import load_test_robot
-from imesh.contacts.phases.phases import SIDES
 
+from imesh.contacts.phases import SIDES
 from imesh.fit.dls import FitConfig, joint_limits
 from imesh.fit.targets import compile_targets
 from imesh.solve import WholeBodyConfig, build_qp, plan_whole_body, solve_qp, solve_whole_body
