@@ -24,8 +24,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ImeshError
-
 #: The seven links in the paper's order (theta_0 .. theta_6).
 LINKS: tuple[str, ...] = ("foot_l", "shank_l", "thigh_l", "torso", "thigh_r", "shank_r", "foot_r")
 #: The six actuated joints (URDF order): hip, knee, ankle of the left then the right leg.
@@ -39,10 +37,6 @@ FEET: tuple[int, int] = (0, 6)
 BASE_ORDER: tuple[tuple[int, ...], tuple[int, ...]] = ((0, 1, 2, 3, 4, 5, 6), (6, 5, 4, 3, 2, 1, 0))
 
 GRAVITY = 9.81
-
-
-class ChainError(ImeshError):
-    """A planar chain cannot be built from a robot model (missing joint, link, frame)."""
 
 
 def rot(phi: np.ndarray, vec: np.ndarray) -> np.ndarray:
