@@ -49,7 +49,7 @@ class LumpedLinks:
         mass: (L,) [kg] link masses.
         com: (L, 2) [m] centres of mass (x, z), world.
         inertia: (L, 3, 3) [kg m^2] rotational inertia about the centre of mass, world axes.
-        joint_xz: (J,) [m] joint axis points (x, z) of the sagittal joints, world.
+        joint_xz: (J, 2) [m] joint axis points (x, z) of the sagittal joints, world.
         joint_sign: (J,) +1 or -1: the joint turns about +y or -y in the world.
         joint_ids: (J,) the joints' pinocchio indices.
         groups: link index -> names of the model's joints lumped into it.
@@ -263,7 +263,7 @@ class RootedChain:
 
     Args:
         ball: (2,) [m] the root point (x, z) in the zero pose.
-        points: (L,) [m] each link's joint point towards the root (x, z), ``points[0] == ball``.
+        points: (L, 2) [m] each link's joint point towards the root (x, z), ``points[0] == ball``.
         names: (L,) the joints' names.
         mass, com, inertia: (L,), (L, 2), (L, 3, 3) the links along the chain, world (zero
             pose).
