@@ -141,8 +141,8 @@ def test_closure_matches_pinocchio_kinematics(chain, dyn):
             phi = rng.normal(0, 0.4, 7)
             y, dy = chain.closure(phi[None], base)
             q = dyn.configuration(phi, base)
-            pin.forwardKinematics(r.model, r.data, q)
-            roller = r.data.oMi[9].act(r.roller_local)
+            pin.forwardKinematics(r.chain.model, r.chain.data, q)
+            roller = r.chain.data.oMi[9].act(r.roller_local)
             assert y[0] == pytest.approx(roller[2] - chain.roller_radius[1 - base], abs=1e-12)
             eps = 1e-7
             num = [(chain.closure((phi + eps * e)[None], base)[0][0]

@@ -14,15 +14,17 @@ Pipeline (each step is a public function):
     pca_basis(Theta, r)           SVD reduction (eqs 23-27)                        (pca)
     MotionOptimizer(...).run()    stages (I) and (II) (eqs 4-13, 28-34)            (optimize)
 
-``reduce_motion(motion, robot)`` runs them all. Pinocchio is called only in
-:mod:`imesh.reduction.dynamics`; DART only in :mod:`imesh.physics.reduction`; both lazily.
+``reduce_motion(motion, robot)`` runs them all. This package calls neither pinocchio nor DART:
+the chain's rigid-body dynamics are behind :mod:`imesh.robot.planar`, the DART check is
+:mod:`imesh.physics.reduction`. The 3D robots' sagittal joints are named in their
+``robot.toml`` (``[sagittal] joints``).
 """
 
 from ..core.lazy import lazy_exports
 
 _LAZY = {
     **dict.fromkeys(("SagittalCapture", "sagittal_capture"), ".capture"),
-    **dict.fromkeys(("JOINTS", "LINKS", "ChainError", "PlanarChain"), ".chain"),
+    **dict.fromkeys(("JOINTS", "LINKS", "PlanarChain"), ".chain"),
     **dict.fromkeys(("ContactSchedule", "contact_schedule"), ".contact"),
     **dict.fromkeys(("CyclicMotion", "make_cyclic"), ".cyclic"),
     "derivative_matrices": ".diff",
@@ -34,7 +36,7 @@ _LAZY = {
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 
 __all__ = [
-    "JOINTS", "LINKS", "ChainError", "ContactSchedule", "CycleConfig", "CyclicMotion",
+    "JOINTS", "LINKS", "ContactSchedule", "CycleConfig", "CyclicMotion",
     "MotionOptimizer", "OptimizationResult", "PCABasis", "PlanarChain", "ReductionConfig",
     "ReductionResult", "SagittalCapture", "contact_schedule", "derivative_matrices",
     "make_cyclic", "pca_basis", "reduce_motion", "sagittal_capture",

@@ -20,11 +20,10 @@ Relative joint angles (the robot's joints, URDF order hip, knee, ankle per side)
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from ..errors import ImeshError
 
 #: The seven links in the paper's order (theta_0 .. theta_6).
 LINKS: tuple[str, ...] = ("foot_l", "shank_l", "thigh_l", "torso", "thigh_r", "shank_r", "foot_r")
@@ -39,10 +38,6 @@ FEET: tuple[int, int] = (0, 6)
 BASE_ORDER: tuple[tuple[int, ...], tuple[int, ...]] = ((0, 1, 2, 3, 4, 5, 6), (6, 5, 4, 3, 2, 1, 0))
 
 GRAVITY = 9.81
-
-
-class ChainError(ImeshError):
-    """A planar chain cannot be built from a robot model (missing joint, link, frame)."""
 
 
 def rot(phi: np.ndarray, vec: np.ndarray) -> np.ndarray:
@@ -167,6 +162,17 @@ class PlanarChain:
                         self.roller[m]])
         return np.diff(pts, axis=0), BASE_ORDER[base]
 
+    def _by_base(self, base: np.ndarray | int, n_frames: int
+                 ) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+        """Per base side b present in ``base`` (broadcast to ``n_frames``): (b, its frames,
+        :meth:`_segments` of b, the chain's link order as an index array)."""
+        base = np.broadcast_to(np.asarray(base, dtype=int), (n_frames,))
+        for b in (0, 1):
+            sel = np.flatnonzero(base == b)
+            if sel.size:
+                seg, order = self._segments(b)
+                yield b, sel, seg, np.asarray(order)
+
     def chain_points(self, phi: np.ndarray, base: np.ndarray | int,
                      pivot: np.ndarray | None = None) -> np.ndarray:
         """(T, 8, 2) world (x, z) of base ball, ankle_b, knee_b, hip_b, hip_m, knee_m, ankle_m,
@@ -196,17 +202,12 @@ class PlanarChain:
         """
         phi = np.atleast_2d(phi)
         T = phi.shape[0]
-        base = np.broadcast_to(np.asarray(base, dtype=int), (T,))
         y = np.zeros(T)
         dy = np.zeros((T, 7))
-        for b in (0, 1):
-            sel = np.flatnonzero(base == b)
-            if not sel.size:
-                continue
-            seg, order = self._segments(b)
-            v = rot(phi[sel][:, list(order)], seg[None])      # (t, 7, 2)
+        for b, sel, seg, order in self._by_base(base, T):
+            v = rot(phi[sel][:, order], seg[None])      # (t, 7, 2)
             y[sel] = v[..., 1].sum(axis=1) - self.roller_radius[1 - b]
-            dy[np.ix_(sel, np.asarray(order))] = -v[..., 0]          # dz/dphi of each segment
+            dy[np.ix_(sel, order)] = -v[..., 0]          # dz/dphi of each segment
         return y, dy
 
     def step_length(self, phi: np.ndarray, base: np.ndarray | int
@@ -215,20 +216,15 @@ class PlanarChain:
         robot takes when the moving foot becomes the base) and its gradient (T, 7)."""
         phi = np.atleast_2d(phi)
         T = phi.shape[0]
-        base = np.broadcast_to(np.asarray(base, dtype=int), (T,))
         d = np.zeros(T)
         dd = np.zeros((T, 7))
-        for b in (0, 1):
-            sel = np.flatnonzero(base == b)
-            if not sel.size:
-                continue
-            seg, order = self._segments(b)
+        for b, sel, seg, order in self._by_base(base, T):
             m = 1 - b
             seg = seg.copy()
             seg[6] = self.ball[m] - self.joint_xz[3 * m + 2]      # ankle_m -> ball_m
-            w = rot(phi[sel][:, list(order)], seg[None])
+            w = rot(phi[sel][:, order], seg[None])
             d[sel] = w[..., 0].sum(axis=1)
-            dd[np.ix_(sel, np.asarray(order))] = w[..., 1]
+            dd[np.ix_(sel, order)] = w[..., 1]
         return d, dd
 
     def slip_velocity(self, phi: np.ndarray, phid: np.ndarray, base: np.ndarray | int
@@ -243,16 +239,10 @@ class PlanarChain:
         """
         phi, phid = np.atleast_2d(phi), np.atleast_2d(phid)
         T = phi.shape[0]
-        base = np.broadcast_to(np.asarray(base, dtype=int), (T,))
         v = np.zeros(T)
         dq = np.zeros((T, 7))
         dv = np.zeros((T, 7))
-        for b in (0, 1):
-            sel = np.flatnonzero(base == b)
-            if not sel.size:
-                continue
-            seg, order = self._segments(b)
-            o = np.asarray(order)
+        for _, sel, seg, o in self._by_base(base, T):
             w = rot(phi[sel][:, o], seg[None])               # (t, 7, 2)
             rate = phid[sel][:, o]
             v[sel] = np.sum(w[..., 1] * rate, axis=1)

@@ -1,11 +1,15 @@
-"""Dynamics of the sagittal chain with its ground contacts, by pinocchio (eqs 3-5, 32).
+"""Dynamics of the sagittal chain with its ground contacts (eqs 3-5, 32).
 
-This is the one module of :mod:`imesh.reduction` that calls pinocchio (imported lazily). It
+This module
 
 - builds a :class:`~imesh.reduction.chain.PlanarChain` from a URDF (the project's planar biped)
   or from a loaded 3D robot (JVRC-1, G1: the bodies between the sagittal hip, knee and ankle
-  pitch joints are lumped, every other joint locked), and
+  pitch joints, named in the robot's ``robot.toml`` ``[sagittal]``, are lumped, every other
+  joint locked), and
 - evaluates the constrained forward dynamics of eq. (5) and its derivatives for every frame.
+
+The rigid-body dynamics (lumping a model's bodies, the mass matrix, RNEA and its derivatives)
+are pinocchio's, behind :mod:`imesh.robot.planar`; this module only combines their numbers.
 
 Model per frame (Okada & Miyazaki sec. IV-C/D). The chain is rooted at the *base* foot's ball
 (rear end of its toe pad) by a planar root (x, z translation, pitch about the ball) and runs
@@ -33,12 +37,18 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 
-from ..errors import ImeshError
-from .chain import BASE_ORDER, JOINT_LINKS, JOINTS, LINKS, ChainError, PlanarChain, rot
+from ..robot.planar import (
+    ChainError,
+    RootedChain,
+    lump_robot,
+    lump_urdf,
+    pitch_quaternion,
+    robot_energies,
+)
+from .chain import BASE_ORDER, JOINT_LINKS, JOINTS, LINKS, PlanarChain, rot
 
 log = logging.getLogger(__name__)
 
@@ -46,97 +56,30 @@ log = logging.getLogger(__name__)
 PLANAR_BIPED_URDF = Path(__file__).resolve().parents[2] / "robots" / "planar_biped" / \
     "planar_biped.urdf"
 
-#: Sagittal joints of the 3D robots imesh ships (JOINTS order).
-SAGITTAL_JOINTS: dict[str, tuple[str, ...]] = {
-    "jvrc1": ("L_HIP_P", "L_KNEE", "L_ANKLE_P", "R_HIP_P", "R_KNEE", "R_ANKLE_P"),
-    "g1": ("left_hip_pitch_joint", "left_knee_joint", "left_ankle_pitch_joint",
-           "right_hip_pitch_joint", "right_knee_joint", "right_ankle_pitch_joint"),
-}
+#: The link each joint (JOINTS order) carries: the child of its (parent, child) in JOINT_LINKS.
+CHILD_LINKS: tuple[int, ...] = tuple(child for _, child in JOINT_LINKS)
+#: The link that takes the bodies above the hips (the torso).
+TORSO = LINKS.index("torso")
 
 N_CONSTRAINTS = 4  # ball x, ball z, base foot pitch (case i), roller z
-
-
-def _pin() -> ModuleType:
-    try:
-        import pinocchio
-    except ImportError as exc:  # pragma: no cover - pin is a dependency
-        raise ImeshError("motion reduction needs pinocchio: pip install pin") from exc
-    return pinocchio
 
 
 # ----------------------------------------------------------------------------------------------
 # building chains
 
 
-def _axis_sign(pin, model, data, jid: int, name: str) -> float:
-    short = model.joints[jid].shortname()
-    local = {"JointModelRX": (1, 0, 0), "JointModelRY": (0, 1, 0), "JointModelRZ": (0, 0, 1)}
-    if short in local:
-        axis = np.array(local[short], float)
-    elif "RevoluteUnaligned" in short:
-        axis = np.asarray(model.joints[jid].extract().axis, float)
-    else:
-        raise ChainError(f"joint {name!r} is a {short}, not a revolute joint")
-    world = data.oMi[jid].rotation @ axis
-    if abs(abs(world[1]) - 1.0) > 1e-3:
-        raise ChainError(f"joint {name!r} does not turn about the lateral axis in the zero pose "
-                         f"(axis {np.round(world, 3).tolist()}): not a sagittal pitch joint")
-    return float(np.sign(world[1]))
-
-
-def _lump(pin, model, q0: np.ndarray, joint_names: tuple[str, ...]) -> dict:
-    """Lump the bodies of ``model`` at ``q0`` into the 7 sagittal links."""
-    data = model.createData()
-    pin.forwardKinematics(model, data, q0)
-    pin.updateFramePlacements(model, data)
-    names = list(model.names)
-    ids: list[int] = []
-    for n in joint_names:
-        if n not in names:
-            raise ChainError(f"robot has no joint {n!r} (needed as {JOINTS[len(ids)]}); "
-                             f"joints: {', '.join(names[1:])}")
-        ids.append(names.index(n))
-    link_of_joint = {jid: JOINT_LINKS[k][1] for k, jid in enumerate(ids)}
-    groups: dict[int, list[str]] = {k: [] for k in range(7)}
-    inertias = [pin.Inertia.Zero() for _ in range(7)]
-    for j in range(1, model.njoints):
-        k = j
-        while k != 0 and k not in link_of_joint:
-            k = model.parents[k]
-        link = link_of_joint.get(k, 3)
-        inertias[link] = inertias[link] + data.oMi[j].act(model.inertias[j])
-        groups[link].append(names[j])
-    mass = np.array([inert.mass for inert in inertias])
-    if np.any(mass <= 0):
-        raise ChainError(f"a sagittal link has no mass: {dict(zip(LINKS, mass, strict=True))}")
-    com = np.array([inert.lever[[0, 2]] for inert in inertias])
-    inertia = np.array([inert.inertia for inert in inertias])
-    joint_xz = np.array([data.oMi[j].translation[[0, 2]] for j in ids])
-    sign = np.array([_axis_sign(pin, model, data, j, n) for j, n in zip(ids, joint_names,
-                                                                         strict=True)])
-    return {"data": data, "ids": ids, "mass": mass, "com": com, "inertia": inertia,
-            "joint_xz": joint_xz, "sign": sign, "groups": groups}
-
-
-def _frame_xz(pin, model, data, name: str) -> np.ndarray:
-    if not model.existFrame(name):
-        raise ChainError(f"robot has no frame {name!r}")
-    return np.array(data.oMf[model.getFrameId(name)].translation[[0, 2]])
-
-
 @cache
 def _planar_biped_cached(path: str, mtime: float) -> PlanarChain:
-    pin = _pin()
-    model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
-    q0 = pin.neutral(model)
-    lump = _lump(pin, model, q0, JOINTS)
-    data = lump["data"]
-    ball = np.array([_frame_xz(pin, model, data, f"toe_{s}") for s in "lr"])
-    tip = np.array([_frame_xz(pin, model, data, f"toe_tip_{s}") for s in "lr"])
-    roller = np.array([_frame_xz(pin, model, data, f"roller_{s}") for s in "lr"])
+    sides = "lr"
+    lump = lump_urdf(path, JOINTS, CHILD_LINKS, LINKS, TORSO,
+                     [f"{kind}_{s}" for kind in ("toe", "toe_tip", "roller") for s in sides])
+    links = lump.links
+    ball = np.array([lump.frames[f"toe_{s}"] for s in sides])
+    tip = np.array([lump.frames[f"toe_tip_{s}"] for s in sides])
+    roller = np.array([lump.frames[f"roller_{s}"] for s in sides])
     radii: list[float] = []
     root = ET.parse(path).getroot()
-    for s in "lr":
+    for s in sides:
         link = root.find(f"./link[@name='roller_{s}']")
         sphere = None if link is None else link.find("./collision/geometry/sphere")
         radius = None if sphere is None else sphere.get("radius")
@@ -145,28 +88,20 @@ def _planar_biped_cached(path: str, mtime: float) -> PlanarChain:
         radii.append(float(radius))
     ground = ball[:, 1].mean()
     shift = np.array([0.0, ground])
-    lower, upper, effort, velocity = (np.array([model.lowerPositionLimit[model.joints[j].idx_q]
-                                                for j in lump["ids"]]),
-                                      np.array([model.upperPositionLimit[model.joints[j].idx_q]
-                                                for j in lump["ids"]]),
-                                      np.array([model.effortLimit[model.joints[j].idx_v]
-                                                for j in lump["ids"]]),
-                                      np.array([model.velocityLimit[model.joints[j].idx_v]
-                                                for j in lump["ids"]]))
     torso = root.find("./link[@name='torso']/visual/geometry/box")
     size = None if torso is None else torso.get("size")
     if torso is not None and size is None:
         raise ChainError(f"{path}: the torso's visual box has no size")
     top = 0.27 if size is None else float(size.split()[2])
-    head = lump["joint_xz"][0] + np.array([0.0, top]) - shift
+    head = links.joint_xz[0] + np.array([0.0, top]) - shift
     return PlanarChain(
-        name="planar_biped", mass=lump["mass"], com=lump["com"] - shift,
-        inertia=lump["inertia"], joint_xz=lump["joint_xz"] - shift, joint_sign=lump["sign"],
+        name="planar_biped", mass=links.mass, com=links.com - shift,
+        inertia=links.inertia, joint_xz=links.joint_xz - shift, joint_sign=links.joint_sign,
         joint_names=JOINTS, ball=ball - shift, tip=tip - shift, roller=roller - shift,
-        roller_radius=np.array(radii), q_lower=lower, q_upper=upper, effort=effort,
-        velocity=velocity,
+        roller_radius=np.array(radii), q_lower=lump.q_lower, q_upper=lump.q_upper,
+        effort=lump.effort, velocity=lump.velocity,
         source=path, meta={"head_xz": head, "height_m": float(head[1]),
-                           "groups": lump["groups"]})
+                           "groups": links.groups})
 
 
 def planar_biped_chain(urdf: str | Path | None = None) -> PlanarChain:
@@ -190,51 +125,31 @@ def chain_from_robot(robot, joint_names: tuple[str, ...] | None = None) -> Plana
     Args:
         robot: a loaded robot (``imesh.robot.load_robot``).
         joint_names: the robot's names of (hip_l, knee_l, ankle_l, hip_r, knee_r, ankle_r)
-            pitch joints; known for jvrc1 and g1.
+            pitch joints; default: its ``robot.toml``'s ``[sagittal] joints``.
     """
-    pin = _pin()
-    names = joint_names or SAGITTAL_JOINTS.get(robot.name)
-    if names is None:
+    names = joint_names or robot.config.sagittal_joints
+    if not names:
         raise ChainError(f"no sagittal joint names known for robot {robot.name!r}: pass "
                          f"joint_names (hip, knee, ankle pitch of left then right leg)")
-    model = robot.model
-    q0 = np.array(robot.q_nominal, float).copy()
-    q0[:7] = [0, 0, 0, 0, 0, 0, 1]
-    leg_words = ("HIP", "KNEE", "ANKLE", "hip", "knee", "ankle")
-    for j in range(2, model.njoints):
-        if any(w in model.names[j] for w in leg_words):
-            q0[model.joints[j].idx_q] = 0.0
-    lump = _lump(pin, model, q0, tuple(names))
-    data = lump["data"]
-    root0 = np.array(data.oMi[1].translation[[0, 2]])
-    balls: list[np.ndarray] = []
-    tips: list[np.ndarray] = []
-    for s in ("left", "right"):
-        sole = robot.soles[s]
-        M = data.oMf[model.getFrameId(sole.frame)]
-        front = M.act(sole.center + np.array([sole.half_extents[0], 0, 0]))
-        back = M.act(sole.center - np.array([sole.half_extents[0], 0, 0]))
-        balls.append(back[[0, 2]])
-        tips.append(front[[0, 2]])
-    ball, tip = np.array(balls), np.array(tips)
+    lump = lump_robot(robot, tuple(names), JOINTS, CHILD_LINKS, LINKS, TORSO)
+    links = lump.links
+    ball, tip = lump.soles[:, 0], lump.soles[:, 1]
     ground = ball[:, 1].mean()
     shift = np.array([0.0, ground])
-    jidx = [model.joints[j] for j in lump["ids"]]
-    lower = np.array([robot.q_lower[j.idx_q - 7] for j in jidx])
-    upper = np.array([robot.q_upper[j.idx_q - 7] for j in jidx])
-    effort = np.array([robot.effort_max[j.idx_v - 6] for j in jidx])
-    velocity = np.array([robot.v_max[j.idx_v - 6] for j in jidx])
-    heights = [data.oMi[j].translation[2] for j in range(1, model.njoints)]
-    head = np.array([lump["joint_xz"][0, 0], max(heights) + 0.12 - ground])
+    lower = robot.q_lower[lump.joint_q]
+    upper = robot.q_upper[lump.joint_q]
+    effort = robot.effort_max[lump.joint_v]
+    velocity = robot.v_max[lump.joint_v]
+    head = np.array([links.joint_xz[0, 0], lump.top_z + 0.12 - ground])
     return PlanarChain(
-        name=robot.name, mass=lump["mass"], com=lump["com"] - shift, inertia=lump["inertia"],
-        joint_xz=lump["joint_xz"] - shift, joint_sign=lump["sign"], joint_names=tuple(names),
+        name=robot.name, mass=links.mass, com=links.com - shift, inertia=links.inertia,
+        joint_xz=links.joint_xz - shift, joint_sign=links.joint_sign, joint_names=tuple(names),
         ball=ball - shift, tip=tip - shift, roller=ball - shift, roller_radius=np.zeros(2),
         q_lower=lower, q_upper=upper, effort=effort, velocity=velocity,
         source=str(robot.urdf), meta={"head_xz": head, "height_m": float(head[1]),
-                                      "groups": lump["groups"], "q0": q0,
-                                      "root_xz": root0 - shift,
-                                      "joint_ids": lump["ids"]})
+                                      "groups": links.groups, "q0": lump.q0,
+                                      "root_xz": lump.root_xz - shift,
+                                      "joint_q": lump.joint_q})
 
 
 def robot_configuration(robot, chain: PlanarChain, phi: np.ndarray, base: int) -> np.ndarray:
@@ -242,17 +157,15 @@ def robot_configuration(robot, chain: PlanarChain, phi: np.ndarray, base: int) -
     the base foot's ball at the origin: the sagittal joints from the link angles, every other
     joint locked as in :func:`chain_from_robot`. Used to check that the lumped chain has the
     3D robot's sagittal dynamics."""
-    pin = _pin()
     phi = np.asarray(phi, float)
     q = np.array(chain.meta["q0"], float).copy()
     hip = chain.chain_points(phi[None], base)[0, 3 if base == 0 else 4]   # hip_l point
     root = hip + rot(phi[3], chain.meta["root_xz"] - chain.joint_xz[0])
     q[0], q[1], q[2] = root[0], 0.0, root[1]          # the ground at z = 0
-    quat = pin.Quaternion(pin.utils.rotate("y", float(phi[3])))
-    q[3:7] = quat.coeffs()
+    q[3:7] = pitch_quaternion(phi[3])
     qj = chain.joint_angles(phi)
-    for k, jid in enumerate(chain.meta["joint_ids"]):
-        q[robot.model.joints[jid].idx_q] = qj[k]
+    for k, index in enumerate(chain.meta["joint_q"]):
+        q[7 + index] = qj[k]
     return q
 
 
@@ -261,20 +174,15 @@ def energies(robot, chain: PlanarChain, phi: np.ndarray, phid: np.ndarray, base:
     """Kinetic and potential energy of the chain (rooted model) and of the 3D robot at the same
     motion (for tests: equal kinetic energy and equal potential-energy differences mean equal
     sagittal dynamics)."""
-    pin = _pin()
     dyn = ChainDynamics(chain)
     r = dyn.rooted[base]
     o = list(BASE_ORDER[base])
     qc = dyn.configuration(phi, base)
     vc = np.concatenate([[0.0, 0.0], dyn.D @ np.asarray(phid)[o]])
-    ke_c = pin.computeKineticEnergy(r.model, r.data, qc, vc)
-    pe_c = pin.computePotentialEnergy(r.model, r.data, qc)
+    ke_c, pe_c = r.chain.energies(qc, vc)
     q1 = robot_configuration(robot, chain, phi, base)
     q2 = robot_configuration(robot, chain, np.asarray(phi) + eps * np.asarray(phid), base)
-    v = pin.difference(robot.model, q1, q2) / eps
-    data = robot.model.createData()
-    ke_r = pin.computeKineticEnergy(robot.model, data, q1, v)
-    pe_r = pin.computePotentialEnergy(robot.model, data, q1)
+    ke_r, pe_r = robot_energies(robot, q1, q2, eps)
     return {"kinetic_chain": float(ke_c), "kinetic_robot": float(ke_r),
             "potential_chain": float(pe_c), "potential_robot": float(pe_r)}
 
@@ -290,21 +198,20 @@ def difference_matrix() -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class _Rooted:
-    model: object
-    data: object
+    chain: RootedChain     # the chain rooted at the base foot's ball (pinocchio)
     B: np.ndarray          # (9, 6) generalized force of the robot joint torques
     order: tuple[int, ...]
     roller_local: np.ndarray  # (3,) roller centre in the moving ankle joint frame
     seg: np.ndarray        # (7, 2) zero-pose segment vectors ball -> roller along the chain
 
 
-def _build_rooted(pin, chain: PlanarChain, base: int) -> _Rooted:
+def _build_rooted(chain: PlanarChain, base: int) -> _Rooted:
+    """The chain rooted at the ``base`` foot's ball: joint points and links along the chain,
+    and B, the joint torques' generalized force (a joint passed from child to parent turns the
+    other way)."""
     order = BASE_ORDER[base]
-    model = pin.Model()
-    jx = model.addJoint(0, pin.JointModelPX(), pin.SE3.Identity(), "root_x")
-    jz = model.addJoint(jx, pin.JointModelPZ(), pin.SE3.Identity(), "root_z")
-    parent, prev = jz, chain.ball[base]
     B = np.zeros((9, 6))
+    points, names = [], []
     for k, link in enumerate(order):
         if k == 0:
             point, name = chain.ball[base], "pivot"
@@ -314,19 +221,16 @@ def _build_rooted(pin, chain: PlanarChain, base: int) -> _Rooted:
             point, name = chain.joint_xz[j], JOINTS[j]
             reversed_ = JOINT_LINKS[j][1] != link
             B[2 + k, j] = -chain.joint_sign[j] if reversed_ else chain.joint_sign[j]
-        d = point - prev
-        placement = pin.SE3(np.eye(3), np.array([d[0], 0.0, d[1]]))
-        jid = model.addJoint(parent, pin.JointModelRY(), placement, name)
-        lever = chain.com[link] - point
-        inertia = pin.Inertia(float(chain.mass[link]), np.array([lever[0], 0.0, lever[1]]),
-                              np.array(chain.inertia[link]))
-        model.appendBodyToJoint(jid, inertia, pin.SE3.Identity())
-        parent, prev = jid, point
+        points.append(point)
+        names.append(name)
+    links = list(order)
+    rooted = RootedChain(chain.ball[base], points, names, chain.mass[links], chain.com[links],
+                         chain.inertia[links])
     moving = 1 - base
     r = chain.roller[moving] - chain.joint_xz[3 * moving + 2]
     seg, _ = chain._segments(base)
-    return _Rooted(model=model, data=model.createData(), B=B, order=order,
-                   roller_local=np.array([r[0], 0.0, r[1]]), seg=seg)
+    return _Rooted(chain=rooted, B=B, order=order, roller_local=np.array([r[0], 0.0, r[1]]),
+                   seg=seg)
 
 
 @dataclass(frozen=True, eq=False)
@@ -365,16 +269,16 @@ class DynamicsResult:
 
 
 class ChainDynamics:
-    """Forward/inverse dynamics of a PlanarChain standing on either foot (pinocchio models).
+    """Forward/inverse dynamics of a PlanarChain standing on either foot (rooted models,
+    :class:`imesh.robot.planar.RootedChain`).
 
     Args:
         chain: the sagittal chain.
     """
 
     def __init__(self, chain: PlanarChain):
-        self.pin = _pin()
         self.chain = chain
-        self.rooted = [_build_rooted(self.pin, chain, b) for b in (0, 1)]
+        self.rooted = [_build_rooted(chain, b) for b in (0, 1)]
         self.D = difference_matrix()
         self.C = np.linalg.inv(self.D)  # lower-triangular ones
         self.pad_length = chain.pad_length
@@ -411,7 +315,6 @@ class ChainDynamics:
             case: (T,) 1 = toe line contact (base foot pitch held), 2 = toe point contact.
             derivatives: also return the derivatives w.r.t. phi, phid, torque.
         """
-        pin = self.pin
         phi, phid, torque = (np.atleast_2d(np.asarray(x, float)) for x in (phi, phid, torque))
         T = phi.shape[0]
         base = np.broadcast_to(np.asarray(base, int), (T,))
@@ -440,9 +343,8 @@ class ChainDynamics:
             r = self.rooted[base[t]]
             q = np.concatenate([[0.0, 0.0], q_rot[t]])
             v = np.concatenate([[0.0, 0.0], v_rot[t]])
-            M = pin.crba(r.model, r.data, q)
-            M = np.triu(M) + np.triu(M, 1).T
-            h = pin.nonLinearEffects(r.model, r.data, q, v)
+            M = r.chain.mass_matrix(q)
+            h = r.chain.nonlinear_effects(q, v)
             K[t, :nv, :nv] = M
             rhs[t, :nv] = r.B @ torque[t] - h
         # constraint rows: ball x, ball z, base pitch (case 1), roller z
@@ -477,9 +379,9 @@ class ChainDynamics:
             r = self.rooted[base[t]]
             q = np.concatenate([[0.0, 0.0], q_rot[t]])
             v = np.concatenate([[0.0, 0.0], v_rot[t]])
-            dtau_dq, dtau_dv, _ = pin.computeRNEADerivatives(r.model, r.data, q, v, sol[t, :nv])
-            R[t, :nv, :7] = -np.asarray(dtau_dq)[:, 2:]
-            R[t, :nv, 7:14] = -np.asarray(dtau_dv)[:, 2:]
+            dtau_dq, dtau_dv = r.chain.rnea_derivatives(q, v, sol[t, :nv])
+            R[t, :nv, :7] = -dtau_dq[:, 2:]
+            R[t, :nv, 7:14] = -dtau_dv[:, 2:]
             R[t, :nv, 14:] = r.B
         for b in (0, 1):
             sel = base == b
@@ -552,7 +454,6 @@ class ChainDynamics:
         Returns:
             torque (T, 6) [Nm] and lambda (T, 4) as in :class:`DynamicsResult`.
         """
-        pin = self.pin
         phi, phid, phidd = (np.atleast_2d(np.asarray(x, float)) for x in (phi, phid, phidd))
         T = phi.shape[0]
         base = np.broadcast_to(np.asarray(base, int), (T,))
@@ -567,7 +468,7 @@ class ChainDynamics:
             q = np.concatenate([[0.0, 0.0], self.D @ phi[t, o]])
             v = np.concatenate([[0.0, 0.0], self.D @ phid[t, o]])
             a = np.concatenate([[0.0, 0.0], self.D @ phidd[t, o]])
-            tau = pin.rnea(r.model, r.data, q, v, a)
+            tau = r.chain.rnea(q, v, a)
             Jz, _, _, _ = self._roller_terms(phi[t, o][None], phid[t, o][None],
                                              phidd[t, o][None], r.seg)
             rows = np.zeros((4, 9))

@@ -12,21 +12,18 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.motion import MarkerMotion
 from ..errors import OptionError
+from ..robot import ROBOTS_DIR, Robot, load_robot, load_robot_config, robot_names
 from .capture import SagittalCapture, sagittal_capture
 from .chain import JOINTS, PlanarChain
 from .contact import ContactSchedule, contact_schedule
 from .cyclic import CyclicMotion, make_cyclic
 from .dynamics import ChainDynamics, chain_from_robot, planar_biped_chain
 from .optimize import IterationRecord, MotionOptimizer, OptimizationResult, ReductionConfig
-
-if TYPE_CHECKING:  # pragma: no cover - typing only (imported lazily at run time)
-    from ..robot import Robot
 
 log = logging.getLogger(__name__)
 
@@ -172,15 +169,17 @@ def resolve_chain(robot: str | PlanarChain | Robot) -> tuple[str, PlanarChain]:
             return robot, planar_biped_chain()
         if robot.endswith(".urdf"):
             return os.path.basename(robot), planar_biped_chain(robot)
-        from ..robot import load_robot, robot_names
-        from .dynamics import SAGITTAL_JOINTS
-
-        if robot not in SAGITTAL_JOINTS and not os.path.exists(robot):
-            raise OptionError("robot", robot,
-                              [PLANAR_ROBOT, *[n for n in robot_names() if n in SAGITTAL_JOINTS],
-                               "a planar biped .urdf"])
+        known = sagittal_robots()
+        if robot not in known and not os.path.exists(robot):
+            raise OptionError("robot", robot, [PLANAR_ROBOT, *known, "a planar biped .urdf"])
         robot = load_robot(robot)
     return robot.name, chain_from_robot(robot)
+
+
+def sagittal_robots() -> list[str]:
+    """The robots of robots/ whose robot.toml names their sagittal joints (``[sagittal]``)."""
+    return [n for n in robot_names()
+            if load_robot_config(ROBOTS_DIR / n / "robot.toml").sagittal_joints]
 
 
 def ball_positions(chain: PlanarChain, phi: np.ndarray, schedule: ContactSchedule
@@ -246,4 +245,4 @@ NPZ_KEYS = ("robot", "source", "fps", "period_s", "link_names", "joint_names", "
 
 
 __all__ = ["CycleConfig", "ReductionResult", "reduce_motion", "JOINTS",
-           "resolve_chain", "ball_positions"]
+           "resolve_chain", "ball_positions", "sagittal_robots"]

@@ -189,6 +189,9 @@ class RobotConfig:
         limits: limits added to or overriding the URDF.
         collision: proxy options.
         markers_path: the markers.toml beside robot.toml, or None when there is none.
+        sagittal_joints: ``[sagittal] joints``, the hip, knee and ankle pitch joints of the left
+            then the right leg (the motion reduction's 7-link chain, :mod:`imesh.reduction`);
+            empty when not given.
     """
 
     name: str
@@ -205,6 +208,7 @@ class RobotConfig:
     limits: LimitsConfig
     collision: CollisionConfig
     markers_path: Path | None
+    sagittal_joints: tuple[str, ...] = ()
 
     @property
     def directory(self) -> Path:
@@ -321,7 +325,7 @@ def _joint_numbers(path: Path, table: Mapping[str, Any], key: str,
 
 
 _TOP_KEYS = ("name", "licence", "description", "dof", "model", "joints", "frames", "soles",
-             "nominal", "limits", "collision")
+             "nominal", "limits", "collision", "sagittal")
 _MODEL_KEYS = ("source", "package", "distribution", "urdf", "install", "url")
 _SOURCES = ("package", "user")
 _FRAME_KEYS = ("waist", "left_foot", "right_foot")
@@ -437,12 +441,21 @@ def load_robot_config(path: str | os.PathLike) -> RobotConfig:
         in_solve=_flag(path, col.get("in_solve", True), "collision.in_solve"),
     )
 
+    # the motion reduction's sagittal chain (imesh.reduction): six pitch joints or none
+    sagittal = _table(path, data, "sagittal")
+    _check_keys(path, sagittal, "sagittal", ("joints",))
+    sagittal_joints = _names(path, sagittal.get("joints", []), "sagittal.joints")
+    if len(sagittal_joints) not in (0, 6):
+        raise RobotConfigError("must name six joints: hip, knee, ankle pitch of the left then "
+                               "the right leg", path=path, key="sagittal.joints")
+
     markers = path.parent / "markers.toml"
     return RobotConfig(
         name=name, licence=licence, description=description, path=path, dof=dof, model=model,
         fixed_joints=fixed, waist_frame=waist, foot_frames=MappingProxyType(feet),
         soles=MappingProxyType(soles), nominal=MappingProxyType(nominal), limits=limits,
         collision=collision, markers_path=markers if markers.is_file() else None,
+        sagittal_joints=sagittal_joints,
     )
 
 

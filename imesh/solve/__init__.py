@@ -4,10 +4,11 @@
 sequential QP over all frames; ``add_lead`` adds the standing lead-in and lead-out.
 """
 
+from .config import WholeBodyConfig
 from .footprints import Footprint, plan_footprints
 from .initial import smooth_initializer
 from .lead import Lead, add_lead
-from .problem import WholeBodyConfig, build_qp
+from .problem import build_qp
 from .qp import SOLVERS, QpProblem, QpSolution, solve_qp
 from .sqp import IterationReport, WholeBodySolution, plan_whole_body, solve_whole_body
 

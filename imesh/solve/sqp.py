@@ -18,13 +18,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES, runs
 from ..errors import SolverError
 from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh
 from ..metrics.kinematics import desired_zmp, motion_derivatives
-from .collision import collision_violation
+from .collision import collision_violation, linearize_collisions
+from .config import WholeBodyConfig
+from .contacts import sole_errors
 from .footprints import (
     Footprint,
     footprint_tracks,
@@ -32,16 +35,10 @@ from .footprints import (
     split_pivots,
     support_halfplanes,
 )
-from .problem import (
-    GRAVITY,
-    Linearization,
-    Plan,
-    WholeBodyConfig,
-    build_qp,
-    held_frames,
-    merit,
-    sole_errors,
-)
+from .holds import held_frames
+from .merit import merit
+from .plan import GRAVITY, Linearization, Plan
+from .problem import build_qp
 from .qp import solve_qp
 from .torque import linearize_torques
 
@@ -228,8 +225,6 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
         torques = linearize_torques(robot, q, v, a, fps, support, soles, js, torque_limit)
     collision = None
     if frames.capsules is not None:
-        from .collision import linearize_collisions
-
         collision = linearize_collisions(frames.capsules, M[:, frames.capsule_frames],
                                          J[:, frames.capsule_frames],
                                          frames.collision_activation)
@@ -244,8 +239,6 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
 
 
 def _base_rotations(q: np.ndarray) -> np.ndarray:
-    from scipy.spatial.transform import Rotation
-
     return Rotation.from_quat(q[:, 3:7]).as_matrix()  # scipy and pinocchio: x, y, z, w
 
 

@@ -37,7 +37,7 @@ from scipy.spatial.transform import Rotation
 from ..contacts.phases import SIDES
 from ..metrics.dynamics import net_torque_map
 from ..metrics.kinematics import SoleTracks, detect_support
-from .problem import gradient_operator
+from .operators import gradient_operator
 
 #: torques above this fraction of the (margin-reduced) limit get a row
 ACTIVE = 0.7

@@ -28,12 +28,16 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import multiprocessing
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
 from ..errors import OptionError
-from .problem import Plan, WholeBodyConfig
+from ..robot import load_robot
+from .config import WholeBodyConfig
+from .plan import Plan
 from .sqp import IterationReport, WholeBodySolution, solve_whole_body
 
 log = logging.getLogger(__name__)
@@ -199,8 +203,6 @@ def _chain_in_worker(robot_source: tuple[str, str | None], plan: Plan, footprint
                      targets, config: WholeBodyConfig, window_frames: int,
                      overlap_frames: int) -> _Chain:
     """:func:`_solve_chain` in a worker process, the robot loaded there."""
-    from ..robot import load_robot
-
     toml, urdf = robot_source
     return _solve_chain(load_robot(toml, urdf=urdf), plan, footprints, targets, config,
                         window_frames, overlap_frames)
@@ -264,9 +266,6 @@ def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBo
         stop1, start2, j0, j1 = join_layout(T, window_frames, overlap_frames)
         plan1 = plan_window(plan, 0, stop1, rest_ends=(plan.rest_ends[0], False))
         plan2 = plan_window(plan, start2, T, rest_ends=(False, plan.rest_ends[1]))
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
         def tick1(done: int, total: int, text: str) -> None:
             # this process's chain stands for both: the bar reaches the join's start with it
             if progress is not None:

@@ -1,0 +1,87 @@
+"""Joint limits in the whole-body QP: positions, velocities, accelerations, torques.
+
+* positions: bounds on the update, intersected with a trust region (:func:`bounds`);
+* velocities: ``|Delta q| <= (1 - margin) v_max dt``;
+* accelerations: ``|Delta^2 q| <= (1 - margin) a_max dt^2``, elastic (one slack per frame: the
+  lead-in starts from rest, :mod:`.lead`);
+* torques: ``|P_t tau_t| <= (1 - torque_margin) effort`` on the working set of frames and
+  joints above 70 % of it, in ratio units, elastic (:mod:`.torque`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .config import WholeBodyConfig
+from .operators import Layout, Rows, difference_operator
+from .plan import Linearization, Plan
+
+
+def motion_rows(out: Rows, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
+                lay: Layout) -> None:
+    """Joint velocity rows, then the elastic joint acceleration rows (limits that are
+    infinite get no row)."""
+    T, nx = lay.n_frames, lay.nx
+    n_j = lay.nv - 6
+    h = 1.0 / plan.fps
+    sel = sp.csr_matrix((np.ones(T * n_j), (np.arange(T * n_j),
+                                             (np.arange(T)[:, None] * nx + 6
+                                              + np.arange(n_j)).ravel())), shape=(T * n_j, lay.n))
+    qj = q[:, 7:]
+    for n_diff, limit, margin in ((1, plan.v_max * h, config.velocity_margin),
+                                  (2, plan.a_max * h * h, config.acceleration_margin)):
+        if T <= n_diff:
+            continue
+        D = sp.kron(difference_operator(T, n_diff), sp.identity(n_j), format="csr") @ sel
+        lim = np.tile(limit * (1 - margin), T - n_diff)
+        d = np.diff(qj, n=n_diff, axis=0).ravel()
+        finite = np.isfinite(lim)
+        if n_diff == 2:  # elastic (one slack per frame): the lead-in's start from rest
+            centre = np.repeat(np.arange(1, T - 1), n_j)
+            slack = lay.rows(centre, np.ones((len(centre), 1)), lay.offset["accel_slack"])
+            out.add((D - slack)[finite], np.full(int(finite.sum()), -np.inf),
+                    (lim - d)[finite])
+            out.add((D + slack)[finite], (-lim - d)[finite],
+                    np.full(int(finite.sum()), np.inf))
+            continue
+        out.add(D[finite], (-lim - d)[finite], (lim - d)[finite])
+
+
+def torque_rows(out: Rows, lin: Linearization, config: WholeBodyConfig, lay: Layout) -> None:
+    """Net joint torques within the effort limits on the working set (ratio units, elastic:
+    ``|r + C dq| <= 1 - margin + s_t``; nothing without torque linearization)."""
+    trq = lin.torques
+    if trq is None or not len(trq.frames):
+        return
+    nv, nx = lay.nv, lay.nx
+    R, W = trq.columns.shape
+    rows = sp.csr_matrix((trq.coefficients.ravel(),
+                          (np.repeat(np.arange(R), W * nv),
+                           (trq.columns[:, :, None] * nx + np.arange(nv)).ravel())),
+                         shape=(R, lay.n))
+    first = lay.offset["torque_slack"]
+    slack = sp.csr_matrix((np.ones(R), (np.arange(R), trq.frames * nx + first)),
+                          shape=(R, lay.n))
+    r0 = trq.values
+    bound = 1.0 - config.torque_margin
+    out.add(rows - slack, np.full(R, -np.inf), bound - r0)
+    out.add(rows + slack, -bound - r0, np.full(R, np.inf))
+
+
+def bounds(plan: Plan, q: np.ndarray, config: WholeBodyConfig, lay: Layout
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """(x_l, x_u) (T, nx): joint positions, a trust region on the update, slacks >= 0."""
+    T, nv, nx = lay.n_frames, lay.nv, lay.nx
+    qj = q[:, 7:]
+    x_l = np.full((T, nx), -np.inf)
+    x_u = np.full((T, nx), np.inf)
+    x_l[:, :nv], x_u[:, :nv] = -config.trust_region, config.trust_region
+    # the base's translation moves every link: its vertical second difference enters the ZMP's
+    # denominator (g + c_z''), so it gets a tighter region
+    x_l[:, :3], x_u[:, :3] = -config.trust_region * config.base_trust, \
+        config.trust_region * config.base_trust
+    x_l[:, 6:nv] = np.maximum(plan.lower - qj, -config.trust_region)
+    x_u[:, 6:nv] = np.minimum(plan.upper - qj, config.trust_region)
+    x_l[:, lay.offset["zmp_slack"]:] = 0.0
+    return x_l, x_u

@@ -1,0 +1,121 @@
+"""What one SQP iteration works with: the plan it holds and the linearization of the iterate.
+
+:class:`Plan` is fixed for the whole solve (targets, interaction-mesh metric, support,
+footprints, support polygons, limits, which frames are held); :class:`Linearization` is
+measured again at every iterate (key points, soles, CoM, ZMP and their Jacobians,
+:func:`imesh.solve.sqp.linearize`). Every cost and constraint module reads these two.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .collision import CollisionLinearization
+from .torque import TorqueLinearization
+
+#: Gravity [m/s^2], as the evaluator's ZMP and normal force use it.
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True, eq=False)
+class Linearization:
+    """Everything one SQP iteration needs at the current trajectory.
+
+    Attributes:
+        points: (T, K, 3) key points [m]; point_jacobians: (T, K, 3, nv).
+        axes: (T, D, 3) world axes of the direction frames; axis_jacobians: (T, D, 3, nv)
+            angular Jacobians of those frames.
+        soles: (T, 2, 4, 4) sole frame poses [left, right]; sole_jacobians: (T, 2, 6, nv).
+        corners: (T, 2, P, 3) [m] the feet's ground points (sole corners and the bottom of
+            their collision proxies); corner_jacobians_z: (T, 2, P, nv) rows of their heights.
+        body_z: (T, Q) [m] heights of the other leg proxies' points (shins, knees, ankle
+            links); body_jacobians_z: (T, Q, nv) rows of their heights.
+        com: (T, 3) [m]; com_jacobians: (T, 3, nv).
+        com_acceleration: (T, 3) [m/s^2] and angular_momentum_rate: (T, 3) [Nm] from
+            pinocchio with the evaluator's finite-difference velocities and accelerations.
+        centroidal_angular: (T, 2, nv) x, y rows of the centroidal momentum matrix's angular
+            part; mass: [kg].
+        zmp_multibody: (T, 2) [m] the evaluator's multibody ZMP of the trajectory.
+        base_rotations: (T, 3, 3) world rotations of the base.
+        torques: the net joint torques and their working-set rows (None: not linearized).
+        collision: the self-collision samples
+            (:class:`imesh.solve.collision.CollisionLinearization`), or None.
+    """
+
+    points: np.ndarray
+    point_jacobians: np.ndarray
+    axes: np.ndarray
+    axis_jacobians: np.ndarray
+    soles: np.ndarray
+    sole_jacobians: np.ndarray
+    corners: np.ndarray
+    corner_jacobians_z: np.ndarray
+    body_z: np.ndarray
+    body_jacobians_z: np.ndarray
+    com: np.ndarray
+    com_jacobians: np.ndarray
+    com_acceleration: np.ndarray
+    angular_momentum_rate: np.ndarray
+    centroidal_angular: np.ndarray
+    mass: float
+    zmp_multibody: np.ndarray
+    base_rotations: np.ndarray
+    torques: TorqueLinearization | None = None
+    collision: CollisionLinearization | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """What the solve holds fixed: targets, support, footprints, limits.
+
+    Attributes:
+        marker_points: (T, K, 3) adapted marker positions of the key points [m].
+        keypoint_weights: (K,) weights of the key points.
+        mesh_metric: (T, K, K) ``W + w_L L_t^T L_t`` per frame.
+        target_directions: (T, D, 3) unit target directions; direction_weights: (D,).
+        support: (T, 2) bool planned support [left, right].
+        sole_targets: (T, 2, 4, 4) footprint poses of the sole frames (NaN where not in
+            support).
+        halfplanes: (frame (R,), normal (R, 2), offset (R,)) of the support polygons.
+        desired_zmp: (T, 2) [m].
+        q_init: (T, nq) the initializer.
+        lower, upper, v_max, a_max: (n,) joint limits.
+        fps: frame rate.
+        rest_frames: the first and the last this many frames are held identical (the motion
+            starts and ends at rest: zero velocity and acceleration for a controller); 0: free.
+        clearance: (T, 2) [m] height the swing feet's ground points keep per frame (None:
+            ``config.clearance_m`` everywhere).
+        fixed_frames: the first this many frames do not move (a window of a long clip starts
+            on the previous window's solution: :mod:`imesh.solve.windows`).
+        rest_ends: whether the rest rows (``rest_frames``) hold at the (start, end): a window
+            has them only where it is the clip's start or end.
+        q_start: (T, nq) the SQP's starting trajectory (None: ``q_init``, which stays the
+            initializer the joints are pulled towards).
+        fixed_end_frames: the last this many frames do not move either (the window joining
+            two chains of windows solved in parallel ends on the second chain's solution:
+            :mod:`imesh.solve.windows`).
+    """
+
+    marker_points: np.ndarray
+    keypoint_weights: np.ndarray
+    mesh_metric: np.ndarray
+    target_directions: np.ndarray
+    direction_weights: np.ndarray
+    support: np.ndarray
+    sole_targets: np.ndarray
+    halfplanes: tuple
+    desired_zmp: np.ndarray
+    q_init: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    v_max: np.ndarray
+    a_max: np.ndarray
+    fps: float
+    rest_frames: int = 0
+    clearance: np.ndarray | None = None
+    fixed_frames: int = 0
+    rest_ends: tuple[bool, bool] = (True, True)
+    q_start: np.ndarray | None = None
+    fixed_end_frames: int = 0
