@@ -107,7 +107,7 @@ def support_feet(robot, result) -> dict:
     from imesh.contacts.phases.phases import SIDES
 
     from imesh.fit import FitConfig
-    from imesh.fit.dls import joint_limits
+    from imesh.fit.limits import joint_limits
     from imesh.metrics.kinematics import sole_tracks
     from imesh.metrics.markers import keypoint_motion, marker_rms_mm
 

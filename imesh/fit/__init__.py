@@ -14,8 +14,10 @@ Example:
 """
 
 from .boxqp import solve_box_dls, solve_box_qp
-from .dls import FitConfig, FitResult, fit_motion
+from .config import FitConfig
 from .errors import FitError, UnknownFrameError
+from .motion import fit_motion
+from .result import FitResult
 from .targets import (
     DirectionTarget,
     KeypointTarget,

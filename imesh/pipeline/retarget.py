@@ -36,7 +36,7 @@ if TYPE_CHECKING:  # pragma: no cover - typing only (the robot stack is imported
     from ..arms.config import ArmsConfig
     from ..balance.loop import BalanceConfig, BalanceResult
     from ..core.robot_motion import RobotMotion
-    from ..fit.dls import FitConfig, FitResult
+    from ..fit import FitConfig, FitResult
     from ..solve.sqp import WholeBodySolution
 
 log = logging.getLogger(__name__)
@@ -306,7 +306,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     """
     from ..balance import BalanceConfig, check_flight
     from ..fit import FitConfig, fit_motion  # the fitting stage needs the robot stack
-    from ..fit.dls import joint_limits
+    from ..fit.limits import joint_limits
     from ..fit.targets import compile_targets
     from ..solve import add_lead, plan_whole_body, smooth_initializer, solve_whole_body
 
