@@ -72,6 +72,19 @@ class FitProblem:
         return cls(robot=robot, kin=kin, config=config, base_step=base_step,
                    base_reach=base_reach, q_posture=q_posture)
 
+    def base_bounds(self, q: np.ndarray, q_prev: np.ndarray | None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """(6,) lower and upper bounds of the free-flyer part of a step from ``q`` (nq,): the
+        trust region, intersected with the base velocity box around ``q_prev`` (nq,) unless
+        None (a bound the base already passed becomes 0: no step further out)."""
+        base_lo, base_hi = -self.base_step, self.base_step
+        if q_prev is not None:
+            # first-order: the base displacement so far plus this step stays in the box
+            moved = self.robot.difference(q_prev, q)[:6]
+            base_lo = np.maximum(base_lo, np.minimum(-self.base_reach - moved, 0.0))
+            base_hi = np.minimum(base_hi, np.maximum(self.base_reach - moved, 0.0))
+        return base_lo, base_hi
+
 
 @dataclass(frozen=True, eq=False)
 class FrameProblem:
@@ -157,12 +170,7 @@ def solve_frame(problem: FitProblem, frame: FrameProblem, q: np.ndarray
         g = a_rows.T @ res
         if mu2:
             g[6:] -= mu2 * dev
-        base_lo, base_hi = -problem.base_step, problem.base_step
-        if frame.q_prev is not None:
-            # first-order: the base displacement so far plus this step stays in the box
-            moved = robot.difference(frame.q_prev, q)[:6]
-            base_lo = np.maximum(base_lo, np.minimum(-problem.base_reach - moved, 0.0))
-            base_hi = np.minimum(base_hi, np.maximum(problem.base_reach - moved, 0.0))
+        base_lo, base_hi = problem.base_bounds(q, frame.q_prev)
         step_lo = np.concatenate([base_lo, lo - q[7:]])
         step_hi = np.concatenate([base_hi, hi - q[7:]])
         while True:

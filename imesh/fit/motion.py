@@ -31,7 +31,7 @@ from .kinematics import Kinematics
 from .limits import ACCELERATION, POSITION, VELOCITY, IncrementBox, check_within, joint_limits
 from .residual import FrameTargets
 from .result import FitResult
-from .targets import compile_targets
+from .targets import CompiledTargets, compile_targets
 from .track import Track, track
 
 log = logging.getLogger(__name__)
@@ -116,16 +116,9 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
                               source=markers.source or "motion")
     lower, upper, vmax, amax = joint_limits(robot, config)
     n_frames = markers.n_frames
-    nq = robot.nq
-    init = _as_q_init(q_init, n_frames, nq)
+    init = _as_q_init(q_init, n_frames, robot.nq)
     kin = Kinematics(robot, targets)
-    if init is not None:
-        q0 = init if init.ndim == 1 else init[0]
-        check_within(robot, q0, lower, upper, "the initial configuration q_init")
-    else:
-        q_nominal = np.asarray(robot.q_nominal, dtype=np.float64)
-        check_within(robot, q_nominal, lower, upper, "the nominal pose q_nominal")
-        q0 = initial_guess(robot, kin, targets, markers, q_nominal)
+    q0 = _first_configuration(robot, kin, targets, markers, init, lower, upper)
 
     frames = FrameTargets.build(markers, targets, config)
     problem = FitProblem.build(robot, kin, config, lower, upper, markers.fps)
@@ -147,31 +140,10 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
                                                         config.brake_before_limits),
                     q0, init)
     seconds = time.perf_counter() - t_start
-    q_out, kp_err, dir_err, iters = out.q, out.kp_err, out.dir_err, out.iterations
-    at_bound, conflict, joint_bound_frames, empty = (out.at_bound, out.conflict,
-                                                     out.joint_bound_frames, out.empty)
-
-    with np.errstate(invalid="ignore"):
-        counts = np.isfinite(kp_err).sum(axis=1)
-        sq = np.where(np.isfinite(kp_err), kp_err**2, 0.0).sum(axis=1)
-        rms = np.where(counts > 0, np.sqrt(sq / np.maximum(counts, 1)), np.nan)
-        kmax = np.where(counts > 0, np.nanmax(np.where(np.isfinite(kp_err), kp_err, -1.0),
-                                              axis=1), np.nan)
-    motion = RobotMotion(q=q_out, fps=markers.fps, robot=robot.name,
-                         joint_names=tuple(robot.joint_names),
-                         meta={"source": markers.source, "fit": "dls"})
-    result = FitResult(
-        motion=motion, keypoints=targets.keypoints, directions=targets.directions,
-        keypoint_error_m=kp_err, keypoint_rms_m=rms, keypoint_max_m=kmax,
-        direction_error_deg=dir_err, iterations=iters,
-        at_position_bound=at_bound[:, POSITION], at_velocity_bound=at_bound[:, VELOCITY],
-        at_acceleration_bound=at_bound[:, ACCELERATION], conflict=conflict,
-        joint_bound_frames=joint_bound_frames, seconds_per_frame=seconds / n_frames,
-        config=config,
-    )
-    if empty:
+    result = _result(robot, markers, targets, config, out, seconds)
+    if out.empty:
         log.warning("%s: %d of %d frames had no valid marker to fit (kept the warm start)",
-                    markers.source or "motion", empty, n_frames)
+                    markers.source or "motion", out.empty, n_frames)
     s = result.summary()
     log.info("fit %s to %s: %d frames, key-point RMS %.2f mm, %.2f iterations/frame, "
              "%.3f ms/frame, frames at position/velocity/acceleration bounds %d/%d/%d, "
@@ -180,3 +152,41 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
              s["frames_at_position_bound"], s["frames_at_velocity_bound"],
              s["frames_at_acceleration_bound"], s["conflict_frames"])
     return result
+
+
+def _first_configuration(robot, kin: Kinematics, targets: CompiledTargets,
+                         markers: MarkerMotion, init: np.ndarray | None, lower: np.ndarray,
+                         upper: np.ndarray) -> np.ndarray:
+    """(nq,) start of frame 0: ``init``'s (checked against the (n,) position limits [rad]),
+    else the geometric guess from the nominal pose (checked likewise)."""
+    if init is not None:
+        q0 = init if init.ndim == 1 else init[0]
+        check_within(robot, q0, lower, upper, "the initial configuration q_init")
+        return q0
+    q_nominal = np.asarray(robot.q_nominal, dtype=np.float64)
+    check_within(robot, q_nominal, lower, upper, "the nominal pose q_nominal")
+    return initial_guess(robot, kin, targets, markers, q_nominal)
+
+
+def _result(robot, markers: MarkerMotion, targets: CompiledTargets, config: FitConfig,
+            out: Track, seconds: float) -> FitResult:
+    """The FitResult of the final pass ``out`` of the frame loop, which took ``seconds`` [s]."""
+    kp_err = out.kp_err
+    with np.errstate(invalid="ignore"):
+        counts = np.isfinite(kp_err).sum(axis=1)
+        sq = np.where(np.isfinite(kp_err), kp_err**2, 0.0).sum(axis=1)
+        rms = np.where(counts > 0, np.sqrt(sq / np.maximum(counts, 1)), np.nan)
+        kmax = np.where(counts > 0, np.nanmax(np.where(np.isfinite(kp_err), kp_err, -1.0),
+                                              axis=1), np.nan)
+    motion = RobotMotion(q=out.q, fps=markers.fps, robot=robot.name,
+                         joint_names=tuple(robot.joint_names),
+                         meta={"source": markers.source, "fit": "dls"})
+    return FitResult(
+        motion=motion, keypoints=targets.keypoints, directions=targets.directions,
+        keypoint_error_m=kp_err, keypoint_rms_m=rms, keypoint_max_m=kmax,
+        direction_error_deg=out.dir_err, iterations=out.iterations,
+        at_position_bound=out.at_bound[:, POSITION], at_velocity_bound=out.at_bound[:, VELOCITY],
+        at_acceleration_bound=out.at_bound[:, ACCELERATION], conflict=out.conflict,
+        joint_bound_frames=out.joint_bound_frames, seconds_per_frame=seconds / markers.n_frames,
+        config=config,
+    )
