@@ -106,7 +106,7 @@ def support_feet(robot, result) -> dict:
     at 30 fps]."""
     from imesh.contacts.phases import SIDES
     from imesh.fit import FitConfig
-    from imesh.fit.dls import joint_limits
+    from imesh.fit.limits import joint_limits
     from imesh.metrics.kinematics import sole_tracks
     from imesh.metrics.markers import keypoint_motion, marker_rms_mm
 

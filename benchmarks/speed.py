@@ -66,7 +66,7 @@ STAGES = {
     "morph": [("imesh/morph/problem.py", "build_morph_problem"),
               ("imesh/morph/solver.py", "solve_morph")],
     "fit": [("imesh/pipeline/retarget.py", "orientation_targets"),
-            ("imesh/fit/dls.py", "fit_motion")],
+            ("imesh/fit/motion.py", "fit_motion")],
     "plan": [("imesh/solve/initial.py", "smooth_initializer"), ("imesh/solve/lead.py", "add_lead"),
              ("imesh/fit/targets.py", "compile_targets"),
              ("imesh/solve/sqp.py", "plan_whole_body")],

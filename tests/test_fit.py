@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import load_test_robot
+from scipy.optimize import lsq_linear
 
 from imesh import ImeshError, MarkerMotion, MissingMarkerError
 from imesh.core.robot_motion import RobotMotion
@@ -20,6 +21,7 @@ from imesh.fit import (
     robot_targets,
     solve_box_qp,
 )
+from imesh.fit.limits import ACCELERATION, POSITION, VELOCITY, IncrementBox
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ("jvrc1", "g1", "hrp4c")
@@ -277,8 +279,6 @@ def test_turned_clip_and_missing_markers():
 def test_box_qp_is_optimal():
     """The active-set box QP meets the KKT conditions and matches scipy's bounded least squares
     where that converges, on random problems with unbounded and pinned variables."""
-    from scipy.optimize import lsq_linear
-
     rng = np.random.default_rng(0)
     for _ in range(40):
         m, n = 40, 20
@@ -393,3 +393,22 @@ def test_refit_from_previous_solution_is_a_fixed_point():
     again = fit_motion(robot, markers, keypoints=keypoints, directions=dirs, q_init=first.motion)
     assert np.abs(again.motion.q - first.motion.q).max() < 1e-4
     assert again.iterations[1:].mean() <= first.iterations[1:].mean()
+
+
+def test_increment_box_priority_and_conflict():
+    """Kim's boxes (eqs 9, 13, 14) intersect in priority order; a joint too fast to brake within
+    a_max is pinned to the point of the running box closest to the acceleration box."""
+    limits = IncrementBox.build(np.array([-1.0, -1.0]), np.array([1.0, 1.0]),
+                                np.array([10.0, 10.0]), np.array([10.0, 10.0]), 10.0,
+                                brake=False)  # dt v_max = 1 rad, dt^2 a_max = 0.1 rad
+    first = limits.at(None, None)
+    assert not first.conflict and np.array_equal(first.hi, [1.0, 1.0])
+    # joint 0 moves at 9.5 rad/s towards its upper limit 0.05 rad away; joint 1 rests
+    box = limits.at(np.array([0.95, 0.0]), np.array([0.0, 0.0]))
+    assert box.conflict
+    assert box.lo[0] == box.hi[0] == 1.0  # pinned at the position limit: maximal braking
+    assert np.allclose([box.lo[1], box.hi[1]], [-0.1, 0.1])
+    assert box.src_hi[0] == POSITION and box.src_hi[1] == ACCELERATION
+    codes, on_bound = box.active(np.array([1.0, 0.05]))
+    assert codes[POSITION] and not codes[VELOCITY] and not codes[ACCELERATION]
+    assert on_bound.tolist() == [True, False]

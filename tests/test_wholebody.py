@@ -9,7 +9,8 @@ import pytest
 from conftest import load_test_robot
 
 from imesh.contacts.phases import SIDES
-from imesh.fit.dls import FitConfig, joint_limits
+from imesh.fit import FitConfig
+from imesh.fit.limits import joint_limits
 from imesh.fit.targets import compile_targets
 from imesh.solve import WholeBodyConfig, build_qp, plan_whole_body, solve_qp, solve_whole_body
 from imesh.solve.sqp import _Frames, linearize

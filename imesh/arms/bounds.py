@@ -20,7 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..fit.dls import ACCELERATION, POSITION, VELOCITY, _braking_reach, _intersect
+from ..fit.limits import ACCELERATION, POSITION, VELOCITY
+from ..fit.limits import braking_reach as _braking_reach
+from ..fit.limits import intersect as _intersect
 
 #: Tolerance [rad] of the checks below (on increments, like the solver's bounds).
 CHECK_TOL = 1e-9

@@ -21,8 +21,8 @@ import numpy as np
 from ..core.motion import MarkerMotion
 from ..core.robot_motion import RobotMotion
 from ..fit import FitConfig
-from ..fit.dls import ACCELERATION, POSITION, VELOCITY, joint_limits
 from ..fit.feasible import project_joint_trajectory
+from ..fit.limits import ACCELERATION, POSITION, VELOCITY, joint_limits
 from ..human.filtering import lowpass
 from ..morph.adapt import prepare_markers
 from .bounds import CHECK_TOL, JointLimits, Violations, check_limits, frame_box

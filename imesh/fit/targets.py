@@ -18,15 +18,13 @@ import logging
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import MissingMarkerError
+from ..robot.config import MarkerConfig, closest_first, load_markers_config
 from .errors import FitError, UnknownFrameError
-
-if TYPE_CHECKING:  # pragma: no cover - typing only (imported lazily at run time)
-    from ..robot.config import MarkerConfig
 
 log = logging.getLogger(__name__)
 
@@ -152,8 +150,6 @@ def robot_targets(robot, markers_toml: str | os.PathLike | None = None
     """
     config: MarkerConfig | None
     if markers_toml is not None:
-        from ..robot.config import load_markers_config
-
         config = load_markers_config(markers_toml)
     else:
         config = getattr(robot, "markers", None)
@@ -203,13 +199,7 @@ def _frame_ids(robot, frames: Sequence[str]) -> list[int]:
         except Exception:  # any lookup failure means the frame is unknown
             missing.append(frame)
     if missing:
-        valid = list(getattr(robot, "frame_names", []) or [])
-        try:
-            from ..robot.config import closest_first
-
-            valid = closest_first(missing[0], valid)
-        except ImportError:
-            pass
+        valid = closest_first(missing[0], list(getattr(robot, "frame_names", []) or []))
         raise UnknownFrameError(f"key points / directions name frames robot {robot.name!r} "
                                 "does not have", list(dict.fromkeys(missing)), valid)
     return ids

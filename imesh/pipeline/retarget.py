@@ -16,19 +16,21 @@ import dataclasses
 import logging
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..arms.config import ArmsConfig
 from ..arms.solve import refine_arms
 from ..balance import BalanceConfig, balance_loop, check_flight
+from ..balance.loop import BalanceResult
 from ..contacts.phases import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_contacts
 from ..contacts.support import SupportConfig, flat_support, support_blend, support_foot_targets
 from ..core.motion import MarkerMotion
 from ..core.progress import ProgressCallback, notify
+from ..core.robot_motion import RobotMotion
 from ..errors import OptionError
-from ..fit import FitConfig, fit_motion  # the fitting stage needs the robot stack
-from ..fit.dls import joint_limits
+from ..fit import FitConfig, FitResult, fit_motion
+from ..fit.limits import joint_limits
 from ..fit.targets import compile_targets
 from ..human.arrange import Arrangement, arrange_for_robot
 from ..human.filtering import lowpass
@@ -44,13 +46,7 @@ from ..solve import (
     solve_whole_body,
     windows,
 )
-
-if TYPE_CHECKING:  # pragma: no cover - typing only (the robot stack is imported lazily)
-    from ..arms.config import ArmsConfig
-    from ..balance.loop import BalanceConfig, BalanceResult
-    from ..core.robot_motion import RobotMotion
-    from ..fit.dls import FitConfig, FitResult
-    from ..solve.sqp import WholeBodySolution
+from ..solve.sqp import WholeBodySolution
 
 log = logging.getLogger(__name__)
 

@@ -1,0 +1,112 @@
+"""Settings of joint fitting: the weights of the objective (Nakaoka & Komura 2012, eq. 7-8, plus
+the smoothing and posture terms), the damped least-squares iteration budget, which of Kim, Kim &
+Oh 2005's limits (eqs 9, 13, 14) apply, and the free-flyer's trust region and velocity box
+(docs/fitting.md)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import FitError
+
+
+@dataclass(frozen=True)
+class FitConfig:
+    """Settings of :func:`fit_motion`.
+
+    Attributes:
+        damping: lambda of eq. 7 at the start of each frame (weighted-residual units per unit
+            of dq; with unit weights metres per radian). Each step uses
+            ``lambda^2 = f (damping^2 + |W e|^2)`` with a Levenberg-Marquardt factor f in
+            [0.01, 1e8]; larger damping is more cautious near singular poses.
+        iterations: maximum damped least-squares solves per frame (frames >= 1).
+        first_frame_iterations: maximum solves for frame 0 (starts from the geometric guess).
+        tolerance: a frame is converged when the next step would change no weighted residual
+            (key point [m], direction [rad], smoothing row) by more than this; frame 0 uses a
+            hundredth of it.
+        position_weight: multiplies every key-point residual (times its own weight) [1/m].
+        direction_weight: multiplies every direction residual (times its own weight) [1/rad]:
+            with both at 1, a direction error of 1 rad costs like a 1 m key-point error, so a
+            markers.toml direction weight of 0.3 makes 1 degree cost like 5 mm.
+        smoothing: constant part mu_0 of the smoothing weight mu: every frame i >= 1 adds
+            ``mu^2 |q_j - q_{i-1},j|^2`` (joints only) to its objective [weighted-residual units
+            per rad]. It anchors joints the targets do not determine (null space, e.g. a wrist
+            yaw about the hand axis) against drift.
+        adaptive_smoothing: gain k [1/m] of the residual-proportional part:
+            ``mu = mu_0 + k * rms_{i-1}`` with rms_{i-1} the key-point RMS of the previous frame
+            [m]. Targets the robot cannot meet (2 cm RMS) make the objective flat along
+            redundant joint combinations (waist vs hips, forearm twist); without this term the
+            per-frame optimum wanders along them and the joints chatter against their
+            acceleration limits. Exact targets (rms -> 0) get mu -> mu_0 and no lag. The lag it
+            costs is about ``(mu / sigma)^2`` of a frame's motion along Jacobian directions of
+            singular value sigma (docs/fitting.md has the measurements).
+        posture: eta, weight of the joint deviation from the nominal pose,
+            ``eta^2 |q_j - q_nominal,j|^2`` in every frame i >= 1 [weighted-residual units per
+            rad]: pulls joints that no target determines back towards the nominal pose instead
+            of letting them drift into their limits; negligible for observed joints.
+        enforce_velocity: apply the velocity box (Kim eq. 13).
+        enforce_acceleration: apply the acceleration box (Kim eq. 14).
+        acceleration_limit: overrides ``robot.a_max`` [rad/s^2]: one number for all joints or
+            one per joint; None keeps the robot's (inf = unbounded).
+        brake_before_limits: with the acceleration box on, also keep every joint slow enough to
+            stop before its position limits at ``a_max`` (a braking-distance bound, lowest
+            priority, counted as a position bound): without it a joint racing towards its
+            limit meets a position/acceleration conflict.
+        base_step_m, base_step_rad: trust region of the free-flyer in one damped step
+            (linear [m], angular [rad]); many steps may still move it far (frame 0), but no
+            single step can flip the base into another basin.
+        base_speed_m_s, base_rate_rad_s: velocity box of the free-flyer (linear, angular), like
+            Kim eq. 13 for the joints: without it, when rate-limited leg joints lag, the fit
+            swings the unbounded base instead (seen: +-30 degrees of base yaw on a walk).
+        lookahead: when velocity or acceleration limits apply, fit the frames with the position
+            box only, then project the joint trajectory onto all the limits over the whole
+            clip (:mod:`imesh.fit.feasible`): the result satisfies Kim's eqs 9, 13 and 14 in
+            every frame and brakes ahead of fast motion. False: Kim's per-frame boxes inside
+            the DLS (greedy: a joint that cannot follow its target saturates, overshoots and
+            chases it; docs/fitting.md has the comparison).
+        extrapolate: warm start frame i from the constant-velocity prediction of frames i-2 and
+            i-1 (clipped into the box) instead of frame i-1; saves ~1 solve per frame.
+    """
+
+    damping: float = 1e-2
+    iterations: int = 8
+    first_frame_iterations: int = 300
+    tolerance: float = 1e-5
+    position_weight: float = 1.0
+    direction_weight: float = 1.0
+    smoothing: float = 1e-3
+    adaptive_smoothing: float = 5.0
+    posture: float = 3e-4
+    enforce_velocity: bool = True
+    enforce_acceleration: bool = True
+    acceleration_limit: float | Sequence[float] | None = None
+    brake_before_limits: bool = True
+    extrapolate: bool = True
+    lookahead: bool = True
+    base_step_m: float = 0.05
+    base_step_rad: float = 0.1
+    base_speed_m_s: float = 3.0
+    base_rate_rad_s: float = 3.0
+
+    def __post_init__(self) -> None:
+        positive = ("damping", "iterations", "first_frame_iterations", "tolerance")
+        non_negative = ("position_weight", "direction_weight", "smoothing",
+                        "adaptive_smoothing", "posture")
+        for name in positive + non_negative:
+            value = getattr(self, name)
+            try:
+                ok = bool(np.isfinite(value) and (value > 0 if name in positive else value >= 0))
+            except TypeError:
+                ok = False
+            if not ok:
+                kind = "positive" if name in positive else "non-negative"
+                raise FitError(f"FitConfig.{name} = {value!r} is invalid: must be a finite "
+                               f"{kind} number")
+        if self.acceleration_limit is not None:
+            arr = np.asarray(self.acceleration_limit, dtype=np.float64)
+            if arr.ndim > 1 or np.any(np.isnan(arr)) or np.any(arr <= 0):
+                raise FitError(f"FitConfig.acceleration_limit = {self.acceleration_limit!r} is "
+                               "invalid: one positive number or one per joint [rad/s^2]")
