@@ -21,12 +21,12 @@ from imesh.arms import (
     derived_arm_joints,
     imitate_arms,
     refine_arms,
-    suggest_hand_points,
 )
 from imesh.arms.solvers import solve_gn, solve_slsqp
 from imesh.cli import main
 from imesh.core.robot_motion import RobotMotion
 from imesh.io.robot_motion import NPZ_KEYS
+from imesh.robot.hands import suggest_hand_points
 
 ROBOTS = ("jvrc1", "g1", "hrp4c")
 WAVE = "cmu_141_16_wave_hello.bvh"

@@ -21,7 +21,7 @@ _LAZY = {
     **dict.fromkeys(("JointLimits", "Violations", "check_limits", "frame_box"), ".bounds"),
     **dict.fromkeys(("SOLVERS", "ArmsConfig"), ".config"),
     "ArmsError": ".errors",
-    **dict.fromkeys(("ArmModel", "arm_model", "derived_arm_joints", "suggest_hand_points"),
+    **dict.fromkeys(("ArmModel", "arm_model", "derived_arm_joints"),
                     ".geometry"),
     "FrameObjective": ".problem",
     **dict.fromkeys(("REFINE_CONFIG", "ArmResult", "ArmsResult", "human_arm_markers",
@@ -34,5 +34,5 @@ __all__ = [
     "REFINE_CONFIG", "SOLVERS", "ArmModel", "ArmResult", "ArmScaling", "ArmTargets",
     "ArmsConfig", "ArmsError", "ArmsResult", "FrameObjective", "JointLimits", "Violations",
     "arm_model", "arm_targets", "check_limits", "derived_arm_joints", "frame_box",
-    "human_arm_markers", "imitate_arms", "refine_arms", "solve_arms", "suggest_hand_points",
+    "human_arm_markers", "imitate_arms", "refine_arms", "solve_arms",
 ]

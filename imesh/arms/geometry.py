@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..robot.config import SIDES, closest_first
+from ..robot.hands import SUFFIX, suggest_hand_points
 from .errors import ArmsError
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
@@ -23,8 +24,6 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
 
 log = logging.getLogger(__name__)
 
-#: Suffix of the standard marker names per side.
-SUFFIX = {"left": "l", "right": "r"}
 #: Row order of :meth:`ArmModel.points`: the hand points of eq. 3, then eq. 6's elbow, shoulder.
 POINTS = ("wrist", "hand", "thumb", "elbow", "shoulder")
 HAND_POINTS = POINTS[:3]
@@ -59,62 +58,6 @@ def derived_arm_joints(robot, side: str) -> tuple[str, ...]:
     mine = chain_joints(robot, _keypoint(robot, f"hand_{SUFFIX[side]}").frame)
     theirs = set(chain_joints(robot, _keypoint(robot, f"hand_{SUFFIX[other]}").frame))
     return tuple(robot.joint_names[j] for j in mine if j not in theirs)
-
-
-def thumb_direction(upper_arm: np.ndarray, hand_axis: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Unit direction of the derived third hand point and how well it is defined.
-
-    The direction is the component of the reversed upper arm (elbow -> shoulder) perpendicular to
-    the hand axis (wrist -> hand): in the plane of the arm, across the hand, towards the side of
-    the body the upper arm comes from. With the forearm in neutral rotation this is where the
-    thumb points (thumb up with the elbow bent and the arm hanging; thumb medial in a wave).
-
-    Args:
-        upper_arm: (..., 3) elbow - shoulder.
-        hand_axis: (..., 3) hand - wrist.
-
-    Returns:
-        (direction (..., 3) unit (zero where undefined), sine (...,) of the angle between the
-        upper arm and the hand axis: 0 when they are parallel and the direction is undefined).
-    """
-    h = hand_axis / np.maximum(np.linalg.norm(hand_axis, axis=-1, keepdims=True), 1e-12)
-    u = -np.asarray(upper_arm, dtype=float)
-    perp = u - np.sum(u * h, axis=-1, keepdims=True) * h
-    norm = np.linalg.norm(perp, axis=-1)
-    sine = norm / np.maximum(np.linalg.norm(u, axis=-1), 1e-12)
-    direction = np.where(norm[..., None] > 1e-12, perp / np.maximum(norm, 1e-12)[..., None], 0.0)
-    return direction, sine
-
-
-def suggest_hand_points(robot, side: str) -> tuple[str, np.ndarray]:
-    """Hand link and the three hand points on it, from markers.toml keypoints at the nominal pose.
-
-    Wrist and hand are the ``wrist_<s>`` and ``hand_<s>`` keypoints re-expressed on the hand link
-    (the frame of ``hand_<s>``); the third point sits at the wrist-hand distance from the wrist
-    along :func:`thumb_direction` of the robot's own arm (the nominal elbow must be bent). This
-    is how the ``[arms]`` tables of the shipped robots were made.
-
-    Returns:
-        (hand frame name, (3, 3) float [m] wrist, hand, thumb offsets in that frame).
-    """
-    s = SUFFIX[side]
-    frame = _keypoint(robot, f"hand_{s}").frame
-    names = [f"{m}_{s}" for m in ("wrist", "hand", "elbow", "shoulder")]
-    kps = [_keypoint(robot, n) for n in names]
-    p = robot.frame_positions(robot.q_nominal, [k.frame for k in kps],
-                              np.array([k.offset for k in kps]))
-    wrist, hand, elbow, shoulder = p
-    direction, sine = thumb_direction(elbow - shoulder, hand - wrist)
-    if sine < 0.05:
-        raise ArmsError(f"robot {robot.name!r}: the nominal {side} arm is straight (upper arm "
-                        "parallel to the hand): bend its elbow in [nominal] or give "
-                        f"[arms.{side}].thumb in markers.toml")
-    thumb = wrist + np.linalg.norm(hand - wrist) * direction
-    placement = robot.frame_placements(robot.q_nominal, [frame])[0]
-    rot, origin = placement[:3, :3], placement[:3, 3]
-    local = (np.stack([wrist, hand, thumb]) - origin) @ rot
-    return frame, local
 
 
 @dataclass(frozen=True, eq=False)

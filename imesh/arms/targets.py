@@ -26,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.motion import MarkerMotion
+from ..robot.hands import SUFFIX, thumb_direction
 from .config import ArmsConfig
 from .errors import ArmsError
-from .geometry import SUFFIX, ArmModel, thumb_direction
+from .geometry import ArmModel
 
 #: Markers the torso frame is built from (pelvis -> neck up, shoulder_r -> shoulder_l across).
 TORSO_MARKERS = ("pelvis", "neck", "shoulder_l", "shoulder_r")

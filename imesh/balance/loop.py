@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..contacts.phases import runs
+from ..core.checks import require_finite
 from ..errors import ImeshError, OptionError, SolverError
 from ..human.filtering import lowpass_array
 from ..metrics.kinematics import (
@@ -83,10 +84,7 @@ class BalanceConfig:
     def __post_init__(self) -> None:
         if not (isinstance(self.iterations, int) and self.iterations >= 0):
             raise OptionError("iterations", self.iterations, "an integer >= 0")
-        for name in ("tolerance_mm", "gain", "transition_s"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise OptionError(name, value, "a positive number")
+        require_finite(self, ("tolerance_mm", "gain", "transition_s"), positive=True)
         if not 0.0 <= self.inside_target <= 1.0:
             raise OptionError("inside_target", self.inside_target, "a fraction in [0, 1]")
 

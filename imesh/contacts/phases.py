@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.checks import require_finite
 from ..core.motion import MarkerMotion
 from ..errors import OptionError
 
@@ -41,10 +42,7 @@ class ContactConfig:
     min_phase_s: float = 0.08
 
     def __post_init__(self) -> None:
-        for name in ("height_fraction", "speed_fraction", "min_phase_s"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise OptionError(name, v, "a positive number")
+        require_finite(self, ("height_fraction", "speed_fraction", "min_phase_s"), positive=True)
         if not self.hysteresis >= 1.0:
             raise OptionError("hysteresis", self.hysteresis, "a number >= 1")
 

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.checks import require_finite
 from ..core.motion import MarkerMotion
 from ..errors import OptionError
 from .phases import FOOT_MARKERS, SIDES, Contacts, runs
@@ -67,10 +68,7 @@ class SupportConfig:
     stand_s: float = 1.5
 
     def __post_init__(self) -> None:
-        for name in ("slide_threshold_m", "horizontal_weight"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise OptionError(name, value, "a positive number")
+        require_finite(self, ("slide_threshold_m", "horizontal_weight"), positive=True)
         if not (np.isfinite(self.flat_pitch_deg) and 0 < self.flat_pitch_deg <= 90):
             raise OptionError("flat_pitch_deg", self.flat_pitch_deg, "a number in (0, 90]")
         if not (np.isfinite(self.stand_s) and self.stand_s > 0):

@@ -21,6 +21,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES, Contacts, drop_short, hysteresis, runs
+from ..core.checks import require_finite
 from ..errors import OptionError
 
 log = logging.getLogger(__name__)
@@ -91,10 +92,7 @@ class SupportDetection:
     min_phase_s: float = 0.05
 
     def __post_init__(self) -> None:
-        for name in ("height_m", "speed_mps", "min_phase_s"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise OptionError(name, value, "a positive number")
+        require_finite(self, ("height_m", "speed_mps", "min_phase_s"), positive=True)
         if not self.hysteresis >= 1.0:
             raise OptionError("hysteresis", self.hysteresis, "a number >= 1")
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.checks import require_finite
 from ..errors import OptionError
 
 CONTROLLERS = ("spd", "pid")
@@ -82,15 +83,9 @@ class PhysicsConfig:
                               COLLISION_DETECTORS)
         positive = ("kp_per_effort", "dt", "fall_height_m", "fall_tilt_rad",
                     "torque_limit_scale", "sole_thickness_m")
-        for name in positive:
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise OptionError(name, value, "a positive number")
-        for name in ("kd_ratio", "ki_ratio", "settle_s", "extra_time_s", "friction",
-                     "start_clearance_m"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise OptionError(name, value, "a number >= 0")
+        require_finite(self, positive, positive=True)
+        require_finite(self, ("kd_ratio", "ki_ratio", "settle_s", "extra_time_s", "friction",
+                              "start_clearance_m"), positive=False)
         if self.dt > 0.01:
             raise OptionError("dt", self.dt, "at most 0.01 s (1 kHz is the default)")
         for name in ("mass_matrix_every", "contact_sample_every"):

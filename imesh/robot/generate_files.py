@@ -23,6 +23,7 @@ from .generate import (
     GeneratedConfig,
     generate_robot_config,
 )
+from .hands import suggest_hand_points
 
 log = logging.getLogger(__name__)
 
@@ -174,9 +175,8 @@ def write_generated(gen: GeneratedConfig, directory: str | os.PathLike) -> list[
     Raises:
         RobotConfigError: the written configuration does not load (nothing is left behind).
     """
-    # Import cycles, resolved here once every module is loaded: model.py imports this module
-    # (load_robot(None, urdf) generates the files first), and imesh.arms imports imesh.robot.
-    from ..arms.geometry import suggest_hand_points
+    # An import cycle, resolved here once every module is loaded: model.py imports this module
+    # (load_robot(None, urdf) generates the files first).
     from .model import load_robot
 
     out = Path(directory)
@@ -189,7 +189,7 @@ def write_generated(gen: GeneratedConfig, directory: str | os.PathLike) -> list[
         written = [robot_toml, markers_toml]
         robot = load_robot(robot_toml, urdf=gen.urdf)
         arms = ["", "# Hand points of the arm imitation (Kim, Kim & Oh 2005; docs/arms.md): "
-                "imesh.arms.suggest_hand_points at the nominal pose."]
+                "imesh.robot.hands.suggest_hand_points at the nominal pose."]
         for side in SIDES:
             frame, pts = suggest_hand_points(robot, side)
             arms += ["", f"[arms.{side}]", f'frame = "{frame}"']
