@@ -7,9 +7,9 @@ a few milliseconds; the cut keeps the file consistent):
 - ``asf/amc``: cmu_07_05.amc with cmu_07.asf (either file mutated);
 - ``c3d``: ezc3d_Qualisys_gait.c3d and ezc3d_BTS_gait.c3d (whole files);
 - ``trc``: roboptim_human_grab_box.trc;
-- ``npz``: a robot motion written by ``imesh.core.robot_motion.save_robot_motion`` whose base and
+- ``npz``: a robot motion written by ``imesh.io.robot_motion.save_robot_motion`` whose base and
   joint trajectories are the CMU walk's root position and rotation channels,
-  ``imesh.core.robot_motion.load_robot_motion``;
+  ``imesh.io.robot_motion.load_robot_motion``;
 - ``csv``: the same robot motion as .csv.
 
 Mutations (:func:`mutate`): byte flips (anywhere or in the header), truncation, numbers replaced

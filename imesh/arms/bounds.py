@@ -9,7 +9,7 @@ For the arm joints at frame ``i`` (``dt = 1 / fps``, ``v_{i-1} = (theta_{i-1} - 
     acceleration  dt v_{i-1} - dt^2 a_max   <= dtheta <= dt v_{i-1} + dt^2 a_max     (eqs 14, 15)
 
 The boxes are intersected in that priority order with the conflict policy of
-:mod:`imesh.fit.dls` (the same helpers): where a lower-priority box misses the running
+:mod:`imesh.fit.limits` (the same helpers): where a lower-priority box misses the running
 intersection the joint is pinned to its closest point, and an optional lowest-priority braking
 box keeps each joint slow enough to stop before its position limits at ``a_max``.
 """

@@ -203,7 +203,7 @@ def arm_errors(arm: ArmModel, targets: ArmTargets, q: np.ndarray, limits: JointL
 
 
 def arm_limits(robot, arm: ArmModel, config: ArmsConfig) -> JointLimits:
-    """The arm joints' limits (robot limits through :func:`imesh.fit.dls.joint_limits`, with the
+    """The arm joints' limits (robot limits through :func:`imesh.fit.limits.joint_limits`, with the
     velocity / acceleration switches and override of ``config``)."""
     fit = FitConfig(enforce_velocity=config.enforce_velocity,
                     enforce_acceleration=config.enforce_acceleration,

@@ -14,6 +14,8 @@ import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from tqdm import tqdm
+
 #: Estimated cost of each stage: (fixed seconds, seconds per working frame) on the G1 walk
 #: (benchmarks/speed.py, docs/speed.md); only their ratios matter (the bar's shares).
 STAGE_COST_S: dict[str, tuple[float, float]] = {
@@ -98,8 +100,6 @@ class JobBar:
         self.position = 0.0
         self.bar = None
         if not quiet:
-            from tqdm import tqdm
-
             self.bar = tqdm(total=self.frames, desc=desc, unit="frame", file=sys.stderr,
                             dynamic_ncols=True,
                             bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total} "

@@ -11,7 +11,11 @@ from pathlib import Path
 
 from ..core.motion import MarkerMotion
 from ..errors import MotionFileError, UnsupportedFormatError
+from .asf_amc import read_asf_amc
+from .bvh import read_bvh
+from .c3d import read_c3d
 from .raw import RawMotion
+from .trc import read_trc
 from .units import UNIT_SCALES_M, UP_AXES, finalize
 
 __all__ = ["load_motion", "read_raw", "finalize", "RawMotion", "UNIT_SCALES_M", "UP_AXES",
@@ -36,16 +40,12 @@ def read_raw(path: str | os.PathLike, *, asf: str | os.PathLike | None = None,
         raise MotionFileError(str(p), "no such file")
     ext = p.suffix.lower()
     if ext == ".bvh":
-        from .bvh import read_bvh
         return read_bvh(p)
     if ext == ".amc":
-        from .asf_amc import read_asf_amc
         return read_asf_amc(p, asf_path=asf, fps=fps)
     if ext == ".c3d":
-        from .c3d import read_c3d
         return read_c3d(p)
     if ext == ".trc":
-        from .trc import read_trc
         return read_trc(p)
     raise UnsupportedFormatError(
         str(p), f"unsupported extension {ext!r}; valid: {', '.join(SUPPORTED_EXTENSIONS)}"

@@ -162,8 +162,7 @@ def mujoco_qpos(motion: RobotMotion, model) -> tuple[np.ndarray, list[str], list
     joint a hinge or slide joint. Joints of the motion missing from the model raise
     ExportError; model joints the motion lacks keep ``model.qpos0``.
     """
-    import mujoco
-
+    mujoco = optional("mujoco", "pip install imesh[mujoco]", "the MuJoCo export")
     free, hinge, slide = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_HINGE),
                           int(mujoco.mjtJoint.mjJNT_SLIDE))
     if model.njnt == 0 or int(model.jnt_type[0]) != free or model.jnt_qposadr[0] != 0:

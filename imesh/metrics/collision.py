@@ -237,9 +237,9 @@ def check_mesh_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
                           broad_m: float = 0.05) -> SelfCollisionReport:
     """Self-collisions over a motion on the URDF's own geometry (coal; its collision elements,
     or its visual meshes for a robot whose capsules are fitted to them (HRP-4C); intersecting
-    meshes as convex hulls, :class:`imesh.robot.collision.MeshCollisionChecker`), for the body
-    pairs the capsules check. Only pairs whose capsules are closer than ``broad_m`` reach coal (the
-    capsules enclose the geometry, so farther pairs cannot touch).
+    meshes as convex hulls, :class:`imesh.robot.capsules.mesh_check.MeshCollisionChecker`), for
+    the body pairs the capsules check. Only pairs whose capsules are closer than ``broad_m`` reach
+    coal (the capsules enclose the geometry, so farther pairs cannot touch).
     """
     checker = MeshCollisionChecker(robot)
     model = robot.capsule_model()

@@ -23,10 +23,11 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+import trimesh
 from scipy.spatial import ConvexHull
 
 from ..core.cache import read_cached, write_cached
-from ..errors import ImeshError
+from ..core.lazy import optional
 from .config import RobotConfigError, SoleRectangle
 
 log = logging.getLogger(__name__)
@@ -232,8 +233,6 @@ def fit_primitive(points: np.ndarray) -> tuple[str, tuple[float, ...], np.ndarra
         (kind, dims, placement): kind in ``box|cylinder|sphere|capsule``, sizes (module
         conventions) and the (4, 4) pose of the primitive in the same frame as ``points``.
     """
-    import trimesh
-
     points = np.asarray(points, dtype=float)
     sub = _extreme_subset(points)
     candidates: list[tuple[str, tuple[float, ...], np.ndarray]] = []
@@ -390,11 +389,7 @@ def derive_sole(items: Sequence[GeometryItem], frame: str, normal: np.ndarray | 
 
 
 def _fcl():
-    try:
-        import fcl
-    except ImportError as exc:  # pragma: no cover - python-fcl is a dependency
-        raise ImeshError("collision queries need python-fcl: pip install python-fcl") from exc
-    return fcl
+    return optional("fcl", "pip install python-fcl", "a collision query")
 
 
 def fcl_geometry(shape: CollisionShape):

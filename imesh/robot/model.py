@@ -95,7 +95,7 @@ def load_robot(name_or_toml: str | os.PathLike | None = None,
     Args:
         name_or_toml: a robot name (a folder of ``robots/``: see :func:`list_robots`), a robot
             folder, or a path to a robot.toml. None: with ``urdf``, a configuration generated
-            from the URDF alone (:func:`imesh.robot.generate.generate_for_urdf`, cached);
+            from the URDF alone (:func:`imesh.robot.generate_files.generate_for_urdf`, cached);
             without, :data:`DEFAULT_ROBOT`.
         urdf: the model file for robots whose model the user provides (``source = "user"`` in
             robot.toml, e.g. hrp4c); for other robots it replaces the packaged file.

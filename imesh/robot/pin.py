@@ -8,20 +8,16 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from ..errors import ImeshError
+from ..core.lazy import optional
 
 
 def _pinocchio() -> ModuleType:
-    """The pinocchio module.
+    """The pinocchio module, imported on first use.
 
     Raises:
-        ImeshError: pinocchio is not installed (naming ``pip install pin``).
+        MissingDependencyError: pinocchio is not installed (naming ``pip install pin``).
     """
-    try:
-        import pinocchio
-    except ImportError as exc:
-        raise ImeshError("robot models need pinocchio: pip install pin") from exc
-    return pinocchio
+    return optional("pinocchio", "pip install pin", "a robot model")
 
 
 def frame_names(model) -> list[str]:

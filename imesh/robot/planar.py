@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.lazy import optional
 from ..errors import ImeshError
 
 
@@ -34,11 +35,7 @@ class ChainError(ImeshError):
 
 
 def _pin() -> ModuleType:
-    try:
-        import pinocchio
-    except ImportError as exc:  # pragma: no cover - pin is a dependency
-        raise ImeshError("motion reduction needs pinocchio: pip install pin") from exc
-    return pinocchio
+    return optional("pinocchio", "pip install pin", "motion reduction")
 
 
 @dataclass(frozen=True, eq=False)

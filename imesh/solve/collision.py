@@ -1,7 +1,7 @@
 """Self-collision rows of the whole-body solve (docs/collision.md).
 
 At every SQP iterate the signed distance of every checked capsule pair
-(:class:`imesh.robot.capsules.CapsuleModel`) is computed exactly at every frame; the samples
+(:class:`imesh.robot.capsules.model.CapsuleModel`) is computed exactly at every frame; the samples
 closer than the activation distance become linearized rows ``d + J dq_t + s_t >= margin``,
 elastic with one slack ``s_t >= 0`` per frame priced as an exact L1 penalty (as the sole and
 ground rows). The merit charges the same price on the exact violations, so the line search

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ..core.lazy import optional
 from ..errors import OptionError, SolverError
 
 log = logging.getLogger(__name__)
@@ -86,8 +87,7 @@ PIQP_RETRY_MAX_ITER = 250
 
 
 def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
-    import piqp
-
+    piqp = optional("piqp", "pip install piqp", "the whole-body QP (solver piqp)")
     def attempt(preconditioner_iter: int | None, max_iter: int):
         solver = piqp.SparseSolver()
         solver.settings.eps_abs = tol
@@ -118,8 +118,7 @@ def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
 
 
 def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True):
-    import clarabel
-
+    clarabel = optional("clarabel", "pip install clarabel", "the whole-body QP (solver clarabel)")
     finite_lo, finite_hi = np.isfinite(p.l), np.isfinite(p.u)
     bl, bu = np.isfinite(p.x_l), np.isfinite(p.x_u)
     eye = sp.identity(p.n, format="csc")
@@ -140,8 +139,7 @@ def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True):
 
 
 def _solve_osqp(p: QpProblem, tol: float, gap_check: bool = True):
-    import osqp
-
+    osqp = optional("osqp", "pip install osqp", "the whole-body QP (solver osqp)")
     eye = sp.identity(p.n, format="csc")
     A = sp.vstack([p.A, p.G, eye], format="csc")
     lo = np.concatenate([p.b, p.l, p.x_l])

@@ -50,7 +50,7 @@ def chromium_page(width: int = 1000, height: int = 700) -> Iterator[tuple[Page, 
         ImeshError: Playwright or Chromium missing (with the commands that install them).
     """
     sync_playwright = optional("playwright.sync_api", "pip install 'imesh[viz]'",
-                               "screenshots and videos of the viewer").sync_playwright
+                               "a screenshot or video of the viewer").sync_playwright
     exe = find_chromium()
     if exe is None:
         raise ImeshError("screenshots and videos of the viewer need Chromium: "

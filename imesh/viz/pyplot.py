@@ -14,5 +14,5 @@ def pyplot() -> ModuleType:
     Raises:
         MissingDependencyError: matplotlib is not installed (names ``pip install matplotlib``).
     """
-    optional("matplotlib", "pip install matplotlib", "figures").use("Agg")
-    return optional("matplotlib.pyplot", "pip install matplotlib", "figures")
+    optional("matplotlib", "pip install matplotlib", "a figure").use("Agg")
+    return optional("matplotlib.pyplot", "pip install matplotlib", "a figure")

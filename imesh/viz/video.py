@@ -37,7 +37,7 @@ def video_frames(n_motion: int, motion_fps: float, video_fps: float) -> np.ndarr
 
 
 def _ffmpeg_writer(path: Path, size: tuple[int, int], fps: float):
-    imageio_ffmpeg = optional("imageio_ffmpeg", "pip install 'imesh[viz]'", "videos")
+    imageio_ffmpeg = optional("imageio_ffmpeg", "pip install 'imesh[viz]'", "a video")
     writer = imageio_ffmpeg.write_frames(str(path), size, fps=fps, codec="libx264",
                                          pix_fmt_in="rgb24", pix_fmt_out="yuv420p",
                                          macro_block_size=2, quality=7,
@@ -63,8 +63,7 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
     Raises:
         ImeshError: Chromium, Playwright or imageio-ffmpeg missing (with how to install them).
     """
-    from PIL import Image
-
+    image = optional("PIL.Image", "pip install 'imesh[viz]'", "a video")
     fps = float(fps or scene["fps"])
     frames = video_frames(int(scene["frames"]), float(scene["fps"]), fps)
     bar = None
@@ -91,7 +90,7 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
                     url = page.evaluate(f"window.imeshViewer.setFrame({int(k)}), "
                                         "window.imeshViewer.snapshot('image/jpeg', 0.95)")
                     data = base64.b64decode(url.split(",", 1)[1])
-                    img = Image.open(io.BytesIO(data)).convert("RGB")
+                    img = image.open(io.BytesIO(data)).convert("RGB")
                     if img.size != size:
                         img = img.resize(size)
                     writer.send(np.asarray(img).tobytes())

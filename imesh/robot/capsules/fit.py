@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import trimesh
 from scipy.spatial import ConvexHull
 
 from ..collision import fibonacci_directions
@@ -58,8 +59,6 @@ def _capsule_on_axis(points: np.ndarray, axis: np.ndarray, exact: bool = False
         centre = centre + (far - centre) / (k + 1)
     if exact:
         try:
-            import trimesh  # large; imported only for the final, exact fit
-
             centre = np.asarray(trimesh.nsphere.minimum_nsphere(xy)[0], dtype=float)
         except Exception:  # degenerate projections: keep the approximation
             pass

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...core.lazy import optional
 from .bodies import robot_bodies
 from .model import CapsuleModel, body_key
 from .pairs import capsule_source
@@ -34,9 +35,7 @@ class MeshCollisionChecker:
     """
 
     def __init__(self, robot: Robot, ignored: set[tuple[str, str]] | None = None):
-        import coal  # installed with pinocchio; imported on use, as pinocchio is
-
-        self._coal = coal
+        self._coal = optional("coal", "pip install pin", "a collision check on the meshes")
         self.robot = robot
         #: the robot's capsule model when its ignore list is used, else None
         self.model: CapsuleModel | None
@@ -69,7 +68,7 @@ class MeshCollisionChecker:
         bodies = sorted(self.items)
         self.pairs = [(a, b) for k, a in enumerate(bodies) for b in bodies[k + 1:]
                       if body_key(a, b) not in ignored]
-        self._request = coal.DistanceRequest()
+        self._request = self._coal.DistanceRequest()
 
     def distances(self, q: np.ndarray, pairs=None) -> dict[tuple[str, str], float]:
         """Signed distance [m] of each body pair at ``q`` (minimum over their geometry;

@@ -71,7 +71,7 @@ def format_pairs_toml(robot_name: str, rule: dict[tuple[str, str], str],
                   "is too coarse)", f'source = "{source}"', ""]
     if split_excess is not None:
         lines += ["# a capsule is split in two when that cuts its excess over the geometry to "
-                  "this fraction", "# (imesh.robot.capsules.fit_capsules)",
+                  "this fraction", "# (imesh.robot.capsules.fit.fit_capsules)",
                   f"split_excess = {split_excess}", ""]
     lines.append("ignore = [")
     for (a, b), why in sorted(rule.items()):
