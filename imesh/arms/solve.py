@@ -365,8 +365,7 @@ def solve_arms(robot, markers: MarkerMotion, q_ref: np.ndarray, *,
                  robot.name, side, s["rho"], s["hand_rms_mm"], s["upper_arm_rms_deg"],
                  s["ms_per_frame"], config.solver, *s["frames_outside"].values())
     motion = RobotMotion(q=q_out, fps=markers.fps, robot=robot.name,
-                         joint_names=tuple(robot.joint_names),
-                         meta={"source": markers.source, "fit": f"arms-{config.solver}"})
+                         joint_names=tuple(robot.joint_names))
     return ArmsResult(motion=motion, arms=arms, config=config, source=markers.source or "")
 
 
@@ -436,9 +435,7 @@ def refine_arms(robot, robot_motion: RobotMotion, markers: MarkerMotion,
     result = solve_arms(robot, markers, robot_motion.q, config=config)
     before = {side: arm_errors(a.arm, a.targets, robot_motion.q, a.limits, robot_motion.fps)
               for side, a in result.arms.items()}
-    motion = dataclasses.replace(result.motion, meta={**robot_motion.meta,
-                                                      "fit": f"{robot_motion.meta.get('fit', '')}"
-                                                             f"+arms-{config.solver}"})
+    motion = result.motion
     report = result.report()
     report["mode"] = "refine"
     report["before"] = before  # the input motion's arms against the same targets

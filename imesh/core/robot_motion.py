@@ -18,6 +18,7 @@ from typing import Protocol
 import numpy as np
 
 from ..errors import InvalidMotionError, OptionError
+from .motion import MarkerMotion
 
 log = logging.getLogger(__name__)
 
@@ -46,14 +47,16 @@ class RobotMotion:
         fps: frames per second [1/s].
         robot: robot name (``Robot.name``, e.g. ``"jvrc1"``).
         joint_names: (nq - 7,) joint names in the order of ``q[:, 7:]``.
-        meta: free-form provenance (source clip, fitting settings), not saved to files.
+        adapted: the adapted human markers the motion was fitted to (T frames), when known:
+            an imesh .npz stores them and the evaluator's ``marker_rms_mm`` measures against
+            them; None otherwise.
     """
 
     q: np.ndarray
     fps: float
     robot: str
     joint_names: tuple[str, ...]
-    meta: dict = dataclasses.field(default_factory=dict)
+    adapted: MarkerMotion | None = None
 
     def __post_init__(self) -> None:
         where = f"robot motion ({self.robot or 'unnamed robot'})"
@@ -155,7 +158,8 @@ class RobotMotion:
         if q.shape[0] == 0:
             raise OptionError("frame range", (start, stop),
                               f"a non-empty range within 0..{self.n_frames}")
-        return dataclasses.replace(self, q=q)
+        adapted = None if self.adapted is None else self.adapted.frames(start, stop)
+        return dataclasses.replace(self, q=q, adapted=adapted)
 
     @classmethod
     def from_parts(cls, base_position: np.ndarray, base_quat_xyzw: np.ndarray,

@@ -4,7 +4,7 @@ Motion files (:func:`load_motion_file`):
 
 - imesh robot motions (``.npz``/``.csv`` written by
   :func:`imesh.io.robot_motion.save_robot_motion`), including files of other tools written in that
-  layout; the adapted markers an imesh ``.npz`` carries go to ``motion.meta["adapted_markers"]``;
+  layout; the adapted markers an imesh ``.npz`` carries go to ``motion.adapted``;
 - plain ``.npz`` arrays: ``joint_names`` (n,) str, ``joint_positions`` (T, n) [rad],
   ``base_position`` (T, 3) [m] (world, Z up, ground z = 0), the base orientation as
   ``base_quat_xyzw`` or ``base_quat_wxyz`` (T, 4) (the key names the order), ``fps`` (or pass
@@ -70,11 +70,11 @@ def load_motion_file(path: str | os.PathLike, robot, fps: float | None = None) -
         if adapted.n_frames != motion.n_frames:
             raise MotionFileError(str(path), f"adapted_positions_m has {adapted.n_frames} "
                                   f"frames, the motion {motion.n_frames}")
-        motion = dataclasses.replace(motion, meta={**motion.meta, "adapted_markers": adapted})
+        motion = dataclasses.replace(motion, adapted=adapted)
     if fps is not None and abs(fps - motion.fps) > 1e-6 * motion.fps:
         log.warning("%s: the file says %g fps; using %g fps as asked", path, motion.fps, fps)
         motion = RobotMotion(q=motion.q, fps=fps, robot=motion.robot,
-                             joint_names=motion.joint_names, meta=motion.meta)
+                             joint_names=motion.joint_names, adapted=motion.adapted)
     return motion
 
 

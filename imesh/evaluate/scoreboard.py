@@ -181,7 +181,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         adapted: the adapted markers the robot fitted (MarkerMotion or an imesh marker .npz,
             ``imesh retarget --markers``) for ``marker_rms_mm``.
         seconds: wall time [s] per pipeline stage (e.g. ``RetargetResult.seconds``) for
-            ``seconds_per_frame``; default ``motion.meta["seconds"]`` if present.
+            ``seconds_per_frame``; None: that metric is null.
         physics_config: a :class:`imesh.physics.PhysicsConfig`.
         support_config: thresholds of the support detection.
         plot: write the DART run's figure here (physics only).
@@ -226,7 +226,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
             out[name] = _missing(name, "physics check not run (physics=True / --physics)")
 
     out["seconds_per_frame"] = _seconds_metric(
-        seconds if seconds is not None else motion.meta.get("seconds"), timing, T)
+        seconds, timing, T)
     return {name: _clean(out[name]) for name in METRIC_NAMES}
 
 
@@ -236,8 +236,8 @@ def _marker_metrics(robot, motion: RobotMotion, source, adapted, resample: bool
     arranged source without them) and ``close_pair_error`` (against the arranged source)."""
     src = arranged_source(source, robot) if source is not None else None
     ref_markers, ref_kind = None, ""
-    if adapted is None and motion.meta.get("adapted_markers") is not None:
-        adapted = motion.meta["adapted_markers"]  # stored in the motion file by retarget
+    if adapted is None and motion.adapted is not None:
+        adapted = motion.adapted  # stored in the motion file by retarget
     if adapted is not None:
         ref_markers, ref_kind = read_markers(adapted), "adapted markers"
     elif src is not None:

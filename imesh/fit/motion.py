@@ -179,8 +179,7 @@ def _result(robot, markers: MarkerMotion, targets: CompiledTargets, config: FitC
         kmax = np.where(counts > 0, np.nanmax(np.where(np.isfinite(kp_err), kp_err, -1.0),
                                               axis=1), np.nan)
     motion = RobotMotion(q=out.q, fps=markers.fps, robot=robot.name,
-                         joint_names=tuple(robot.joint_names),
-                         meta={"source": markers.source, "fit": "dls"})
+                         joint_names=tuple(robot.joint_names))
     return FitResult(
         motion=motion, keypoints=targets.keypoints, directions=targets.directions,
         keypoint_error_m=kp_err, keypoint_rms_m=rms, keypoint_max_m=kmax,

@@ -371,7 +371,7 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
                "joints": figure_joints(t, robot, q, fps)}
     if support.any():
         figures["torques"] = figure_torques(t, reference_dynamics(robot, q, v, a, support))
-    adapted = motion.meta.get("adapted_markers")
+    adapted = motion.adapted
     if adapted is not None:
         figures["markers"] = figure_markers(t, keypoint_motion(robot, q, fps), adapted)
     page = None

@@ -207,7 +207,7 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
         robot: an :class:`imesh.robot.Robot`.
         motion: its :class:`imesh.core.robot_motion.RobotMotion` (T frames).
         markers: the adapted markers the robot fitted (a MarkerMotion frame-aligned with the
-            motion), or None: ``motion.meta["adapted_markers"]`` (stored in imesh motion files).
+            motion), or None: ``motion.adapted`` (stored in imesh motion files).
         source: the human clip (a path or MarkerMotion), drawn beside the robot: arranged for
             the robot's size, resampled to the motion's fps and shifted by the lead-in.
         title: page title.
@@ -241,7 +241,7 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
     }
 
     if markers is None:
-        markers = motion.meta.get("adapted_markers")
+        markers = motion.adapted
     lead = (0, 0)
     if markers is not None and markers.n_frames == T:
         scene["markers"] = _marker_entry(markers.positions_m, markers.names,
