@@ -25,7 +25,9 @@ ROBOTS = ("jvrc1", "g1", "hrp4c")
 
 def row(robot, result, seconds: float, balanced: bool) -> dict:
     from imesh.balance import zmp_state
-    from imesh.metrics.kinematics import foot_skid, limit_violations, sole_tracks
+    from imesh.metrics.limits import limit_violations
+    from imesh.metrics.skid import foot_skid
+    from imesh.metrics.soles import sole_tracks
 
     motion = result.motion
     support = result.support.support

@@ -107,8 +107,8 @@ def support_feet(robot, result) -> dict:
     from imesh.contacts.phases import SIDES
     from imesh.fit import FitConfig
     from imesh.fit.limits import joint_limits
-    from imesh.metrics.kinematics import sole_tracks
     from imesh.metrics.markers import keypoint_motion, marker_rms_mm
+    from imesh.metrics.soles import sole_tracks
 
     motion = result.motion
     kp = keypoint_motion(robot, motion.q, motion.fps)

@@ -155,7 +155,7 @@ def reference_demand(robot, motion) -> dict:
     the torque limits, whether the first frame can be held still (the CoM above the support
     polygon of the soles on the ground), and the lowest sole corner over the motion."""
     from imesh.contacts.phases import SIDES
-    from imesh.metrics.kinematics import inside_polygon, support_polygons
+    from imesh.metrics.polygon import inside_polygon, support_polygons
     from imesh.physics import PhysicsConfig
     from imesh.physics.reference import build_reference
     from imesh.physics.simulate import feedforward

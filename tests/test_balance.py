@@ -10,7 +10,8 @@ from conftest import load_test_robot, mocap_path
 import imesh
 from imesh.balance import BalanceConfig, FlightPhaseError, nishiwaki_correction
 from imesh.contacts.phases import detect_contacts, runs
-from imesh.metrics.kinematics import motion_derivatives, zmp_trajectory
+from imesh.metrics.derivatives import motion_derivatives
+from imesh.metrics.zmp import zmp_trajectory
 from imesh.morph.adapt import prepare_markers
 from imesh.pipeline.retarget import RetargetConfig, retarget
 from imesh.robot.configuration import GRAVITY

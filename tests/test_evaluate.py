@@ -26,16 +26,12 @@ from imesh.metrics.collision import (
     check_ground,
     check_self_collisions,
 )
-from imesh.metrics.kinematics import (
-    convex_hull_2d,
-    detect_support,
-    foot_skid,
-    inside_polygon,
-    limit_violations,
-    motion_derivatives,
-    polygon_centroid,
-    sole_tracks,
-)
+from imesh.metrics.derivatives import motion_derivatives
+from imesh.metrics.limits import limit_violations
+from imesh.metrics.polygon import convex_hull_2d, inside_polygon, polygon_centroid
+from imesh.metrics.skid import foot_skid
+from imesh.metrics.soles import sole_tracks
+from imesh.metrics.support import detect_support
 from imesh.robot import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -119,7 +115,7 @@ def test_feet_5_cm_below_ground_are_flagged(jvrc1):
 def test_floating_robot_is_flagged(jvrc1):
     q = standing_q(jvrc1, 30)
     q[:, 2] += 0.05
-    from imesh.metrics.kinematics import planted_feet
+    from imesh.metrics.support import planted_feet
 
     soles = sole_tracks(jvrc1, q, 30.0)
     ground = check_ground(jvrc1, q, planted=planted_feet(soles))

@@ -176,13 +176,10 @@ def test_workers_option_names_what_is_valid():
 def _border_checks(robot, written, borders) -> None:
     """The ZMP inside the support polygon and the joint accelerations within their limits in
     the 12 frames around each border of the written motion."""
-    from imesh.metrics.kinematics import (
-        detect_support,
-        motion_derivatives,
-        sole_tracks,
-        zmp_report,
-        zmp_trajectory,
-    )
+    from imesh.metrics.derivatives import motion_derivatives
+    from imesh.metrics.soles import sole_tracks
+    from imesh.metrics.support import detect_support
+    from imesh.metrics.zmp import zmp_report, zmp_trajectory
 
     q, fps = written.q, written.fps
     soles = sole_tracks(robot, q, fps)

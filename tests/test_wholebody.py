@@ -231,8 +231,8 @@ def test_torque_rows_match_finite_differences(robot, supported):
     step is below 0.2 % of the change (second order), not a fraction of it."""
     from scipy.spatial.transform import Rotation
 
+    from imesh.metrics.derivatives import motion_derivatives
     from imesh.metrics.dynamics import reference_dynamics
-    from imesh.metrics.kinematics import motion_derivatives
     from imesh.solve.torque import _linearize_split
 
     q = _sway(robot, T=12, amplitude=0.6)
@@ -270,8 +270,10 @@ def test_torque_rows_match_finite_differences(robot, supported):
 def test_torques_also_hold_with_the_evaluators_support(robot, mocap):
     """The solve's support detection is the evaluator's (same soles, same thresholds), and
     where it counts fewer feet than the plan the torques are held with both splits."""
+    from imesh.metrics.derivatives import motion_derivatives
     from imesh.metrics.dynamics import reference_dynamics
-    from imesh.metrics.kinematics import detect_support, motion_derivatives, sole_tracks
+    from imesh.metrics.soles import sole_tracks
+    from imesh.metrics.support import detect_support
     from imesh.solve.torque import evaluator_support
 
     q = _sway(robot, T=20, amplitude=0.6)

@@ -22,12 +22,9 @@ from ..contacts.phases import runs
 from ..core.checks import require_finite
 from ..errors import ImeshError, OptionError, SolverError
 from ..human.filtering import lowpass_array
-from ..metrics.kinematics import (
-    motion_derivatives,
-    sole_tracks,
-    zmp_report,
-    zmp_trajectory,
-)
+from ..metrics.derivatives import motion_derivatives
+from ..metrics.soles import sole_tracks
+from ..metrics.zmp import zmp_report, zmp_trajectory
 from .nishiwaki import nishiwaki_correction
 
 log = logging.getLogger(__name__)

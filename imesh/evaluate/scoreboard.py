@@ -33,22 +33,14 @@ from ..metrics.collision import (
     check_capsule_collisions,
     check_ground,
 )
+from ..metrics.derivatives import motion_derivatives
 from ..metrics.dynamics import MU, reference_dynamics
-from ..metrics.kinematics import (
-    SKID_THRESHOLD_MM,
-    SoleTracks,
-    SupportDetection,
-    detect_support,
-    foot_skid,
-    limit_violations,
-    motion_derivatives,
-    planted_feet,
-    sole_deviation,
-    sole_tracks,
-    zmp_report,
-    zmp_trajectory,
-)
+from ..metrics.limits import limit_violations
 from ..metrics.markers import close_pair_error, keypoint_motion, marker_rms_mm
+from ..metrics.skid import SKID_THRESHOLD_MM, foot_skid, sole_deviation
+from ..metrics.soles import SoleTracks, sole_tracks
+from ..metrics.support import SupportDetection, detect_support, planted_feet
+from ..metrics.zmp import zmp_report, zmp_trajectory
 from ..physics import PhysicsConfig, simulate_motion
 from ..viz.physics import plot_physics
 from .motion_files import align_markers, arranged_source, read_markers

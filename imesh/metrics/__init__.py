@@ -2,8 +2,14 @@
 
 - :mod:`imesh.metrics.markers`: ``close_pair_error``, ``marker_rms_mm`` (marker level) and the
   robot's key points as a marker motion.
-- :mod:`imesh.metrics.kinematics`: support phases of a robot motion from its soles, the
-  multibody ZMP against the support polygon and the desired ZMP, foot skid, joint limits.
+- :mod:`imesh.metrics.derivatives`: velocities and accelerations of a robot motion (pinocchio
+  convention, central differences).
+- :mod:`imesh.metrics.soles`: the soles' corners and centres over a motion.
+- :mod:`imesh.metrics.support`: support phases of a robot motion from its soles.
+- :mod:`imesh.metrics.polygon`: the support polygon and its 2-D geometry.
+- :mod:`imesh.metrics.zmp`: the multibody ZMP against the support polygon and the desired ZMP.
+- :mod:`imesh.metrics.skid`: foot skid and sole deviation of the support feet.
+- :mod:`imesh.metrics.limits`: joint position, velocity and acceleration limit violations.
 - :mod:`imesh.metrics.collision`: self-collision on the capsules the whole-body solve keeps
   apart (``self_collision_frames``; docs/collision.md), on the URDF's own geometry (coal) and
   on the primitive proxies (python-fcl), ground penetration / floating.
@@ -21,17 +27,8 @@ from .collision import (
     check_mesh_collisions,
     check_self_collisions,
 )
-from .kinematics import (
-    SupportDetection,
-    desired_zmp,
-    detect_support,
-    foot_skid,
-    limit_violations,
-    motion_derivatives,
-    sole_tracks,
-    zmp_report,
-    zmp_trajectory,
-)
+from .derivatives import motion_derivatives
+from .limits import limit_violations
 from .markers import (
     CLOSE_PAIR_FRACTION,
     close_pair_error,
@@ -39,6 +36,10 @@ from .markers import (
     marker_rms_mm,
     non_adjacent_pairs,
 )
+from .skid import foot_skid
+from .soles import sole_tracks
+from .support import SupportDetection, detect_support
+from .zmp import desired_zmp, zmp_report, zmp_trajectory
 
 __all__ = [
     "CLOSE_PAIR_FRACTION", "SELF_COLLISION_DEPTH_M", "GroundReport", "SelfCollisionChecker",

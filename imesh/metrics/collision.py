@@ -351,7 +351,7 @@ def check_ground(robot, q: np.ndarray, planted: np.ndarray | None = None,
     Args:
         robot: an :class:`imesh.robot.Robot`.
         q: (T, nq) float configurations.
-        planted: (T, 2) bool feet planted (e.g. :func:`imesh.metrics.kinematics.planted_feet`)
+        planted: (T, 2) bool feet planted (e.g. :func:`imesh.metrics.support.planted_feet`)
             for the floating check; None skips it.
         float_m: lowest point above this while a foot is planted is floating [m].
     """

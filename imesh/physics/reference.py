@@ -11,14 +11,10 @@ from scipy.interpolate import CubicSpline
 
 from ..contacts.phases import SIDES
 from ..metrics.collision import LowestPoint
-from ..metrics.kinematics import (
-    SoleTracks,
-    SupportDetection,
-    detect_support,
-    motion_derivatives,
-    sole_tracks,
-    zmp_trajectory,
-)
+from ..metrics.derivatives import motion_derivatives
+from ..metrics.soles import SoleTracks, sole_tracks
+from ..metrics.support import SupportDetection, detect_support
+from ..metrics.zmp import zmp_trajectory
 
 log = logging.getLogger(__name__)
 

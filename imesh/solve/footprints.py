@@ -15,7 +15,8 @@ import numpy as np
 
 from ..contacts.phases import SIDES, runs
 from ..contacts.support import middle_half
-from ..metrics.kinematics import SoleTracks, convex_hull_2d
+from ..metrics.polygon import convex_hull_2d
+from ..metrics.soles import SoleTracks
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,7 +152,7 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
 
 def footprint_tracks(footprints: list[Footprint], n_frames: int, fps: float) -> SoleTracks:
     """Sole tracks of the planned support: the footprints' corners and centres in their phases,
-    NaN elsewhere (for :func:`imesh.metrics.kinematics.desired_zmp` and the polygons)."""
+    NaN elsewhere (for :func:`imesh.metrics.zmp.desired_zmp` and the polygons)."""
     corners = {s: np.full((n_frames, 4, 3), np.nan) for s in SIDES}
     centers = {s: np.full((n_frames, 3), np.nan) for s in SIDES}
     for f in footprints:

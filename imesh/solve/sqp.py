@@ -24,7 +24,8 @@ from ..contacts.phases import SIDES, runs
 from ..errors import SolverError
 from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh
-from ..metrics.kinematics import desired_zmp, motion_derivatives
+from ..metrics.derivatives import motion_derivatives
+from ..metrics.zmp import desired_zmp
 from .collision import collision_violation, linearize_collisions
 from .config import WholeBodyConfig
 from .contacts import sole_errors

@@ -18,7 +18,7 @@ Rows are a working set: only joints and frames whose torque is above ``ACTIVE`` 
 get one (a walk has a handful); the exact torques are evaluated again at every trial step in
 the merit, which prices what is left above the limit.
 
-Where the evaluator's support detection (:func:`~imesh.metrics.kinematics.detect_support`,
+Where the evaluator's support detection (:func:`~imesh.metrics.support.detect_support`,
 which needs a slow sole) does not count a planned support foot, at a fast touch-down, the
 frame is also held with the feet it does count (G1 wave: 0.95 with the planned support, 1.66
 with the evaluator's, which leaves out the landing foot at one frame). Leaving out every foot
@@ -36,7 +36,8 @@ from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES
 from ..metrics.dynamics import net_torque_map
-from ..metrics.kinematics import SoleTracks, detect_support
+from ..metrics.soles import SoleTracks
+from ..metrics.support import detect_support
 from .operators import gradient_operator
 
 #: torques above this fraction of the (margin-reduced) limit get a row
@@ -82,7 +83,7 @@ def linearize_torques(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, fps: f
     Args:
         robot: the robot.
         q: (T, nq) configurations; v, a: (T, nv) the evaluator's velocities and
-            accelerations of q (:func:`imesh.metrics.kinematics.motion_derivatives`).
+            accelerations of q (:func:`imesh.metrics.derivatives.motion_derivatives`).
         fps: frame rate [1/s].
         support: (T, 2) bool planned support [left, right].
         sole_poses: (T, 2, 4, 4) world poses of the sole frames [left, right].
@@ -164,7 +165,7 @@ def _linearize_split(robot, q, v, a, fps, support, sole_jacobians, limit, tau
 def _derivative_blocks(q: np.ndarray, v: np.ndarray, fps: float
                        ) -> tuple[np.ndarray, np.ndarray]:
     """(T, W, nv, nv) ``dv_t / d dq_{t+o}`` and ``da_t / d dq_{t+o}``, o = -REACH..REACH, of
-    the evaluator's finite differences (:func:`imesh.metrics.kinematics.motion_derivatives`).
+    the evaluator's finite differences (:func:`imesh.metrics.derivatives.motion_derivatives`).
 
     Joints: the weights of G and G G. Base (linear ``R_t^T (p_n - p_p) / span``, angular
     ``log(R_p^T R_n) / span`` with p, n the neighbours): a tangent update moves ``p_s`` by

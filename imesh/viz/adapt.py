@@ -11,15 +11,12 @@ from ..contacts.phases import SIDES
 from ..errors import ImeshError
 from ..io.atomic import atomic_path
 from ..mesh.bones import bone_lengths
+from ..metrics.derivatives import motion_derivatives
 from ..metrics.dynamics import reference_dynamics
-from ..metrics.kinematics import (
-    desired_zmp,
-    detect_support,
-    motion_derivatives,
-    sole_tracks,
-    support_polygons,
-    zmp_trajectory,
-)
+from ..metrics.polygon import support_polygons
+from ..metrics.soles import sole_tracks
+from ..metrics.support import detect_support
+from ..metrics.zmp import desired_zmp, zmp_trajectory
 from .pyplot import pyplot
 
 

@@ -29,16 +29,13 @@ from ..evaluate.table import _fmt as fmt
 from ..evaluate.table import _note
 from ..evaluate.verify import Gates, failed_gates
 from ..io.atomic import atomic_path
+from ..metrics.derivatives import motion_derivatives
 from ..metrics.dynamics import reference_dynamics
-from ..metrics.kinematics import (
-    detect_support,
-    motion_derivatives,
-    sole_tracks,
-    support_polygons,
-    zmp_report,
-    zmp_trajectory,
-)
 from ..metrics.markers import keypoint_motion
+from ..metrics.polygon import support_polygons
+from ..metrics.soles import sole_tracks
+from ..metrics.support import detect_support
+from ..metrics.zmp import zmp_report, zmp_trajectory
 from .html import viewer_html
 from .pyplot import pyplot
 from .scene import build_scene
@@ -74,7 +71,7 @@ def figure_zmp(t: np.ndarray, zmp, polygons, support: np.ndarray) -> str:
 
     Args:
         t: (T,) float [s] frame times.
-        zmp: a :class:`imesh.metrics.kinematics.ZmpReport`.
+        zmp: a :class:`imesh.metrics.zmp.ZmpReport`.
         polygons: per frame the (K, 2) support polygon or None.
         support: (T, 2) bool feet in support.
     """

@@ -28,14 +28,11 @@ from ..evaluate.scoreboard import metric_values
 from ..human.markerset import STANDARD_BONE_NAMES
 from ..mesh.interaction import tetrahedralize
 from ..metrics.collision import SELF_COLLISION_DEPTH_M, SelfCollisionChecker
-from ..metrics.kinematics import (
-    detect_support,
-    motion_derivatives,
-    sole_tracks,
-    support_polygons,
-    zmp_report,
-    zmp_trajectory,
-)
+from ..metrics.derivatives import motion_derivatives
+from ..metrics.polygon import support_polygons
+from ..metrics.soles import sole_tracks
+from ..metrics.support import detect_support
+from ..metrics.zmp import zmp_report, zmp_trajectory
 from ..robot.visuals import visual_elements
 
 log = logging.getLogger(__name__)
@@ -296,7 +293,7 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
 
 def _limit_frames(robot, q: np.ndarray, fps: float) -> list[list[str]]:
     """Per frame the joints outside their position, velocity or acceleration limit (the
-    evaluator's tests, :func:`imesh.metrics.kinematics.limit_violations`)."""
+    evaluator's tests, :func:`imesh.metrics.limits.limit_violations`)."""
     qj = q[:, 7:]
     over = (qj > robot.q_upper + 1e-6) | (qj < robot.q_lower - 1e-6)
     if len(qj) > 1:
