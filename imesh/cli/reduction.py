@@ -14,7 +14,7 @@ from ..io import load_motion
 from ..io.atomic import write_json
 from ..io.reduction import save_reduction
 from ..physics.reduction import DartConfig, simulate_planar
-from ..reduction.optimize import ReductionConfig
+from ..reduction.config import ReductionConfig
 from ..reduction.pipeline import CycleConfig, reduce_motion
 from ..viz.reduction import plot_all, plot_dart
 

@@ -14,6 +14,12 @@ Pipeline (each step is a public function):
     pca_basis(Theta, r)           SVD reduction (eqs 23-27)                        (pca)
     MotionOptimizer(...).run()    stages (I) and (II) (eqs 4-13, 28-34)            (optimize)
 
+The optimizer is split by concept: its settings (``config``), the design parameters and their
+restoration (eqs 26-27, ``parametrization``), the evaluation function and its residuals
+(eqs 4-12, 31-34, ``objective``), their derivatives (eqs 13, 28, ``linearization``), the stage
+(II) projections (eqs 8-11, ``projection``), the iterations (``optimize``) and what they hand
+back (``result``).
+
 ``reduce_motion(motion, robot)`` runs them all. This package calls neither pinocchio nor DART:
 the chain's rigid-body dynamics are behind :mod:`imesh.robot.planar`, the DART check is
 :mod:`imesh.physics.reduction`. The 3D robots' sagittal joints are named in their
@@ -28,7 +34,9 @@ _LAZY = {
     **dict.fromkeys(("ContactSchedule", "contact_schedule"), ".contact"),
     **dict.fromkeys(("CyclicMotion", "make_cyclic"), ".cyclic"),
     "derivative_matrices": ".diff",
-    **dict.fromkeys(("MotionOptimizer", "OptimizationResult", "ReductionConfig"), ".optimize"),
+    "ReductionConfig": ".config",
+    "MotionOptimizer": ".optimize",
+    "OptimizationResult": ".result",
     **dict.fromkeys(("PCABasis", "pca_basis"), ".pca"),
     **dict.fromkeys(("CycleConfig", "ReductionResult", "reduce_motion"),
                     ".pipeline"),

@@ -20,10 +20,12 @@ from ..errors import OptionError
 from ..robot import ROBOTS_DIR, Robot, load_robot, load_robot_config, robot_names
 from .capture import SagittalCapture, sagittal_capture
 from .chain import JOINTS, PlanarChain
+from .config import ReductionConfig
 from .contact import ContactSchedule, contact_schedule
 from .cyclic import CyclicMotion, make_cyclic
 from .dynamics import ChainDynamics, chain_from_robot, planar_biped_chain
-from .optimize import IterationRecord, MotionOptimizer, OptimizationResult, ReductionConfig
+from .optimize import MotionOptimizer
+from .result import IterationRecord, OptimizationResult
 
 log = logging.getLogger(__name__)
 
