@@ -69,6 +69,8 @@ class Parametrization:
         return phi
 
     def split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Trajectory parameters (r, nb) and torque parameters (6, nbu) of a flat vector
+        (trajectory parameters first, harmonic-major: the Jacobian's column order)."""
         nb, r = self.fourier.shape[1], self.basis_matrix.shape[1]
         pt = x[: nb * r].reshape(nb, r).T
         pu = x[nb * r:].reshape(self.fourier_u.shape[1], 6).T
@@ -79,4 +81,5 @@ class Parametrization:
         return torque.T @ self.fourier_u
 
     def to_torque(self, params_u: np.ndarray) -> np.ndarray:
+        """(n, 6) torques of (6, nbu) band-limited torque parameters."""
         return (params_u @ self.fourier_u.T).T
