@@ -20,19 +20,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from . import toml_fields as toml
 from .errors import RobotConfigError
-from .toml_fields import (
-    check_keys,
-    flag,
-    joint_numbers,
-    name_list,
-    name_pairs,
-    number,
-    read_toml,
-    string,
-    table,
-    vector,
-)
 
 #: The robot folders shipped with imesh (``<repo>/robots``; each holds robot.toml, markers.toml).
 ROBOTS_DIR: Path = Path(__file__).resolve().parents[2] / "robots"
@@ -215,98 +204,99 @@ def load_robot_config(path: str | os.PathLike) -> RobotConfig:
         RobotConfigError: unreadable file, unknown or missing key, wrong type, invalid value.
     """
     path = Path(path)
-    data = read_toml(path)
-    check_keys(path, data, "", _TOP_KEYS)
-    name = string(path, data, "name", "")
-    licence = string(path, data, "licence", "")
-    description = string(path, data, "description", "", required=False)
+    data = toml.read_toml(path)
+    toml.check_keys(path, data, "", _TOP_KEYS)
+    name = toml.string(path, data, "name", "")
+    licence = toml.string(path, data, "licence", "")
+    description = toml.string(path, data, "description", "", required=False)
     dof = data.get("dof")
     if dof is not None and (isinstance(dof, bool) or not isinstance(dof, int) or dof <= 0):
         raise RobotConfigError(f"must be a positive integer, got {dof!r}", path=path, key="dof")
 
-    m = table(path, data, "model", required=True)
-    check_keys(path, m, "model", _MODEL_KEYS)
-    source = string(path, m, "source", "model")
+    m = toml.table(path, data, "model", required=True)
+    toml.check_keys(path, m, "model", _MODEL_KEYS)
+    source = toml.string(path, m, "source", "model")
     if source not in _SOURCES:
         raise RobotConfigError(f"unknown model source {source!r}", path=path, key="model.source",
                                valid=_SOURCES)
-    package = string(path, m, "package", "model", required=False)
-    distribution = string(path, m, "distribution", "model", required=False)
-    urdf = string(path, m, "urdf", "model")
+    package = toml.string(path, m, "package", "model", required=False)
+    distribution = toml.string(path, m, "distribution", "model", required=False)
+    urdf = toml.string(path, m, "urdf", "model")
     if source == "package" and not (package or distribution):
         raise RobotConfigError("source = \"package\" needs package (import name) or "
                                "distribution (pip name)", path=path, key="model.package")
     model = ModelSource(source=source, package=package, distribution=distribution, urdf=urdf,
-                        install=string(path, m, "install", "model", required=False),
-                        url=string(path, m, "url", "model", required=False))
+                        install=toml.string(path, m, "install", "model", required=False),
+                        url=toml.string(path, m, "url", "model", required=False))
 
-    joints = table(path, data, "joints")
-    check_keys(path, joints, "joints", ("fixed",))
-    fixed = name_list(path, joints.get("fixed", []), "joints.fixed")
+    joints = toml.table(path, data, "joints")
+    toml.check_keys(path, joints, "joints", ("fixed",))
+    fixed = toml.name_list(path, joints.get("fixed", []), "joints.fixed")
 
-    frames = table(path, data, "frames", required=True)
-    check_keys(path, frames, "frames", _FRAME_KEYS)
-    waist = string(path, frames, "waist", "frames")
-    feet = {side: string(path, frames, f"{side}_foot", "frames") for side in SIDES}
+    frames = toml.table(path, data, "frames", required=True)
+    toml.check_keys(path, frames, "frames", _FRAME_KEYS)
+    waist = toml.string(path, frames, "waist", "frames")
+    feet = {side: toml.string(path, frames, f"{side}_foot", "frames") for side in SIDES}
 
     soles: dict[str, SoleRectangle] = {}
-    sole_tables = table(path, data, "soles")
-    check_keys(path, sole_tables, "soles", SIDES)
+    sole_tables = toml.table(path, data, "soles")
+    toml.check_keys(path, sole_tables, "soles", SIDES)
     for side, tab in sole_tables.items():
         key = f"soles.{side}"
         if not isinstance(tab, dict):
             raise RobotConfigError("must be a table", path=path, key=key)
-        check_keys(path, tab, key, _SOLE_KEYS)
-        half = vector(path, tab.get("half_extents"), f"{key}.half_extents", 2)
+        toml.check_keys(path, tab, key, _SOLE_KEYS)
+        half = toml.vector(path, tab.get("half_extents"), f"{key}.half_extents", 2)
         if np.any(half <= 0):
             raise RobotConfigError("half extents must be positive", path=path,
                                    key=f"{key}.half_extents")
-        normal = vector(path, tab.get("normal", [0.0, 0.0, 1.0]), f"{key}.normal", 3)
+        normal = toml.vector(path, tab.get("normal", [0.0, 0.0, 1.0]), f"{key}.normal", 3)
         if np.linalg.norm(normal) < 1e-9:
             raise RobotConfigError("normal must be non-zero", path=path, key=f"{key}.normal")
         soles[side] = SoleRectangle(
-            frame=string(path, tab, "frame", key, required=False, default=feet[side]),
-            center=vector(path, tab.get("center"), f"{key}.center", 3),
+            frame=toml.string(path, tab, "frame", key, required=False, default=feet[side]),
+            center=toml.vector(path, tab.get("center"), f"{key}.center", 3),
             half_extents=half, normal=normal / np.linalg.norm(normal))
 
-    nominal = joint_numbers(path, table(path, data, "nominal"), "nominal")
+    nominal = toml.joint_numbers(path, toml.table(path, data, "nominal"), "nominal")
 
-    lim = table(path, data, "limits")
-    check_keys(path, lim, "limits", _LIMIT_KEYS)
+    lim = toml.table(path, data, "limits")
+    toml.check_keys(path, lim, "limits", _LIMIT_KEYS)
     position: dict[str, tuple[float, float]] = {}
     for j, pair in dict(lim.get("position", {})).items():
-        lo, hi = vector(path, pair, f"limits.position.{j}", 2)
+        lo, hi = toml.vector(path, pair, f"limits.position.{j}", 2)
         if not lo < hi:
             raise RobotConfigError(f"lower {lo} must be below upper {hi}", path=path,
                                    key=f"limits.position.{j}")
         position[j] = (float(lo), float(hi))
     limits = LimitsConfig(
-        acceleration_default=number(path, lim.get("acceleration_default", DEFAULT_ACCELERATION),
-                                     "limits.acceleration_default", positive=True),
-        acceleration=MappingProxyType(joint_numbers(path, lim.get("acceleration", {}),
-                                                     "limits.acceleration", positive=True)),
-        velocity=MappingProxyType(joint_numbers(path, lim.get("velocity", {}), "limits.velocity",
-                                                 positive=True)),
-        effort=MappingProxyType(joint_numbers(path, lim.get("effort", {}), "limits.effort",
-                                               positive=True)),
+        acceleration_default=toml.number(
+            path, lim.get("acceleration_default", DEFAULT_ACCELERATION),
+            "limits.acceleration_default", positive=True),
+        acceleration=MappingProxyType(toml.joint_numbers(path, lim.get("acceleration", {}),
+                                                          "limits.acceleration", positive=True)),
+        velocity=MappingProxyType(toml.joint_numbers(path, lim.get("velocity", {}),
+                                                      "limits.velocity", positive=True)),
+        effort=MappingProxyType(toml.joint_numbers(path, lim.get("effort", {}), "limits.effort",
+                                                    positive=True)),
         position=MappingProxyType(position),
-        source=string(path, lim, "source", "limits", required=False),
+        source=toml.string(path, lim, "source", "limits", required=False),
     )
 
-    col = table(path, data, "collision")
-    check_keys(path, col, "collision", _COLLISION_KEYS)
+    col = toml.table(path, data, "collision")
+    toml.check_keys(path, col, "collision", _COLLISION_KEYS)
     collision = CollisionConfig(
-        use_visual=name_list(path, col.get("use_visual", []), "collision.use_visual"),
-        skip=name_list(path, col.get("skip", []), "collision.skip"),
-        ignore=name_pairs(path, col.get("ignore", []), "collision.ignore"),
-        touch_margin=number(path, col.get("touch_margin", 0.002), "collision.touch_margin"),
-        in_solve=flag(path, col.get("in_solve", True), "collision.in_solve"),
+        use_visual=toml.name_list(path, col.get("use_visual", []), "collision.use_visual"),
+        skip=toml.name_list(path, col.get("skip", []), "collision.skip"),
+        ignore=toml.name_pairs(path, col.get("ignore", []), "collision.ignore"),
+        touch_margin=toml.number(path, col.get("touch_margin", 0.002), "collision.touch_margin"),
+        in_solve=toml.flag(path, col.get("in_solve", True), "collision.in_solve"),
     )
 
     # the motion reduction's sagittal chain (imesh.reduction): six pitch joints or none
-    sagittal = table(path, data, "sagittal")
-    check_keys(path, sagittal, "sagittal", ("joints",))
-    sagittal_joints = name_list(path, sagittal.get("joints", []), "sagittal.joints")
+    sagittal = toml.table(path, data, "sagittal")
+    toml.check_keys(path, sagittal, "sagittal", ("joints",))
+    sagittal_joints = toml.name_list(path, sagittal.get("joints", []), "sagittal.joints")
     if len(sagittal_joints) not in (0, 6):
         raise RobotConfigError("must name six joints: hip, knee, ankle pitch of the left then "
                                "the right leg", path=path, key="sagittal.joints")

@@ -1,13 +1,11 @@
-"""Marker configuration files: ``robots/<name>/markers.toml``.
+"""Marker configuration files: ``robots/<name>/markers.toml``, beside robot.toml.
 
-This module only reads and validates the file (no pinocchio): how the standard human markers map
-onto the robot (key points and key directions) and how the marker model is arranged for it
-(removed, rigid and added markers, Nakaoka & Komura 2012 sec. IV-A), and the hand points of the arm
-imitation. Checks that need the model itself (frame names exist) happen in
-:func:`imesh.robot.load_robot`.
-
-Every problem raises :class:`~imesh.robot.errors.RobotConfigError` naming the file, the key and the
-valid options.
+How the standard human markers map onto the robot (key points and key directions), how the marker
+model is arranged for it (removed, rigid and added markers, Nakaoka & Komura 2012 sec. IV-A) and
+the hand points of the arm imitation (docs/arms.md). Read and validated like robot.toml
+(:mod:`imesh.robot.config`): no pinocchio here, frame names are checked by
+:func:`imesh.robot.load_robot`, and each problem is a :class:`~imesh.robot.errors.RobotConfigError`
+naming the key and listing the valid markers.
 """
 
 from __future__ import annotations
@@ -22,19 +20,9 @@ from typing import Any
 import numpy as np
 
 from ..human.markerset import STANDARD_MARKERS
+from . import toml_fields as toml
 from .config import SIDES
 from .errors import RobotConfigError, closest_first
-from .toml_fields import (
-    check_keys,
-    name_list,
-    name_pairs,
-    number,
-    read_toml,
-    string,
-    table,
-    table_array,
-    vector,
-)
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,19 +143,20 @@ _ARM_KEYS = ("frame", "wrist", "hand", "thumb", "joints")
 
 def _arms(path: Path, data: Mapping[str, Any]) -> dict[str, ArmHand]:
     """The optional ``[arms.left]`` / ``[arms.right]`` tables (hand points of imesh.arms)."""
-    arms = table(path, data, "arms")
-    check_keys(path, arms, "arms", SIDES)
+    arms = toml.table(path, data, "arms")
+    toml.check_keys(path, arms, "arms", SIDES)
     out = {}
     for side, tab in arms.items():
         key = f"arms.{side}"
         if not isinstance(tab, dict):
             raise RobotConfigError("must be a table {frame, wrist, hand, thumb, joints}",
                                    path=path, key=key)
-        check_keys(path, tab, key, _ARM_KEYS)
-        points = {k: vector(path, tab.get(k), f"{key}.{k}", 3)
+        toml.check_keys(path, tab, key, _ARM_KEYS)
+        points = {k: toml.vector(path, tab.get(k), f"{key}.{k}", 3)
                   for k in ("wrist", "hand", "thumb")}
-        out[side] = ArmHand(frame=string(path, tab, "frame", key), **points,
-                            joints=name_list(path, tab.get("joints", []), f"{key}.joints"))
+        out[side] = ArmHand(frame=toml.string(path, tab, "frame", key), **points,
+                            joints=toml.name_list(path, tab.get("joints", []),
+                                                  f"{key}.joints"))
     return out
 
 
@@ -175,10 +164,11 @@ def _keypoint(path: Path, tab: Any, key: str) -> Keypoint:
     """The key point table ``tab`` ({frame, offset, weight}) at dotted key ``key``."""
     if not isinstance(tab, dict):
         raise RobotConfigError("must be a table {frame, offset, weight}", path=path, key=key)
-    check_keys(path, tab, key, _KEYPOINT_KEYS)
-    return Keypoint(frame=string(path, tab, "frame", key),
-                    offset=vector(path, tab.get("offset", [0.0, 0.0, 0.0]), f"{key}.offset", 3),
-                    weight=number(path, tab.get("weight", 1.0), f"{key}.weight"))
+    toml.check_keys(path, tab, key, _KEYPOINT_KEYS)
+    return Keypoint(frame=toml.string(path, tab, "frame", key),
+                    offset=toml.vector(path, tab.get("offset", [0.0, 0.0, 0.0]), f"{key}.offset",
+                                       3),
+                    weight=toml.number(path, tab.get("weight", 1.0), f"{key}.weight"))
 
 
 def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
@@ -193,11 +183,11 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
         RobotConfigError: naming the key and listing the valid names.
     """
     path = Path(path)
-    data = read_toml(path)
-    check_keys(path, data, "", ("keypoints", "directions", "arrangement", "arms"))
-    arr = table(path, data, "arrangement")
-    check_keys(path, arr, "arrangement", _ARRANGEMENT_KEYS)
-    remove = name_list(path, arr.get("remove", []), "arrangement.remove")
+    data = toml.read_toml(path)
+    toml.check_keys(path, data, "", ("keypoints", "directions", "arrangement", "arms"))
+    arr = toml.table(path, data, "arrangement")
+    toml.check_keys(path, arr, "arrangement", _ARRANGEMENT_KEYS)
+    remove = toml.name_list(path, arr.get("remove", []), "arrangement.remove")
     for n in remove:
         if n not in STANDARD_MARKERS:
             raise RobotConfigError(f"{n!r} is not a standard marker", path=path,
@@ -205,7 +195,7 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
                                    valid=closest_first(n, STANDARD_MARKERS))
     surviving = [m for m in STANDARD_MARKERS if m not in remove]
 
-    raw = table(path, data, "keypoints", required=True)
+    raw = toml.table(path, data, "keypoints", required=True)
     for n in raw:
         if n not in STANDARD_MARKERS:
             raise RobotConfigError(f"{n!r} is not a standard marker (added markers go in "
@@ -219,8 +209,8 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
     keypoints = {m: _keypoint(path, raw[m], f"keypoints.{m}") for m in surviving}
 
     adds: list[AddedMarker] = []
-    for key, tab in table_array(path, arr.get("add", []), "arrangement.add", _ADD_KEYS):
-        name = string(path, tab, "name", key)
+    for key, tab in toml.table_array(path, arr.get("add", []), "arrangement.add", _ADD_KEYS):
+        name = toml.string(path, tab, "name", key)
         if name in STANDARD_MARKERS or name in keypoints:
             raise RobotConfigError(f"added marker name {name!r} is already a marker", path=path,
                                    key=f"{key}.name")
@@ -234,13 +224,13 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
             if m not in surviving:
                 raise RobotConfigError(f"{m!r} is not a surviving standard marker", path=path,
                                        key=f"{key}.human", valid=closest_first(m, surviving))
-            weights[m] = number(path, w, f"{key}.human.{m}")
+            weights[m] = toml.number(path, w, f"{key}.human.{m}")
         if abs(sum(weights.values()) - 1.0) > 1e-6:
             raise RobotConfigError(f"weights sum to {sum(weights.values()):.6g}, not 1", path=path,
                                    key=f"{key}.human")
         keypoints[name] = kp
         adds.append(AddedMarker(name=name, keypoint=kp, human=MappingProxyType(weights),
-                                bones=name_pairs(path, tab.get("bones", []), f"{key}.bones")))
+                                bones=toml.name_pairs(path, tab.get("bones", []), f"{key}.bones")))
     known = list(keypoints)
 
     def check_pairs(pairs: tuple[tuple[str, str], ...], key: str) -> None:
@@ -252,26 +242,27 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
 
     for i, a in enumerate(adds):
         check_pairs(a.bones, f"arrangement.add[{i}].bones")
-    rigid = name_pairs(path, arr.get("rigid", []), "arrangement.rigid")
+    rigid = toml.name_pairs(path, arr.get("rigid", []), "arrangement.rigid")
     check_pairs(rigid, "arrangement.rigid")
 
     directions = []
-    for key, tab in table_array(path, data.get("directions", []), "directions",
-                                 _DIRECTION_KEYS):
-        axis = vector(path, tab.get("axis"), f"{key}.axis", 3)
+    for key, tab in toml.table_array(path, data.get("directions", []), "directions",
+                                      _DIRECTION_KEYS):
+        axis = toml.vector(path, tab.get("axis"), f"{key}.axis", 3)
         if np.linalg.norm(axis) < 1e-9:
             raise RobotConfigError("axis must be non-zero", path=path, key=f"{key}.axis")
         ends = []
         for k in ("from", "to"):
-            n = string(path, tab, k, key)
+            n = toml.string(path, tab, k, key)
             if n not in known:
                 raise RobotConfigError(f"unknown or removed marker {n!r}", path=path,
                                        key=f"{key}.{k}", valid=closest_first(n, known))
             ends.append(n)
-        directions.append(Direction(frame=string(path, tab, "frame", key),
+        directions.append(Direction(frame=toml.string(path, tab, "frame", key),
                                     axis=axis / np.linalg.norm(axis), from_marker=ends[0],
                                     to_marker=ends[1],
-                                    weight=number(path, tab.get("weight", 1.0), f"{key}.weight")))
+                                    weight=toml.number(path, tab.get("weight", 1.0),
+                                                       f"{key}.weight")))
     return MarkerConfig(path=path, keypoints=MappingProxyType(keypoints),
                         directions=tuple(directions), remove=remove, rigid=rigid, add=tuple(adds),
                         arms=MappingProxyType(_arms(path, data)))
