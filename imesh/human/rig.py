@@ -70,6 +70,26 @@ __all__ = ["recognize", "recognize_motion"]
 MAX_FRAMES = 240
 
 
+def _decide_side(tree: RigTree, frac_a_left: float, hint: int, part: str,
+                 notes: list[str]) -> tuple[bool, float]:
+    """Whether chain a is the left one, and the confidence, from geometry and the name hint."""
+    conf = abs(2.0 * frac_a_left - 1.0)
+    geometric = frac_a_left >= 0.5
+    if conf >= 0.5:
+        if hint and (hint > 0) != geometric:
+            msg = (f"{part}: the names say left/right the other way round; the geometry "
+                   f"({100 * max(frac_a_left, 1 - frac_a_left):.0f} % of frames) wins")
+            log.warning("%s: %s", tree.source, msg)
+            notes.append(msg)
+        return geometric, conf
+    if hint:
+        notes.append(f"{part}: left/right unclear from the geometry ({100 * frac_a_left:.0f} % "
+                     "of frames), taken from the names")
+        return hint > 0, conf
+    notes.append(f"{part}: left/right unclear from the geometry and the names")
+    return geometric, conf
+
+
 def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
               source: str = "") -> Recognition:
     """Recognize a human skeleton from its tree and joint positions.
@@ -198,27 +218,6 @@ def recognize(names: Sequence[str], bones: np.ndarray, positions: np.ndarray, *,
              " up %s, standing height %.4g file units", source, result.overall_confidence,
              names[pelvis], names[chest], names[head], result.up_axis or "oblique", height)
     return result
-
-
-
-def _decide_side(tree: RigTree, frac_a_left: float, hint: int, part: str,
-                 notes: list[str]) -> tuple[bool, float]:
-    """Whether chain a is the left one, and the confidence, from geometry and the name hint."""
-    conf = abs(2.0 * frac_a_left - 1.0)
-    geometric = frac_a_left >= 0.5
-    if conf >= 0.5:
-        if hint and (hint > 0) != geometric:
-            msg = (f"{part}: the names say left/right the other way round; the geometry "
-                   f"({100 * max(frac_a_left, 1 - frac_a_left):.0f} % of frames) wins")
-            log.warning("%s: %s", tree.source, msg)
-            notes.append(msg)
-        return geometric, conf
-    if hint:
-        notes.append(f"{part}: left/right unclear from the geometry ({100 * frac_a_left:.0f} % "
-                     "of frames), taken from the names")
-        return hint > 0, conf
-    notes.append(f"{part}: left/right unclear from the geometry and the names")
-    return geometric, conf
 
 
 def recognize_motion(motion) -> tuple[Recognition, float]:

@@ -150,4 +150,3 @@ class Recognition:
                      "unused (fingers, twist, face, props ...)")
         lines.extend(f"note: {note}" for note in self.notes)
         return lines
-

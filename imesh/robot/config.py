@@ -309,4 +309,3 @@ def load_robot_config(path: str | os.PathLike) -> RobotConfig:
         collision=collision, markers_path=markers if markers.is_file() else None,
         sagittal_joints=sagittal_joints,
     )
-
