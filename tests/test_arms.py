@@ -84,7 +84,8 @@ def test_unknown_arm_joint_is_named():
 
 
 def test_arms_table_errors(tmp_path):
-    from imesh.robot.config import RobotConfigError, load_markers_config
+    from imesh.robot.errors import RobotConfigError
+    from imesh.robot.markers_config import load_markers_config
 
     base = (load_test_robot("jvrc1").markers.path).read_text()
     bad = tmp_path / "markers.toml"

@@ -268,7 +268,8 @@ def test_capsules_enter_the_solve_where_the_robot_allows(name, in_solve):
 
 
 def test_in_solve_must_be_a_boolean(tmp_path):
-    from imesh.robot.config import RobotConfigError, load_robot_config
+    from imesh.robot.config import load_robot_config
+    from imesh.robot.errors import RobotConfigError
 
     src = load_test_robot("g1").config.path
     text = src.read_text().replace("[collision]", "[collision]\nin_solve = 1", 1)

@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..robot.config import SIDES, closest_first
+from ..robot.config import SIDES
+from ..robot.errors import closest_first
 from ..robot.hands import SUFFIX, suggest_hand_points
 from .errors import ArmsError
 

@@ -3,8 +3,8 @@ frame axis -> the direction between two human markers).
 
 By default both come from the robot's ``robots/<name>/markers.toml`` (``[keypoints]``, the
 keypoints of ``[[arrangement.add]]`` markers, and ``[[directions]]``), which
-:mod:`imesh.robot.config` reads and validates and ``Robot.markers`` holds. Explicit lists are
-accepted in plain tuple form, so the arrangement code can pass its own:
+:mod:`imesh.robot.markers_config` reads and validates and ``Robot.markers`` holds. Explicit lists
+are accepted in plain tuple form, so the arrangement code can pass its own:
 
 - key points: ``(marker, frame, offset_m, weight)`` (offset and weight optional), or
   ``{marker: imesh.robot.Keypoint}``;
@@ -23,7 +23,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import MissingMarkerError
-from ..robot.config import MarkerConfig, closest_first, load_markers_config
+from ..robot.errors import closest_first
+from ..robot.markers_config import MarkerConfig, load_markers_config
 from .errors import FitError, UnknownFrameError
 
 log = logging.getLogger(__name__)

@@ -10,7 +10,9 @@
 """
 
 from .errors import RigRecognitionError, UnitsError
-from .rig import RECOGNIZED, Arm, Leg, Recognition, recognize, recognize_motion, skeleton_tree
+from .rig import recognize, recognize_motion
+from .rig_result import RECOGNIZED, Arm, Leg, Recognition
+from .rig_tree import skeleton_tree
 
 __all__ = ["RECOGNIZED", "Arm", "Leg", "Recognition", "RigRecognitionError", "UnitsError",
            "recognize", "recognize_motion", "skeleton_tree"]

@@ -54,9 +54,10 @@ class Arrangement:
             bones = the re-attached tree.
         pairs: (P, 2) length-constrained pairs: tree bones, rigid bones, bones of added markers.
         target_lengths_m: (P,) lengths of those pairs on the robot in its nominal pose [m].
-        keypoints: marker -> robot key point (``imesh.robot.config.Keypoint``), in
+        keypoints: marker -> robot key point (``imesh.robot.markers_config.Keypoint``), in
             ``motion.names`` order.
-        directions: key directions (``imesh.robot.config.Direction``) whose markers survived.
+        directions: key directions (``imesh.robot.markers_config.Direction``) whose markers
+            survived.
         scale: factor applied to the human before the morph.
         robot: name of the robot the markers are arranged for.
         pair_names: (P,) the marker names of each pair in ``pairs``.

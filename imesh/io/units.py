@@ -17,7 +17,8 @@ import numpy as np
 from ..core.motion import MarkerMotion, check_plausible
 from ..errors import ImplausibleMotionError, OptionError
 from ..human.errors import RigRecognitionError, UnitsError
-from ..human.rig import RECOGNIZED, Recognition, recognize
+from ..human.rig import recognize
+from ..human.rig_result import RECOGNIZED, Recognition
 from .raw import RawMotion
 
 log = logging.getLogger(__name__)

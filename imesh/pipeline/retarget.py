@@ -37,7 +37,7 @@ from ..human.filtering import lowpass
 from ..morph.adapt import prepare_markers
 from ..morph.problem import MorphConfig, build_morph_problem
 from ..morph.solver import MorphResult, MorphStepReport, solve_morph, window_layout
-from ..robot.config import Direction
+from ..robot.markers_config import Direction
 from ..solve import (
     WholeBodyConfig,
     add_lead,

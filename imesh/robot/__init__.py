@@ -13,18 +13,9 @@ Example:
 
 from .build import resolve_urdf
 from .collision import CollisionShape, fit_primitive
-from .config import (
-    ROBOTS_DIR,
-    AddedMarker,
-    Direction,
-    Keypoint,
-    MarkerConfig,
-    RobotConfig,
-    RobotConfigError,
-    SoleRectangle,
-    load_markers_config,
-    load_robot_config,
-)
+from .config import ROBOTS_DIR, RobotConfig, SoleRectangle, load_robot_config
+from .errors import RobotConfigError
+from .markers_config import AddedMarker, Direction, Keypoint, MarkerConfig, load_markers_config
 from .model import Robot, load_robot
 from .registry import list_robots, resolve_robot_toml, robot_names
 

@@ -22,15 +22,10 @@ import numpy as np
 
 from .capsules.model import CapsuleModel
 from .collision import CollisionShape, GeometryItem, build_proxies, derive_sole
-from .config import (
-    SIDES,
-    MarkerConfig,
-    RobotConfig,
-    RobotConfigError,
-    SoleRectangle,
-    closest_first,
-)
+from .config import SIDES, RobotConfig, SoleRectangle
+from .errors import RobotConfigError, closest_first
 from .geometry import geometry_items
+from .markers_config import MarkerConfig
 from .pin import _pinocchio, find_frame, frame_names
 
 if TYPE_CHECKING:  # pragma: no cover - typing only

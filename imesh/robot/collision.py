@@ -28,7 +28,8 @@ from scipy.spatial import ConvexHull
 
 from ..core.cache import read_cached, write_cached
 from ..core.lazy import optional
-from .config import RobotConfigError, SoleRectangle
+from .config import SoleRectangle
+from .errors import RobotConfigError
 
 log = logging.getLogger(__name__)
 

@@ -47,7 +47,8 @@ from typing import TypedDict
 import numpy as np
 from scipy.optimize import least_squares
 
-from .config import SIDES, RobotConfigError
+from .config import SIDES
+from .errors import RobotConfigError
 from .urdf_tree import (
     Limb,
     NotHumanoidError,

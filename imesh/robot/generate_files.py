@@ -13,7 +13,7 @@ import numpy as np
 from ..core.cache import cache_root
 from ..errors import ImeshError
 from ..human.markerset import STANDARD_MARKERS
-from .config import SIDES, load_markers_config
+from .config import SIDES
 from .generate import (
     CHEST_BELOW_SHOULDERS,
     DEFAULTS,
@@ -24,6 +24,7 @@ from .generate import (
     generate_robot_config,
 )
 from .hands import suggest_hand_points
+from .markers_config import load_markers_config
 
 log = logging.getLogger(__name__)
 

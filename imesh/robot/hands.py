@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import RobotConfigError
+from .errors import RobotConfigError
 
 #: Suffix of the standard marker names per side.
 SUFFIX = {"left": "l", "right": "r"}

@@ -31,17 +31,11 @@ from .build import BuiltModel, build_model, resolve_urdf
 from .capsules.model import CapsuleModel
 from .capsules.robot import build_capsule_model
 from .collision import CollisionShape, FramePairDistances, adjacent_frame_pairs, pair_key
-from .config import (
-    MarkerConfig,
-    RobotConfig,
-    RobotConfigError,
-    SoleRectangle,
-    closest_first,
-    load_markers_config,
-    load_robot_config,
-)
+from .config import RobotConfig, SoleRectangle, load_robot_config
 from .configuration import Configuration
+from .errors import RobotConfigError, closest_first
 from .generate_files import generate_for_urdf
+from .markers_config import MarkerConfig, load_markers_config
 from .pin import _pinocchio, find_frame, frame_names
 from .registry import resolve_robot_toml
 from .standing import standing_pose

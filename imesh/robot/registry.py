@@ -8,7 +8,8 @@ import os
 from importlib import metadata
 from pathlib import Path
 
-from .config import ROBOTS_DIR, RobotConfig, RobotConfigError, load_robot_config
+from .config import ROBOTS_DIR, RobotConfig, load_robot_config
+from .errors import RobotConfigError
 
 log = logging.getLogger(__name__)
 

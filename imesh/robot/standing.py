@@ -9,8 +9,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .config import SIDES, RobotConfigError
+from .config import SIDES
 from .configuration import skew
+from .errors import RobotConfigError
 from .pin import _pinocchio
 
 if TYPE_CHECKING:  # pragma: no cover - typing only

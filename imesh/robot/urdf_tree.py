@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .build import _package_dirs
-from .config import RobotConfigError
+from .errors import RobotConfigError
 from .geometry import geometry_items
 from .pin import _pinocchio
 
