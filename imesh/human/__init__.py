@@ -1,7 +1,9 @@
 """The human body behind a motion file, as the 21 standard markers, arranged for a robot.
 
     markerset    the standard markers, the standard skeleton, the --scale bone groups
-    rig          recognition of a skeleton's body parts, whatever its joint names
+    rig          recognition of a skeleton's body parts, whatever its joint names: the five
+                 steps, over rig_tree (the joint tree), rig_parts (the part finders),
+                 rig_geometry (units, up axis, sides) and rig_result (Recognition)
     rig_tables   marker-set protocols (TOML tables) told by their marker names
     standard     any clip onto the standard markers (recognition or a table)
     gaps         gap filling of marker trajectories
