@@ -37,7 +37,6 @@ def read_cached(kind: str, key: str) -> dict | None:
 def write_cached(kind: str, key: str, **arrays) -> None:
     """Store arrays under ``<cache>/<kind>/<key>.npz`` atomically; a read-only cache folder is
     no error (the next run computes again)."""
-
     folder = cache_root() / kind
     try:
         folder.mkdir(parents=True, exist_ok=True)

@@ -217,7 +217,6 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
         (T,), ``zmp`` and ``zmp_desired`` (T, 2), ``collisions`` (per frame a list of link index
         pairs), ``limits`` (per frame the joints outside a limit), ``ground``.
     """
-
     q = np.asarray(motion.q, dtype=float)
     T, fps = len(q), float(motion.fps)
     meshes = visual_meshes(robot)
