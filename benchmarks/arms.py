@@ -158,14 +158,16 @@ def w10_table(robots, clip) -> None:
 def velocity_table(robots, clip) -> None:
     """Table 4: velocity bounds off / on, where the human is faster than the motors."""
     from imesh.arms import ArmsConfig, imitate_arms
+    from imesh.core.limits import LimitOptions
 
     fast = clip.replace(fps=clip.fps * SPEEDUP, source=f"{clip.source} x{SPEEDUP}")
     print("\n## 4. ablation: velocity bounds (eq. 13) off / on; right (waving) arm; 'max v/vmax'"
           " of the 'pos' row = how much faster than its motors the unbounded arm moves")
     _rule(f"{'robot':6s} {'clip':5s} {'bounds':12s} {'hand RMS mm':>11s} {'upper deg':>9s} "
           f"{'max v/vmax':>10s} {'outside p/v/a':>13s} {'cost mm':>7s}")
-    settings = (("pos", dict(enforce_velocity=False, enforce_acceleration=False)),
-                ("pos+vel", dict(enforce_acceleration=False)),
+    settings = (("pos", dict(limits=LimitOptions(enforce_velocity=False,
+                                                 enforce_acceleration=False))),
+                ("pos+vel", dict(limits=LimitOptions(enforce_acceleration=False))),
                 ("pos+vel+acc", {}),
                 ("all,lookahd", dict(lookahead=True)))
     for name in robots:

@@ -113,7 +113,8 @@ def support_feet(robot, result) -> dict:
     motion = result.motion
     kp = keypoint_motion(robot, motion.q, motion.fps)
     out_rms = marker_rms_mm(kp, result.adapted)
-    _, _, vmax, amax = joint_limits(robot, result.fit.config or FitConfig())
+    limits = joint_limits(robot, (result.fit.config or FitConfig()).limits)
+    vmax, amax = limits.v_max, limits.a_max
     joints = motion.q[:, 7:]
     v_ratio = float((np.abs(np.diff(joints, axis=0)) * motion.fps / vmax).max())
     a_ratio = float((np.abs(np.diff(joints, n=2, axis=0)) * motion.fps**2 / amax).max())
@@ -167,14 +168,15 @@ def main() -> None:
     parser.add_argument("--acceleration-limit", type=float, default=None,
                         help="override every joint's a_max [rad/s^2] (0: no acceleration box)")
     args = parser.parse_args()
+    from imesh.core.limits import LimitOptions
     from imesh.fit import FitConfig
 
     if args.acceleration_limit is None:
         config = FitConfig()
     elif args.acceleration_limit > 0:
-        config = FitConfig(acceleration_limit=args.acceleration_limit)
+        config = FitConfig(limits=LimitOptions(acceleration_limit=args.acceleration_limit))
     else:
-        config = FitConfig(enforce_acceleration=False)
+        config = FitConfig(limits=LimitOptions(enforce_acceleration=False))
     rows = fk_rows(args.robots, args.frames, args.fps) if args.frames > 0 else []
     if args.clips:
         rows += clip_rows(args.clips, args.robots, config)

@@ -15,7 +15,6 @@ from imesh.arms import (
     ArmsConfig,
     ArmsError,
     FrameObjective,
-    JointLimits,
     arm_model,
     check_limits,
     derived_arm_joints,
@@ -24,6 +23,7 @@ from imesh.arms import (
 )
 from imesh.arms.solvers import solve_gn, solve_slsqp
 from imesh.cli import main
+from imesh.core.limits import JointLimits, LimitOptions
 from imesh.core.robot_motion import RobotMotion
 from imesh.io.robot_motion import NPZ_KEYS
 from imesh.robot.hands import suggest_hand_points
@@ -206,8 +206,9 @@ def test_upper_arm_term_lowers_the_upper_arm_error(name, wave):
 def test_velocity_bounds_hold_where_the_human_is_faster(wave):
     """HRP-4C's arm motors (2-4 rad/s) are slower than the wave: unbounded, the solution
     exceeds them; bounded, it stays within and pays in hand-point error."""
-    free = run("hrp4c", wave, enforce_velocity=False, enforce_acceleration=False)
-    bounded = run("hrp4c", wave, enforce_acceleration=False)
+    free = run("hrp4c", wave,
+               limits=LimitOptions(enforce_velocity=False, enforce_acceleration=False))
+    bounded = run("hrp4c", wave, limits=LimitOptions(enforce_acceleration=False))
     a_free, a_bounded = free.arms["right"], bounded.arms["right"]
     assert a_free.violations.worst_velocity_ratio > 2.0
     assert a_free.violations.velocity.sum() > 10

@@ -9,7 +9,8 @@ import pytest
 from conftest import load_test_robot
 from scipy.optimize import lsq_linear
 
-from imesh import ImeshError, MarkerMotion, MissingMarkerError
+from imesh import ImeshError, MarkerMotion, MissingMarkerError, OptionError
+from imesh.core.limits import JointLimits, LimitOptions
 from imesh.core.robot_motion import RobotMotion
 from imesh.fit import (
     DirectionTarget,
@@ -141,7 +142,7 @@ def test_inconsistent_targets_stay_smooth():
     markers = markers.with_positions(pelvis + 1.05 * (pos - pelvis))
     # a tight acceleration limit (independent of the robot's default) makes chatter visible
     result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs,
-                        config=FitConfig(acceleration_limit=20.0))
+                        config=FitConfig(limits=LimitOptions(acceleration_limit=20.0)))
     assert 10.0 < result.marker_rms_mm < 30.0
     assert result.frames_at_acceleration_bound == 0
     jerk = np.abs(np.diff(result.motion.joint_positions, n=3, axis=0)).max()
@@ -149,7 +150,7 @@ def test_inconsistent_targets_stay_smooth():
     check_limits(robot, result, 1 / 30.0)
     rough = fit_motion(robot, markers, keypoints=keypoints, directions=dirs,
                        config=FitConfig(adaptive_smoothing=0.0, smoothing=0.0,
-                                        acceleration_limit=20.0))
+                                        limits=LimitOptions(acceleration_limit=20.0)))
     assert rough.frames_at_acceleration_bound > 10
 
 
@@ -190,7 +191,7 @@ def test_velocity_limit_clamps(name):
     keypoints, directions = robot_targets(robot)
     markers, dirs = fk_markers(robot, qs, fps, keypoints, directions)
     a_max = 5000.0  # high enough that the velocity box, not the acceleration box, binds
-    config = FitConfig(acceleration_limit=a_max)
+    config = FitConfig(limits=LimitOptions(acceleration_limit=a_max))
     result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs, config=config)
     assert result.frames_at_velocity_bound >= 1
     check_limits(robot, result, 1 / fps, a_max=a_max)
@@ -201,7 +202,8 @@ def test_velocity_limit_clamps(name):
     assert result.keypoint_rms_m[-1] <= 1e-3
     # Kim's greedy per-frame box clamps to v_max exactly
     greedy = fit_motion(robot, markers, keypoints=keypoints, directions=dirs,
-                        config=FitConfig(acceleration_limit=a_max, lookahead=False))
+                        config=FitConfig(limits=LimitOptions(acceleration_limit=a_max),
+                                         lookahead=False))
     check_limits(robot, greedy, 1 / fps, a_max=a_max)
     v = np.abs(np.diff(greedy.motion.joint_positions, axis=0)) * fps
     assert np.any(np.isclose(v[:, fast], robot.v_max[fast], rtol=1e-9))
@@ -236,7 +238,8 @@ def test_position_limits_and_conflicts():
     fast = qs.copy()
     fast[:, 7 + elbow] = np.concatenate([np.linspace(-2.4, 0.3, 20), np.full(40, 0.3)])
     markers, dirs = fk_markers(robot, fast, fps, keypoints, directions)
-    greedy = FitConfig(acceleration_limit=30.0, brake_before_limits=False, lookahead=False)
+    greedy = FitConfig(limits=LimitOptions(acceleration_limit=30.0, brake_before_limits=False),
+                       lookahead=False)
     result = fit_motion(robot, markers, keypoints=keypoints, directions=dirs, config=greedy)
     assert result.conflict_frames >= 1
     q = result.motion.joint_positions
@@ -244,7 +247,7 @@ def test_position_limits_and_conflicts():
     check_limits(robot, result, 1 / fps, a_max=30.0)
     # braking in time (the default) avoids the conflict: all three limits hold every frame
     braking = fit_motion(robot, markers, keypoints=keypoints, directions=dirs,
-                         config=FitConfig(acceleration_limit=30.0))
+                         config=FitConfig(limits=LimitOptions(acceleration_limit=30.0)))
     assert braking.conflict_frames == 0
     assert braking.motion.joint_positions[:, elbow].max() <= robot.q_upper[elbow]
     check_limits(robot, braking, 1 / fps, a_max=30.0)
@@ -374,8 +377,8 @@ def test_bad_config_and_q_init():
     markers, keypoints = small_motion(robot)
     with pytest.raises(FitError, match="damping"):
         FitConfig(damping=0.0)
-    with pytest.raises(FitError, match="acceleration_limit"):
-        FitConfig(acceleration_limit=-1.0)
+    with pytest.raises(OptionError, match="acceleration_limit"):
+        LimitOptions(acceleration_limit=-1.0)
     with pytest.raises(FitError, match="q_init"):
         fit_motion(robot, markers, keypoints=keypoints, directions=[], q_init=np.zeros(5))
     with pytest.raises(FitError, match="axis"):
@@ -398,9 +401,11 @@ def test_refit_from_previous_solution_is_a_fixed_point():
 def test_increment_box_priority_and_conflict():
     """Kim's boxes (eqs 9, 13, 14) intersect in priority order; a joint too fast to brake within
     a_max is pinned to the point of the running box closest to the acceleration box."""
-    limits = IncrementBox.build(np.array([-1.0, -1.0]), np.array([1.0, 1.0]),
-                                np.array([10.0, 10.0]), np.array([10.0, 10.0]), 10.0,
-                                brake=False)  # dt v_max = 1 rad, dt^2 a_max = 0.1 rad
+    limits = IncrementBox.build(JointLimits(lower=np.array([-1.0, -1.0]),
+                                            upper=np.array([1.0, 1.0]),
+                                            v_max=np.array([10.0, 10.0]),
+                                            a_max=np.array([10.0, 10.0])),
+                                10.0, brake=False)  # dt v_max = 1 rad, dt^2 a_max = 0.1 rad
     first = limits.at(None, None)
     assert not first.conflict and np.array_equal(first.hi, [1.0, 1.0])
     # joint 0 moves at 9.5 rad/s towards its upper limit 0.05 rad away; joint 1 rests

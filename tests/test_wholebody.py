@@ -9,7 +9,7 @@ import pytest
 from conftest import load_test_robot
 
 from imesh.contacts.phases import SIDES
-from imesh.fit import FitConfig
+from imesh.core.limits import LimitOptions
 from imesh.fit.limits import joint_limits
 from imesh.fit.targets import compile_targets
 from imesh.solve import WholeBodyConfig, build_qp, plan_whole_body, solve_qp, solve_whole_body
@@ -45,7 +45,7 @@ def _plan(robot, q, support=None, config=None, rest_frames=3):
     support = np.ones((len(q), 2), dtype=bool) if support is None else support
     config = config or WholeBodyConfig()
     plan, footprints = plan_whole_body(robot, q, markers, targets, support, FPS,
-                                       joint_limits(robot, FitConfig()), config,
+                                       joint_limits(robot, LimitOptions()), config,
                                        rest_frames=rest_frames)
     return plan, footprints, targets
 

@@ -18,7 +18,7 @@ Example:
 from ..core.lazy import lazy_exports
 
 _LAZY = {
-    **dict.fromkeys(("JointLimits", "Violations", "check_limits", "frame_box"), ".bounds"),
+    **dict.fromkeys(("Violations", "check_limits"), ".bounds"),
     **dict.fromkeys(("SOLVERS", "ArmsConfig"), ".config"),
     "ArmsError": ".errors",
     **dict.fromkeys(("ArmModel", "arm_model", "derived_arm_joints"),
@@ -32,7 +32,7 @@ __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 
 __all__ = [
     "REFINE_CONFIG", "SOLVERS", "ArmModel", "ArmResult", "ArmScaling", "ArmTargets",
-    "ArmsConfig", "ArmsError", "ArmsResult", "FrameObjective", "JointLimits", "Violations",
-    "arm_model", "arm_targets", "check_limits", "derived_arm_joints", "frame_box",
+    "ArmsConfig", "ArmsError", "ArmsResult", "FrameObjective", "Violations",
+    "arm_model", "arm_targets", "check_limits", "derived_arm_joints",
     "human_arm_markers", "imitate_arms", "refine_arms", "solve_arms",
 ]

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.limits import LimitOptions
 from ..robot.config import SIDES
 from .errors import ArmsError
 
@@ -43,12 +43,8 @@ class ArmsConfig:
             this [rad].
         objective_tolerance: both solvers stop when an iteration lowers f by less than this
             [m^2] (SLSQP's ``ftol``; 1e-12 is a 0.5 um change of a 1 mm hand-point error).
-        enforce_velocity: apply the velocity bounds (eq. 13).
-        enforce_acceleration: apply the acceleration bounds (eq. 14).
-        acceleration_limit: overrides ``robot.a_max`` [rad/s^2] (one number or one per joint).
-        brake_before_limits: keep each joint slow enough to stop before its position limits at
-            ``a_max`` (as :class:`imesh.fit.FitConfig`); without it a joint racing towards a
-            limit can meet a position/acceleration conflict.
+        limits: which of the limits apply (eqs 9, 13, 14), an override of ``robot.a_max`` and
+            the braking box (:class:`imesh.core.limits.LimitOptions`; default: all).
         extrapolate: warm start from the constant-velocity prediction (clipped into the box)
             instead of the previous frame (the paper's ``dtheta = 0``).
         lookahead: instead of bounding every frame's increment by its velocity and
@@ -77,10 +73,7 @@ class ArmsConfig:
     first_frame_iterations: int = 300
     tolerance_rad: float = 1e-7
     objective_tolerance: float = 1e-12
-    enforce_velocity: bool = True
-    enforce_acceleration: bool = True
-    acceleration_limit: float | Sequence[float] | None = None
-    brake_before_limits: bool = True
+    limits: LimitOptions = field(default_factory=LimitOptions)
     extrapolate: bool = False
     lookahead: bool = False
     frame: str = "torso"

@@ -6,7 +6,8 @@
   method against the adapted markers (``imesh retarget CLIP --fit sqp``).
 
 Per arm and frame, warm started from the previous frame (eq. 1), the increments of the arm
-joints minimize eq. 2 inside the box of eqs 9, 13, 14 (:mod:`imesh.arms.bounds`).
+joints minimize eq. 2 inside the box of eqs 9, 13, 14 (the fit's
+:class:`imesh.fit.limits.IncrementBox`); :mod:`imesh.arms.bounds` checks the result.
 """
 
 from __future__ import annotations
@@ -18,14 +19,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.limits import BOUND_TOL, JointLimits, LimitOptions
 from ..core.motion import MarkerMotion
 from ..core.robot_motion import RobotMotion
-from ..fit import FitConfig
 from ..fit.feasible import project_joint_trajectory
-from ..fit.limits import ACCELERATION, POSITION, VELOCITY, joint_limits
+from ..fit.limits import ACCELERATION, POSITION, VELOCITY, IncrementBox, joint_limits
 from ..human.filtering import lowpass
 from ..morph.adapt import prepare_markers
-from .bounds import CHECK_TOL, JointLimits, Violations, check_limits, frame_box
+from .bounds import Violations, check_limits
 from .config import ArmsConfig
 from .errors import ArmsError
 from .geometry import ArmModel, arm_model
@@ -202,15 +203,10 @@ def arm_errors(arm: ArmModel, targets: ArmTargets, q: np.ndarray, limits: JointL
             "frames_outside": check_limits(q[:, 7 + arm.joint_index], limits, fps).counts()}
 
 
-def arm_limits(robot, arm: ArmModel, config: ArmsConfig) -> JointLimits:
-    """The arm joints' limits (robot limits through :func:`imesh.fit.limits.joint_limits`, with the
-    velocity / acceleration switches and override of ``config``)."""
-    fit = FitConfig(enforce_velocity=config.enforce_velocity,
-                    enforce_acceleration=config.enforce_acceleration,
-                    acceleration_limit=config.acceleration_limit)
-    lower, upper, vmax, amax = joint_limits(robot, fit)
-    j = arm.joint_index
-    return JointLimits(lower=lower[j], upper=upper[j], v_max=vmax[j], a_max=amax[j])
+def arm_limits(robot, arm: ArmModel, options: LimitOptions) -> JointLimits:
+    """The arm joints' limits (the robot's through :func:`imesh.fit.limits.joint_limits`, with the
+    velocity / acceleration switches and override of ``options``)."""
+    return joint_limits(robot, options).take(arm.joint_index)
 
 
 @dataclass(frozen=True, eq=False)
@@ -231,7 +227,7 @@ def _frame_loop(arm: ArmModel, targets: ArmTargets, q_ref: np.ndarray, start: np
     solver = SOLVER_FUNCTIONS[config.solver]
     T, n = targets.n_frames, arm.n
     cols = 7 + arm.joint_index
-    dt = 1.0 / fps
+    boxes = IncrementBox.build(limits, fps, config.limits.brake_before_limits)
     theta = np.empty((T, n))
     iterations = np.zeros(T, dtype=np.int64)
     evaluations = np.zeros(T, dtype=np.int64)
@@ -240,7 +236,7 @@ def _frame_loop(arm: ArmModel, targets: ArmTargets, q_ref: np.ndarray, start: np
     for t in range(T):
         prev = theta[t - 1] if t >= 1 else None
         prev2 = theta[t - 2] if t >= 2 else None
-        box = frame_box(limits, prev, prev2, dt, config.brake_before_limits)
+        box = boxes.at(prev, prev2)
         q_prev = q_ref[t].copy()
         q_prev[cols] = prev if prev is not None else start
         base = q_prev[cols]
@@ -260,23 +256,21 @@ def _frame_loop(arm: ArmModel, targets: ArmTargets, q_ref: np.ndarray, start: np
 
 def _solve_arm(robot, arm: ArmModel, targets: ArmTargets, q_ref: np.ndarray, fps: float,
                config: ArmsConfig) -> ArmResult:
-    limits = arm_limits(robot, arm, config)
+    limits = arm_limits(robot, arm, config.limits)
     # violations are always counted against every limit, also those the run did not enforce
     robot_limits = arm_limits(robot, arm, dataclasses.replace(
-        config, enforce_velocity=True, enforce_acceleration=True))
+        config.limits, enforce_velocity=True, enforce_acceleration=True))
     T, n = targets.n_frames, arm.n
     cols = 7 + arm.joint_index
     start = q_ref[0, cols]
-    bad = np.flatnonzero((start < limits.lower - CHECK_TOL) | (start > limits.upper + CHECK_TOL))
+    bad = np.flatnonzero((start < limits.lower - BOUND_TOL) | (start > limits.upper + BOUND_TOL))
     if bad.size:
         k = int(bad[0])
         raise ArmsError(f"robot {robot.name!r}: the reference pose puts joint {arm.joints[k]} at "
                         f"{start[k]:.6g} rad, outside its limits [{limits.lower[k]:.6g}, "
                         f"{limits.upper[k]:.6g}] rad: frame 0 has no feasible box")
     if config.lookahead:
-        free = JointLimits(lower=limits.lower, upper=limits.upper, v_max=np.full(n, np.inf),
-                           a_max=np.full(n, np.inf))
-        loop = _frame_loop(arm, targets, q_ref, start, free, fps, config)
+        loop = _frame_loop(arm, targets, q_ref, start, limits.position_only(), fps, config)
         t0 = time.perf_counter()
         proj = project_joint_trajectory(loop.theta, fps, limits.lower, limits.upper,
                                         limits.v_max, limits.a_max)
@@ -287,7 +281,7 @@ def _solve_arm(robot, arm: ArmModel, targets: ArmTargets, q_ref: np.ndarray, fps
         theta, seconds = loop.theta, loop.seconds
     # evidence (outside the timed loop): the box each frame had (or, with the look-ahead, would
     # have had) after the final trajectory's previous frames, errors at the solution
-    dt = 1.0 / fps
+    boxes = IncrementBox.build(limits, fps, config.limits.brake_before_limits)
     out = {k: np.empty((T, n)) for k in ("lo", "hi", "pv_lo", "pv_hi")}
     at_bound = np.zeros((T, 3), dtype=bool)
     conflict = np.zeros(T, dtype=bool)
@@ -295,13 +289,8 @@ def _solve_arm(robot, arm: ArmModel, targets: ArmTargets, q_ref: np.ndarray, fps
     points = np.empty((T, 5, 3))
     upper_deg = np.empty(T)
     for t in range(T):
-        box = frame_box(limits, theta[t - 1] if t >= 1 else None,
-                        theta[t - 2] if t >= 2 else None, dt, config.brake_before_limits)
-        on_lo = theta[t] <= box.lo + CHECK_TOL
-        on_hi = theta[t] >= box.hi - CHECK_TOL
-        for code in (POSITION, VELOCITY, ACCELERATION):
-            at_bound[t, code] = bool(np.any((on_lo & (box.src_lo == code))
-                                            | (on_hi & (box.src_hi == code))))
+        box = boxes.at(theta[t - 1] if t >= 1 else None, theta[t - 2] if t >= 2 else None)
+        at_bound[t] = box.active(theta[t])[0]
         conflict[t] = box.conflict
         out["lo"][t], out["hi"][t] = box.lo, box.hi
         out["pv_lo"][t], out["pv_hi"][t] = box.posvel_lo, box.posvel_hi

@@ -5,11 +5,11 @@ Oh 2005's limits (eqs 9, 13, 14) apply, and the free-flyer's trust region and ve
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.limits import LimitOptions
 from .errors import FitError
 
 
@@ -47,26 +47,20 @@ class FitConfig:
             ``eta^2 |q_j - q_nominal,j|^2`` in every frame i >= 1 [weighted-residual units per
             rad]: pulls joints that no target determines back towards the nominal pose instead
             of letting them drift into their limits; negligible for observed joints.
-        enforce_velocity: apply the velocity box (Kim eq. 13).
-        enforce_acceleration: apply the acceleration box (Kim eq. 14).
-        acceleration_limit: overrides ``robot.a_max`` [rad/s^2]: one number for all joints or
-            one per joint; None keeps the robot's (inf = unbounded).
-        brake_before_limits: with the acceleration box on, also keep every joint slow enough to
-            stop before its position limits at ``a_max`` (a braking-distance bound, lowest
-            priority, counted as a position bound): without it a joint racing towards its
-            limit meets a position/acceleration conflict.
-        base_step_m, base_step_rad: trust region of the free-flyer in one damped step
-            (linear [m], angular [rad]); many steps may still move it far (frame 0), but no
-            single step can flip the base into another basin.
-        base_speed_m_s, base_rate_rad_s: velocity box of the free-flyer (linear, angular), like
-            Kim eq. 13 for the joints: without it, when rate-limited leg joints lag, the fit
-            swings the unbounded base instead (seen: +-30 degrees of base yaw on a walk).
+        limits: which of Kim's limits apply (eqs 9, 13, 14), an override of ``robot.a_max``
+            and the braking box (:class:`imesh.core.limits.LimitOptions`; default: all).
         lookahead: when velocity or acceleration limits apply, fit the frames with the position
             box only, then project the joint trajectory onto all the limits over the whole
             clip (:mod:`imesh.fit.feasible`): the result satisfies Kim's eqs 9, 13 and 14 in
             every frame and brakes ahead of fast motion. False: Kim's per-frame boxes inside
             the DLS (greedy: a joint that cannot follow its target saturates, overshoots and
             chases it; docs/fitting.md has the comparison).
+        base_step_m, base_step_rad: trust region of the free-flyer in one damped step
+            (linear [m], angular [rad]); many steps may still move it far (frame 0), but no
+            single step can flip the base into another basin.
+        base_speed_m_s, base_rate_rad_s: velocity box of the free-flyer (linear, angular), like
+            Kim eq. 13 for the joints: without it, when rate-limited leg joints lag, the fit
+            swings the unbounded base instead (seen: +-30 degrees of base yaw on a walk).
         extrapolate: warm start frame i from the constant-velocity prediction of frames i-2 and
             i-1 (clipped into the box) instead of frame i-1; saves ~1 solve per frame.
     """
@@ -80,12 +74,9 @@ class FitConfig:
     smoothing: float = 1e-3
     adaptive_smoothing: float = 5.0
     posture: float = 3e-4
-    enforce_velocity: bool = True
-    enforce_acceleration: bool = True
-    acceleration_limit: float | Sequence[float] | None = None
-    brake_before_limits: bool = True
-    extrapolate: bool = True
+    limits: LimitOptions = field(default_factory=LimitOptions)
     lookahead: bool = True
+    extrapolate: bool = True
     base_step_m: float = 0.05
     base_step_rad: float = 0.1
     base_speed_m_s: float = 3.0
@@ -105,8 +96,3 @@ class FitConfig:
                 kind = "positive" if name in positive else "non-negative"
                 raise FitError(f"FitConfig.{name} = {value!r} is invalid: must be a finite "
                                f"{kind} number")
-        if self.acceleration_limit is not None:
-            arr = np.asarray(self.acceleration_limit, dtype=np.float64)
-            if arr.ndim > 1 or np.any(np.isnan(arr)) or np.any(arr <= 0):
-                raise FitError(f"FitConfig.acceleration_limit = {self.acceleration_limit!r} is "
-                               "invalid: one positive number or one per joint [rad/s^2]")

@@ -3,14 +3,15 @@
 The joint part of the cumulative increment ``dq_i = q_i - q_{i-1}`` stays inside the box of Kim
 et al. (backward differences, ``dt = 1/fps``):
 
-    position      q_min - q_{i-1}                 <= dq_i <= q_max - q_{i-1}
-    velocity      -dt v_max                       <= dq_i <= dt v_max                 (i >= 1)
-    acceleration  dt v_{i-1} - dt^2 a_max         <= dq_i <= dt v_{i-1} + dt^2 a_max  (i >= 2)
+    position      q_min - q_{i-1}          <= dq_i <= q_max - q_{i-1}           (eq. 9)
+    velocity      -dt v_max                <= dq_i <= dt v_max                  (eq. 13, i >= 1)
+    acceleration  dt v_{i-1} - dt^2 a_max  <= dq_i <= dt v_{i-1} + dt^2 a_max   (eq. 14, i >= 2)
 
 with ``v_{i-1} = (q_{i-1} - q_{i-2}) / dt``. Frame 0 has only the position box, frame 1 adds the
 velocity box (one previous frame), frames >= 2 all three. With ``brake_before_limits`` a fourth,
 lowest-priority box keeps each joint slow enough to stop before its position limits at
-``a_max``. :class:`IncrementBox` holds the limits of one fit and gives each frame's box.
+``a_max``. :class:`IncrementBox` holds the limits of one fit (or of one arm,
+:mod:`imesh.arms.solve`) and gives each frame's box.
 
 Conflict policy: the boxes are intersected in priority order position, velocity, acceleration
 (then braking). When a lower-priority box does not intersect the running intersection (a joint
@@ -19,8 +20,8 @@ the point of the running box closest to the dropped box (the least violation of 
 limit: maximal braking) and the frame is counted in ``FitResult.conflict_frames``. Position
 limits therefore always hold; velocity limits hold whenever the previous frame is inside the
 position limits (always after frame 0); acceleration limits hold on every non-conflict frame.
-:mod:`imesh.arms.bounds` builds its boxes with the same :func:`intersect` and
-:func:`braking_reach`.
+The limits are a :class:`imesh.core.limits.JointLimits`; :func:`joint_limits` reads a robot's
+under the switches of :class:`imesh.core.limits.LimitOptions`.
 """
 
 from __future__ import annotations
@@ -29,18 +30,28 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import FitConfig
+from ..core.limits import BOUND_TOL, JointLimits, LimitOptions
 from .errors import FitError
 
 #: Codes of the limit that set a joint's bound in a frame.
 POSITION, VELOCITY, ACCELERATION = 0, 1, 2
-#: [rad] a joint this close to a bound counts as on it (and as inside the limits).
-BOUND_TOL = 1e-9
 
 
-def joint_limits(robot, config: FitConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                      np.ndarray]:
-    """Validated (q_lower, q_upper, v_max, a_max), each (n,); inf where unbounded."""
+def joint_limits(robot, options: LimitOptions) -> JointLimits:
+    """The robot's joint limits (Kim eqs 9, 13, 14) under ``options``, validated.
+
+    Args:
+        robot: the robot (``joint_names``, ``q_lower``, ``q_upper``, ``v_max``, ``a_max``).
+        options: which limits apply; ``acceleration_limit`` replaces the robot's ``a_max``.
+
+    Returns:
+        The (n,) limits of the robot's n joints [rad, rad/s, rad/s^2]; inf where unbounded or
+        not enforced.
+
+    Raises:
+        FitError: a robot without one configuration variable per joint, limits of another
+            shape, empty position limits or a non-positive velocity / acceleration limit.
+    """
     names = list(robot.joint_names)
     n = len(names)
     if robot.nq - 7 != n or robot.nv - 6 != n:
@@ -52,8 +63,8 @@ def joint_limits(robot, config: FitConfig) -> tuple[np.ndarray, np.ndarray, np.n
     lower = np.asarray(robot.q_lower, dtype=np.float64).reshape(-1)
     upper = np.asarray(robot.q_upper, dtype=np.float64).reshape(-1)
     vmax = np.asarray(robot.v_max, dtype=np.float64).reshape(-1)
-    if config.acceleration_limit is not None:
-        acc = np.asarray(config.acceleration_limit, dtype=np.float64)
+    if options.acceleration_limit is not None:
+        acc = np.asarray(options.acceleration_limit, dtype=np.float64)
         amax = np.full(n, float(acc)) if acc.ndim == 0 else acc.reshape(-1)
     else:
         amax = np.asarray(robot.a_max, dtype=np.float64).reshape(-1)
@@ -72,18 +83,18 @@ def joint_limits(robot, config: FitConfig) -> tuple[np.ndarray, np.ndarray, np.n
                 raise FitError(f"robot {robot.name!r}: joint {name} has {what} {arr[j]}; it must "
                                "be > 0 (inf for unbounded)", joint=name, lower=float(lo),
                                upper=float(hi), value=float(arr[j]))
-    if not config.enforce_velocity:
+    if not options.enforce_velocity:
         vmax = np.full(n, np.inf)
-    if not config.enforce_acceleration:
+    if not options.enforce_acceleration:
         amax = np.full(n, np.inf)
-    return lower, upper, vmax, amax
+    return JointLimits(lower=lower, upper=upper, v_max=vmax, a_max=amax)
 
 
-def check_within(robot, q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-                 what: str) -> None:
-    """Raise FitError naming the first joint of ``q`` (nq,) outside [lower, upper] (n,) [rad]:
-    the starting pose of frame 0 must lie inside the position box."""
+def check_within(robot, q: np.ndarray, limits: JointLimits, what: str) -> None:
+    """Raise FitError naming the first joint of ``q`` (nq,) outside the position limits of
+    ``limits`` [rad] (eq. 9): the starting pose of frame 0 must lie inside the position box."""
     joints = q[7:]
+    lower, upper = limits.lower, limits.upper
     bad = np.flatnonzero((joints < lower - BOUND_TOL) | (joints > upper + BOUND_TOL))
     if bad.size:
         j = int(bad[0])
@@ -136,16 +147,22 @@ def intersect(lo: np.ndarray, hi: np.ndarray, src_lo: np.ndarray, src_hi: np.nda
 
 @dataclass(frozen=True, eq=False)
 class FrameBox:
-    """The box of one frame's joint values, with the limit that set each bound.
+    """The box of one frame's joint values (absolute, not increments), with the limit that set
+    each bound.
 
     Attributes:
-        lo, hi: (n,) absolute joint bounds [rad].
+        lo, hi: (n,) absolute joint bounds [rad]: the intersection of Kim's eqs 9, 13, 14 (and
+            the braking box).
+        posvel_lo, posvel_hi: (n,) the position and velocity bounds only [rad] (eqs 9, 13: the
+            time-varying limits of Kim's Fig. 4).
         src_lo, src_hi: (n,) code (POSITION, VELOCITY, ACCELERATION) of the limit that set each.
         conflict: some joint's boxes did not intersect (pinned, see the module's policy).
     """
 
     lo: np.ndarray
     hi: np.ndarray
+    posvel_lo: np.ndarray
+    posvel_hi: np.ndarray
     src_lo: np.ndarray
     src_hi: np.ndarray
     conflict: bool
@@ -168,7 +185,7 @@ class IncrementBox:
         lower, upper: (n,) position limits q_min, q_max [rad].
         step_v: (n,) ``dt v_max``, the largest joint change in one frame [rad] (inf: unbounded).
         step_a: (n,) ``dt^2 a_max``, the largest change of that change between frames [rad].
-        brake: also apply the braking-distance box (FitConfig.brake_before_limits).
+        brake: also apply the braking-distance box (LimitOptions.brake_before_limits).
         has_vel, has_acc: some joint has a finite velocity / acceleration limit.
     """
 
@@ -181,28 +198,30 @@ class IncrementBox:
     has_acc: bool
 
     @classmethod
-    def build(cls, lower: np.ndarray, upper: np.ndarray, vmax: np.ndarray, amax: np.ndarray,
-              fps: float, brake: bool) -> IncrementBox:
-        """From the (n,) limits of :func:`joint_limits` [rad, rad/s, rad/s^2] at ``fps`` [Hz]."""
+    def build(cls, limits: JointLimits, fps: float, brake: bool) -> IncrementBox:
+        """From the (n,) ``limits`` (e.g. of :func:`joint_limits`) at ``fps`` [Hz]; ``brake``:
+        add the braking-distance box."""
         dt = 1.0 / fps
-        step_v = dt * vmax
-        step_a = dt * dt * amax
-        return cls(lower=lower, upper=upper, step_v=step_v, step_a=step_a, brake=brake,
+        step_v = dt * limits.v_max
+        step_a = dt * dt * limits.a_max
+        return cls(lower=limits.lower, upper=limits.upper, step_v=step_v, step_a=step_a,
+                   brake=brake,
                    has_vel=bool(np.any(np.isfinite(step_v))),
                    has_acc=bool(np.any(np.isfinite(step_a))))
 
     def at(self, prev: np.ndarray | None, prev2: np.ndarray | None) -> FrameBox:
         """The box of frame i's joint values from the (n,) joints of frames i-1 and i-2 [rad]
-        (None before the clip starts), intersected in priority order."""
+        (None before the clip starts), intersected in priority order: position (eq. 9), then
+        from frame 1 velocity (eq. 13), from frame 2 acceleration (eq. 14), then braking."""
         lo, hi = self.lower, self.upper
         src_lo = src_hi = np.zeros(len(lo), dtype=np.int64)
         clash = False
+        if prev is not None and self.has_vel:
+            lo, hi, src_lo, src_hi, c = intersect(lo, hi, src_lo, src_hi, prev - self.step_v,
+                                                  prev + self.step_v, VELOCITY)
+            clash = bool(c.any())
+        pv_lo, pv_hi = lo, hi
         if prev is not None:
-            if self.has_vel:
-                lo, hi, src_lo, src_hi, c = intersect(lo, hi, src_lo, src_hi,
-                                                      prev - self.step_v, prev + self.step_v,
-                                                      VELOCITY)
-                clash = bool(c.any())
             if prev2 is not None and self.has_acc:
                 centre = 2.0 * prev - prev2
                 lo, hi, src_lo, src_hi, c = intersect(lo, hi, src_lo, src_hi,
@@ -215,4 +234,5 @@ class IncrementBox:
                 lo, hi, src_lo, src_hi, _ = intersect(
                     lo, hi, src_lo, src_hi, prev - braking_reach(prev - self.lower, self.step_a),
                     prev + braking_reach(self.upper - prev, self.step_a), POSITION)
-        return FrameBox(lo=lo, hi=hi, src_lo=src_lo, src_hi=src_hi, conflict=clash)
+        return FrameBox(lo=lo, hi=hi, posvel_lo=pv_lo, posvel_hi=pv_hi, src_lo=src_lo,
+                        src_hi=src_hi, conflict=clash)

@@ -20,6 +20,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from ..core.limits import JointLimits
 from ..core.motion import MarkerMotion
 from ..core.robot_motion import RobotMotion
 from .config import FitConfig
@@ -58,10 +59,10 @@ def _as_q_init(q_init: np.ndarray | RobotMotion | None, n_frames: int, nq: int
 
 
 def _limited(kin: Kinematics, frames: FrameTargets, free: Track, joints: np.ndarray,
-             lower: np.ndarray, upper: np.ndarray, vmax: np.ndarray, amax: np.ndarray,
-             fps: float) -> Track:
+             limits: JointLimits, fps: float) -> Track:
     """The free pass with its (T, n) joints replaced by the projection [rad]: errors and active
-    limits (of the (n,) limits [rad, rad/s, rad/s^2] at ``fps`` [Hz])."""
+    ``limits`` (Kim eqs 9, 13, 14 at ``fps`` [Hz])."""
+    lower, upper, vmax, amax = limits.lower, limits.upper, limits.v_max, limits.a_max
     q = free.q.copy()
     q[:, 7:] = joints
     n_frames = len(q)
@@ -114,30 +115,30 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
     config = config or FitConfig()
     targets = compile_targets(robot, markers.names, keypoints, directions,
                               source=markers.source or "motion")
-    lower, upper, vmax, amax = joint_limits(robot, config)
+    limits = joint_limits(robot, config.limits)
     n_frames = markers.n_frames
     init = _as_q_init(q_init, n_frames, robot.nq)
     kin = Kinematics(robot, targets)
-    q0 = _first_configuration(robot, kin, targets, markers, init, lower, upper)
+    q0 = _first_configuration(robot, kin, targets, markers, init, limits)
 
     frames = FrameTargets.build(markers, targets, config)
-    problem = FitProblem.build(robot, kin, config, lower, upper, markers.fps)
-    limited = bool(np.any(np.isfinite(vmax)) or np.any(np.isfinite(amax)))
+    problem = FitProblem.build(robot, kin, config, limits.lower, limits.upper, markers.fps)
+    limited = bool(np.any(np.isfinite(limits.v_max)) or np.any(np.isfinite(limits.a_max)))
+    options = config.limits
     t_start = time.perf_counter()
     if config.lookahead and limited and n_frames >= 3:
         # the markers with the position limits only (per-frame box), then the joint trajectory
         # projected onto all the limits over the whole clip (feasible.py): it satisfies Kim's
         # eqs 9, 13 and 14 in every frame and brakes ahead of fast target motion
-        position_only = IncrementBox.build(lower, upper, np.full_like(vmax, np.inf),
-                                           np.full_like(amax, np.inf), markers.fps,
-                                           config.brake_before_limits)
+        position_only = IncrementBox.build(limits.position_only(), markers.fps,
+                                           options.brake_before_limits)
         free = track(problem, frames, position_only, q0, init)
-        projection = project_joint_trajectory(free.q[:, 7:], markers.fps, lower, upper,
-                                              vmax, amax)
-        out = _limited(kin, frames, free, projection.q, lower, upper, vmax, amax, markers.fps)
+        projection = project_joint_trajectory(free.q[:, 7:], markers.fps, limits.lower,
+                                              limits.upper, limits.v_max, limits.a_max)
+        out = _limited(kin, frames, free, projection.q, limits, markers.fps)
     else:
-        out = track(problem, frames, IncrementBox.build(lower, upper, vmax, amax, markers.fps,
-                                                        config.brake_before_limits),
+        out = track(problem, frames, IncrementBox.build(limits, markers.fps,
+                                                        options.brake_before_limits),
                     q0, init)
     seconds = time.perf_counter() - t_start
     result = _result(robot, markers, targets, config, out, seconds)
@@ -155,16 +156,16 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
 
 
 def _first_configuration(robot, kin: Kinematics, targets: CompiledTargets,
-                         markers: MarkerMotion, init: np.ndarray | None, lower: np.ndarray,
-                         upper: np.ndarray) -> np.ndarray:
-    """(nq,) start of frame 0: ``init``'s (checked against the (n,) position limits [rad]),
-    else the geometric guess from the nominal pose (checked likewise)."""
+                         markers: MarkerMotion, init: np.ndarray | None,
+                         limits: JointLimits) -> np.ndarray:
+    """(nq,) start of frame 0: ``init``'s (checked against the position limits, eq. 9), else
+    the geometric guess from the nominal pose (checked likewise)."""
     if init is not None:
         q0 = init if init.ndim == 1 else init[0]
-        check_within(robot, q0, lower, upper, "the initial configuration q_init")
+        check_within(robot, q0, limits, "the initial configuration q_init")
         return q0
     q_nominal = np.asarray(robot.q_nominal, dtype=np.float64)
-    check_within(robot, q_nominal, lower, upper, "the nominal pose q_nominal")
+    check_within(robot, q_nominal, limits, "the nominal pose q_nominal")
     return initial_guess(robot, kin, targets, markers, q_nominal)
 
 

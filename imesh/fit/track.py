@@ -98,7 +98,7 @@ def track(problem: FitProblem, frames: FrameTargets, limits: IncrementBox, q0: n
     config = problem.config
     n_frames = len(frames.kp_pos)
     n_kp, n_dir = frames.kp_pos.shape[1], frames.dir_target.shape[1]
-    base_box = config.enforce_velocity and bool(np.isfinite(problem.base_reach).any())
+    base_box = config.limits.enforce_velocity and bool(np.isfinite(problem.base_reach).any())
     q_out = np.empty((n_frames, problem.robot.nq))
     kp_err = np.full((n_frames, n_kp), np.nan)
     dir_err = np.full((n_frames, n_dir), np.nan)

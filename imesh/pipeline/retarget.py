@@ -423,7 +423,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                        step_frames=int(round(0.5 * source.fps)))
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")
-        limits = joint_limits(robot, fit_config)
+        limits = joint_limits(robot, fit_config.limits)
         plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
                                            source.fps, limits, config.wholebody,
                                            rest_frames=3 if n_lead >= 3 else 0)

@@ -21,6 +21,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES, runs
+from ..core.limits import JointLimits
 from ..errors import SolverError
 from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh
@@ -278,7 +279,8 @@ def swing_clearance(support: np.ndarray, base_m: float, lift_m: float, edge_m: f
 
 
 def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: CompiledTargets,
-                    support: np.ndarray, fps: float, limits: tuple, config: WholeBodyConfig,
+                    support: np.ndarray, fps: float, limits: JointLimits,
+                    config: WholeBodyConfig,
                     transition_s: float = 0.1, rest_frames: int = 3
                     ) -> tuple[Plan, list[Footprint]]:
     """Fix the targets, mesh, support, footprints and limits of a whole-body solve.
@@ -290,7 +292,7 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
         targets: key points and directions compiled against ``markers``.
         support: (T, 2) bool [left, right] planned support; every frame needs one foot.
         fps: frame rate [1/s].
-        limits: (lower, upper, v_max, a_max) joint limits, each (n,).
+        limits: the (n,) joint limits (e.g. :func:`imesh.fit.limits.joint_limits`).
         config: WholeBodyConfig.
         transition_s: blending of the desired ZMP between phases (as the evaluator's).
         rest_frames: the first and last this many frames are held identical (start and end
@@ -313,13 +315,13 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     metric[:, np.arange(len(w2)), np.arange(len(w2))] += w2
     d = markers[:, targets.dir_to] - markers[:, targets.dir_from]
     d /= np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-12)
-    lower, upper, vmax, amax = limits
     plan = Plan(marker_points=kp_markers, keypoint_weights=targets.kp_weights,
                 mesh_metric=metric, target_directions=d, direction_weights=targets.dir_weights,
                 support=np.asarray(support, dtype=bool), sole_targets=sole_targets,
                 halfplanes=support_halfplanes(footprints, support),
                 desired_zmp=desired_zmp(tracks, support, transition_s), q_init=q_init,
-                lower=lower, upper=upper, v_max=vmax, a_max=amax, fps=fps,
+                lower=limits.lower, upper=limits.upper, v_max=limits.v_max,
+                a_max=limits.a_max, fps=fps,
                 rest_frames=rest_frames,
                 clearance=swing_clearance(support, config.clearance_m, config.swing_lift_m,
                                           config.swing_edge_m))
