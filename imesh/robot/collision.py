@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-import trimesh
 from scipy.spatial import ConvexHull
 
 from ..core.cache import read_cached, write_cached
@@ -234,6 +233,7 @@ def fit_primitive(points: np.ndarray) -> tuple[str, tuple[float, ...], np.ndarra
         (kind, dims, placement): kind in ``box|cylinder|sphere|capsule``, sizes (module
         conventions) and the (4, 4) pose of the primitive in the same frame as ``points``.
     """
+    trimesh = optional("trimesh", "pip install trimesh", "fitting a collision proxy")
     points = np.asarray(points, dtype=float)
     sub = _extreme_subset(points)
     candidates: list[tuple[str, tuple[float, ...], np.ndarray]] = []

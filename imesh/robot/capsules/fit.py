@@ -7,9 +7,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import trimesh
 from scipy.spatial import ConvexHull
 
+from ...core.lazy import optional
 from ..collision import fibonacci_directions
 from .model import capsule_volume
 
@@ -59,6 +59,7 @@ def _capsule_on_axis(points: np.ndarray, axis: np.ndarray, exact: bool = False
         centre = centre + (far - centre) / (k + 1)
     if exact:
         try:
+            trimesh = optional("trimesh", "pip install trimesh", "fitting a capsule")
             centre = np.asarray(trimesh.nsphere.minimum_nsphere(xy)[0], dtype=float)
         except Exception:  # degenerate projections: keep the approximation
             pass
