@@ -18,10 +18,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-import trimesh
 from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES
+from ..core.lazy import optional
 from ..errors import ImeshError
 from ..evaluate.motion_files import arranged_source
 from ..evaluate.scoreboard import metric_values
@@ -130,6 +130,7 @@ def decimate(vertices: np.ndarray, faces: np.ndarray, cell_m: float
 
 def _primitive(kind: str, dims: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray] | None:
     """Triangles of a URDF primitive (:class:`~imesh.robot.visuals.VisualElement` sizes)."""
+    trimesh = optional("trimesh", "pip install trimesh", "drawing a URDF primitive")
     if kind == "box":
         m = trimesh.creation.box(extents=np.asarray(dims))
     elif kind == "sphere":
