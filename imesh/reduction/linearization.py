@@ -22,7 +22,7 @@ class Linearization(Parametrization, Objective):
     F2T: np.ndarray
 
     def jacobian(self, Eq, Ev, Ea) -> np.ndarray:
-        """(n, 24, nb, r) derivatives of the residuals w.r.t. the parameters (eq. 13 through
+        """(n, 26, nb, r) derivatives of the residuals w.r.t. the parameters (eq. 13 through
         F1 and F2, eq. 28, then the band-limited basis)."""
         Q = self.basis_matrix
         mid = self.mid
@@ -32,7 +32,7 @@ class Linearization(Parametrization, Objective):
                 + np.einsum("kb,kia->kiba", self.F2T, Ea[..., mid] @ Q))
 
     def full_jacobian(self, ev: Evaluation):
-        """Residuals (n*24,) and their Jacobian w.r.t. all parameters (n*24, P_theta + P_u):
+        """Residuals (n*26,) and their Jacobian w.r.t. all parameters (n*26, P_theta + P_u):
         trajectory parameters first (harmonic-major), then torque parameters."""
         e, Eq, Ev, Ea, Eu = self.residual_blocks(ev)
         Jt = self.jacobian(Eq, Ev, Ea)                          # (n, M, nb, r)

@@ -51,8 +51,8 @@ class Evaluation:
         return self.J_m + self.J_r + self.penalty
 
 
-#: residual rows per frame: 7 accelerations, closure, slip, 3 forces, 6 angles, 6 torques,
-#: friction
+#: residual rows per frame (N_RESIDUALS = 26): 7 accelerations, closure, slip, 3 forces, 6 angles,
+#: 6 torques, friction, step length
 RESIDUAL_ROWS: dict[str, slice | int] = {
     "acc": slice(0, 7), "closure": 7, "slip": 8, "grf": slice(9, 12), "angle": slice(12, 18),
     "torque": slice(18, 24), "friction": 24, "step": 25}
@@ -145,8 +145,8 @@ class Objective:
                                self.s_torque * tq, self.s_friction * fr[:, None]], axis=1)
 
     def residual_blocks(self, ev: Evaluation):
-        """All residuals (n, 24) and their derivatives w.r.t. link angles (Eq), rates (Ev),
-        trajectory accelerations (Ea) (n, 24, 7) and torques (Eu) (n, 24, 6).
+        """All residuals (n, 26) and their derivatives w.r.t. link angles (Eq), rates (Ev),
+        trajectory accelerations (Ea) (n, 26, 7) and torques (Eu) (n, 26, 6).
 
         The objective is the sum of squares; J_m and J_r are the first 9 rows.
         """
