@@ -9,8 +9,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...core.lazy import optional
+from ..collision import pair_key
 from .bodies import robot_bodies
-from .model import CapsuleModel, body_key
+from .model import CapsuleModel
 from .pairs import capsule_source
 
 if TYPE_CHECKING:  # pragma: no cover - typing only (the Robot uses this package)
@@ -67,7 +68,7 @@ class MeshCollisionChecker:
         self.frames = list(dict.fromkeys(i[0] for v in self.items.values() for i in v))
         bodies = sorted(self.items)
         self.pairs = [(a, b) for k, a in enumerate(bodies) for b in bodies[k + 1:]
-                      if body_key(a, b) not in ignored]
+                      if pair_key(a, b) not in ignored]
         self._request = self._coal.DistanceRequest()
 
     def distances(self, q: np.ndarray, pairs=None) -> dict[tuple[str, str], float]:

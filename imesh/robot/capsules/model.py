@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..collision import pair_key
+
 
 @dataclass(frozen=True, eq=False)
 class Capsule:
@@ -42,11 +44,6 @@ class Capsule:
 def capsule_volume(radius: float, length: float) -> float:
     """[m^3] volume of a capsule of ``radius`` [m] around a segment ``length`` [m] long."""
     return float(np.pi * radius ** 2 * length + 4.0 / 3.0 * np.pi * radius ** 3)
-
-
-def body_key(a: str, b: str) -> tuple[str, str]:
-    """The canonical (sorted) key of a body pair."""
-    return (a, b) if a <= b else (b, a)
 
 
 def segment_closest_points(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray
@@ -112,9 +109,9 @@ class CapsuleModel:
         self.radius = np.array([c.radius for c in self.capsules])
         pairs = [(i, j) for i in range(len(self.capsules)) for j in range(i + 1, len(capsules))
                  if self.capsules[i].body != self.capsules[j].body
-                 and body_key(self.capsules[i].body, self.capsules[j].body) not in self.ignored]
+                 and pair_key(self.capsules[i].body, self.capsules[j].body) not in self.ignored]
         self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
-        self.pair_bodies = [body_key(self.capsules[i].body, self.capsules[j].body)
+        self.pair_bodies = [pair_key(self.capsules[i].body, self.capsules[j].body)
                             for i, j in pairs]
 
     def world_segments(self, placements: np.ndarray) -> np.ndarray:

@@ -11,7 +11,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .model import CapsuleModel, body_key
+from ..collision import pair_key
+from .model import CapsuleModel
 
 if TYPE_CHECKING:  # pragma: no cover - typing only (the Robot uses this package)
     from ..model import Robot
@@ -41,9 +42,9 @@ def ignore_rule(model: CapsuleModel, body_parent: dict[str, str | None], feet: S
     for k, a in enumerate(bodies):
         for b in bodies[k + 1:]:
             if body_parent.get(a) == b or body_parent.get(b) == a:
-                out[body_key(a, b)] = "parent"
+                out[pair_key(a, b)] = "parent"
     if len(feet) == 2 and feet[0] != feet[1]:
-        out.setdefault(body_key(*feet), "feet")
+        out.setdefault(pair_key(*feet), "feet")
     d = model.distances(nominal_placements).distance[0]
     closest: dict[tuple[str, str], float] = {}
     for key, dk in zip(model.pair_bodies, d, strict=True):
@@ -84,7 +85,7 @@ def read_pairs_toml(path: Path) -> set[tuple[str, str]]:
     """The ignored body pairs (sorted name pairs) of a ``collision_pairs.toml``."""
     with open(path, "rb") as fh:
         data = tomllib.load(fh)
-    return {body_key(str(a), str(b)) for a, b in data.get("ignore", [])}
+    return {pair_key(str(a), str(b)) for a, b in data.get("ignore", [])}
 
 
 def pairs_file(robot: Robot) -> Path:

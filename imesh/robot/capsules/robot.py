@@ -9,11 +9,12 @@ import zipfile
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from ..collision import pair_key
 from .bodies import body_points, robot_bodies
 from .cache import capsule_cache_dir, fit_key, read_capsules, write_capsules
 from .fit import fit_capsules
 from .mesh_check import MeshCollisionChecker
-from .model import Capsule, CapsuleModel, body_key
+from .model import Capsule, CapsuleModel
 from .pairs import (
     PAIRS_FILE,
     capsule_source,
@@ -94,7 +95,7 @@ def capsule_ignore_rule(robot: Robot, capsules: Sequence[Capsule] | None = None
     mesh = MeshCollisionChecker(robot, ignored=set(rule))
     for key, d in sorted(mesh.distances(robot.q_nominal).items()):
         if d < 0.0:
-            rule[body_key(*key)] = f"URDF geometry nominal {1e3 * d:.1f} mm"
+            rule[pair_key(*key)] = f"URDF geometry nominal {1e3 * d:.1f} mm"
     return rule
 
 
