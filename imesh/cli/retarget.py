@@ -9,10 +9,8 @@ from pathlib import Path
 from ..arms.solve import REFINE_CONFIG
 from ..contacts.support import SupportConfig
 from ..core.progress import retarget_bar
-from ..errors import VerificationError
-from ..evaluate.scoreboard import evaluate_motion
 from ..evaluate.table import format_table
-from ..evaluate.verify import failed_gates
+from ..evaluate.verify import verify_motion
 from ..io.atomic import write_json
 from ..io.formats import write_export
 from ..io.npz import save_marker_motion
@@ -51,15 +49,13 @@ def run(args) -> int:
         # verify before writing: the summary and the gates are the evaluator's report of the
         # motion as it will be written (the file holds exactly these float64 configurations)
         bar.stage("verify", robot_motion.n_frames)
-        metrics = evaluate_motion(robot, robot_motion, adapted=result.adapted,
-                                  seconds=result.seconds)
+        metrics, failed = verify_motion(robot, robot_motion, adapted=result.adapted,
+                                        seconds=result.seconds, name=args.clip,
+                                        balanced=args.balance != "none", force=args.force)
         report["metrics"] = metrics
-        failed = failed_gates(metrics, balanced=args.balance != "none")
         report["verification"] = {"passed": not failed,
                                   "failed": {k: {"value": v[0], "gate": v[1]}
                                              for k, v in failed.items()}}
-        if failed and not args.force:
-            raise VerificationError(f"retargeted motion of {args.clip} for {robot.name}", failed)
         bar.stage("write", robot_motion.n_frames)
         if args.format in (None, "npz"):
             save_robot_motion(args.output, robot_motion, markers=result.adapted)

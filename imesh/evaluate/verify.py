@@ -55,7 +55,7 @@ def failed_gates(report: dict, gates: Gates | None = None, balanced: bool = True
 
 
 def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
-                  balanced: bool = True) -> dict:
+                  balanced: bool = True, force: bool = False) -> tuple[dict, dict]:
     """Score a robot motion as it will be written and check it against the gates (what
     ``imesh retarget`` and ``imesh batch`` do before writing).
 
@@ -66,15 +66,18 @@ def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
         seconds: the pipeline's stage timings (for ``seconds_per_frame``), or None.
         name: the clip, for the message.
         balanced: whether the balance gates apply (not with ``balance="none"``).
+        force: return the failed gates instead of raising (``--force``: written anyway, the
+            report says which gates failed).
 
     Returns:
-        The evaluator's report (:func:`~imesh.evaluate.scoreboard.evaluate_motion`).
+        (the evaluator's report (:func:`~imesh.evaluate.scoreboard.evaluate_motion`), the failed
+        gates: metric -> (value, gate text), empty when all hold).
 
     Raises:
-        VerificationError: a gate fails (lists every failed gate).
+        VerificationError: a gate fails and not ``force`` (lists every failed gate).
     """
     metrics = evaluate_motion(robot, motion, adapted=adapted, seconds=seconds)
     failed = failed_gates(metrics, balanced=balanced)
-    if failed:
+    if failed and not force:
         raise VerificationError(f"retargeted motion of {name} for {robot.name}", failed)
-    return metrics
+    return metrics, failed
