@@ -203,18 +203,32 @@ def test_talos_shoulder_offset_and_gripper():
     assert abs(shoulder[1] - 0.294) < 0.005  # arm_left_2/3 axes, not the torso joint's
 
 
-def test_icub_holds_its_nominal_pose_in_dart(tmp_path):
-    """iCub in DART: zero-mass frame links get DART's default inertia, the feet rest on their
-    sole boxes only (its foot link l_foot sits under the sole frame l_sole), and the robot
-    stands 2 s in its generated nominal pose."""
+@pytest.mark.parametrize("detector", ["ode", "dart"])
+def test_icub_holds_its_nominal_pose_in_dart(tmp_path, detector):
+    """iCub in DART: zero-mass frame links get DART's default inertia, the head and neck
+    (point masses in the URDF) a sphere's inertia, the feet rest on their sole boxes only (its
+    foot link l_foot sits under the sole frame l_sole), and the robot stands 2 s in its
+    generated nominal pose without a joint reaching its torque limit."""
     from imesh.core.robot_motion import RobotMotion
-    from imesh.physics import simulate_motion
+    from imesh.physics import PhysicsConfig, simulate_motion
+    from imesh.physics.world import DartRobot, sphere_moment
 
     urdf = erd("icub_description/robots/icub.urdf")
     write_generated(generate_robot_config(urdf), tmp_path)
     robot = load_robot(tmp_path / "robot.toml", urdf=urdf)
+    config = PhysicsConfig(collision_detector=detector)
+    sim = DartRobot(robot, config)
+    head = sim.skeleton.getBodyNode("head")
+    assert head.getMass() == pytest.approx(1.33687)
+    assert np.diag(head.getInertia().getMoment()) == pytest.approx([sphere_moment(1.33687)] * 3)
+    # the effective inertia of every joint (all other DOF free) is a physical one: with the
+    # URDF's point-mass head, neck_yaw's was 1e-12 kg m^2 and the neck shook at its limit
+    mass_matrix = np.asarray(sim.skeleton.getMassMatrix())
+    effective = 1.0 / np.diag(np.linalg.inv(mass_matrix))[sim.joint_dofs]
+    assert effective.min() > 1e-4
     motion = RobotMotion(q=[robot.q_nominal] * 60, fps=30.0, robot=robot.name,
                          joint_names=robot.joint_names)
-    result = simulate_motion(robot, motion)
+    result = simulate_motion(robot, motion, config=config)
     assert not result.fell, result.fall_reason
-    assert result.base_drift_m < 0.1
+    assert result.base_drift_m < 0.02
+    assert result.torque_ratio_max < 0.5
