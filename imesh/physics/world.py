@@ -154,7 +154,7 @@ def reduced_urdf(robot) -> str:
             assert inertial is not None  # it holds the <mass> found above
             link.remove(inertial)
         elif mass is not None:
-            _regularize_inertia(link, float(mass.get("value")))
+            _regularize_inertia(link, float(mass.get("value", "0")))
     fixed = set(robot.config.fixed_joints)
     for joint in root.iter("joint"):
         for m in joint.findall("mimic"):
