@@ -3,8 +3,9 @@
     python benchmarks/collision.py [--robots jvrc1 g1 hrp4c] [--clips ...] [--out DIR]
                                    [--modes off on] [--no-mesh]
 
-For every clip x robot and mode (``off``: ``WholeBodyConfig(self_collision=False)``, ``on``:
-the default), ``imesh.retarget`` with default settings otherwise; the motion and the adapted
+For every clip x robot and mode (``off``:
+``WholeBodyConfig(collision=CollisionOptions(enabled=False))``, ``on``: the default),
+``imesh.retarget`` with default settings otherwise; the motion and the adapted
 markers are written to ``--out``, read back and scored by ``imesh.evaluate.evaluate_motion``
 (``self_collision_frames`` on the capsules, ``marker_rms_mm``, ``close_pair_error`` of the
 robot's key points against the adapted markers) and by
@@ -51,6 +52,7 @@ def main(argv=None) -> int:
     from imesh.io.npz import load_marker_motion
     from imesh.metrics.collision import check_mesh_collisions
     from imesh.pipeline.retarget import RetargetConfig, retarget
+    from imesh.solve import CollisionOptions
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -65,7 +67,7 @@ def main(argv=None) -> int:
             robot = load(name)
             for mode in args.modes:
                 config = dataclasses.replace(base, wholebody=dataclasses.replace(
-                    base.wholebody, self_collision=mode == "on"))
+                    base.wholebody, collision=CollisionOptions(enabled=mode == "on")))
                 stem = f"{Path(clip).stem}_{name}_{mode}"
                 try:
                     res = retarget(motion, robot, config=config)

@@ -9,7 +9,7 @@ ProxSuite (the last two from ``pip install -e .[bench]``), each directly (no qps
 and our own banded interior-point solver (``_banded_ipm.py``: the KKT system in a band, LAPACK's
 banded LU).
 Prints wall time (best of ``--repeat``), iterations, the largest constraint violation and the
-objective; the solver the solve uses by default (``WholeBodyConfig.solver``) is chosen from
+objective; the solver the solve uses by default (``WholeBodyConfig.sqp.solver``) is chosen from
 this table (docs/wholebody.md).
 """
 

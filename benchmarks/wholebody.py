@@ -44,8 +44,8 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     base = RetargetConfig()
-    config = dataclasses.replace(base, wholebody=dataclasses.replace(base.wholebody,
-                                                                     solver=args.solver))
+    config = dataclasses.replace(base, wholebody=dataclasses.replace(
+        base.wholebody, sqp=dataclasses.replace(base.wholebody.sqp, solver=args.solver)))
     head = (f"{'clip':<30} {'robot':<6} {'frames':>6} {'rms mm':>7} {'cpe':>6} {'sole mm':>7} "
             f"{'tilt':>5} {'skid':>5} {'pen mm':>6} {'lim':>4} {'zmp in':>6} {'zmp mm':>6} "
             f"{'fell':>5} {'surv s':>6} {'trq':>5} {'trq rf':>6} {'fric':>5} {'it':>3} "

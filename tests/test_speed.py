@@ -14,7 +14,7 @@ from conftest import load_test_robot
 from imesh import load_motion
 from imesh.core.progress import JobBar, StageProgress, retarget_bar
 from imesh.pipeline.retarget import RetargetConfig, retarget
-from imesh.solve import WholeBodyConfig
+from imesh.solve import SqpOptions, WholeBodyConfig
 
 
 def test_job_bar_moves_forward_through_the_stages_and_ends_full(monkeypatch):
@@ -64,7 +64,7 @@ def test_retarget_reports_every_stage_in_order(mocap):
     callback, in this order, with the frame counts of each stage (the bar's totals)."""
     robot = load_test_robot("g1")
     motion = load_motion(mocap("cmu_02_01_walk.bvh"))
-    config = RetargetConfig(wholebody=WholeBodyConfig(iterations=2))
+    config = RetargetConfig(wholebody=WholeBodyConfig(sqp=SqpOptions(iterations=2)))
     events: list[StageProgress] = []
     res = retarget(motion, robot, config=config, progress=events.append)
     stages = [e.stage for e in events]

@@ -10,9 +10,21 @@ from conftest import load_test_robot
 
 from imesh.contacts.phases import SIDES
 from imesh.core.limits import LimitOptions
+from imesh.errors import OptionError
 from imesh.fit.limits import joint_limits
 from imesh.fit.targets import compile_targets
-from imesh.solve import WholeBodyConfig, build_qp, plan_whole_body, solve_qp, solve_whole_body
+from imesh.solve import (
+    CostWeights,
+    ForceOptions,
+    LimitMargins,
+    SqpOptions,
+    WholeBodyConfig,
+    ZmpOptions,
+    build_qp,
+    plan_whole_body,
+    solve_qp,
+    solve_whole_body,
+)
 from imesh.solve.sqp import _Frames, linearize
 
 FPS = 30.0
@@ -175,7 +187,7 @@ def test_balanced_sway_is_left_unchanged(robot):
     default ZMP tracking weight the solve also pulls a ZMP farther than ``zmp_band_m`` from the
     desired ZMP towards it: JVRC-1's nominal CoM is 40 mm from the hull centre; here w_z = 0.)"""
     q = _sway(robot)
-    config = WholeBodyConfig(zmp_weight=0.0)
+    config = WholeBodyConfig(zmp=ZmpOptions(weight=0.0))
     plan, footprints, targets = _plan(robot, q, rest_frames=0, config=config)
     assert plan.halfplanes[0].size
     sol = solve_whole_body(robot, plan, footprints, targets, config)
@@ -293,3 +305,18 @@ def test_torques_also_hold_with_the_evaluators_support(robot, mocap):
     assert not np.allclose(*both)
     np.testing.assert_allclose(np.abs(lin.torques.ratio).max(axis=1), np.maximum(*both),
                                rtol=1e-9)
+
+
+@pytest.mark.parametrize(("build", "field"), [
+    (lambda: ForceOptions(min_normal=1.5), "max_normal"),
+    (lambda: LimitMargins(torque=2.0), "torque margin"),
+    (lambda: SqpOptions(solver="cvxopt"), "solver"),
+    (lambda: SqpOptions(iterations=0), "iterations"),
+    (lambda: CostWeights(accel=float("nan")), "accel"),
+    (lambda: ZmpOptions(band_m=-0.01), "band_m"),
+])
+def test_each_part_of_the_config_validates_itself(build, field):
+    """Every part of WholeBodyConfig rejects a bad value when built, naming the field."""
+    with pytest.raises(OptionError) as err:
+        build()
+    assert err.value.name == field

@@ -117,7 +117,7 @@ class CollisionConfig:
         ignore: extra link pairs never checked against each other.
         touch_margin: [m] pairs closer than this in the nominal pose are ignored.
         in_solve: the whole-body solve keeps the self-collision capsules apart
-            (``WholeBodyConfig.self_collision``, docs/collision.md); false for a robot whose
+            (``WholeBodyConfig.collision.enabled``, docs/collision.md); false for a robot whose
             capsules are not yet validated against its geometry.
     """
 

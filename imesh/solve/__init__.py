@@ -4,7 +4,17 @@
 sequential QP over all frames; ``add_lead`` adds the standing lead-in and lead-out.
 """
 
-from .config import WholeBodyConfig
+from .config import (
+    CollisionOptions,
+    CostWeights,
+    FootOptions,
+    ForceOptions,
+    LimitMargins,
+    SlackPrices,
+    SqpOptions,
+    WholeBodyConfig,
+    ZmpOptions,
+)
 from .footprints import Footprint, plan_footprints
 from .initial import smooth_initializer
 from .lead import Lead, add_lead
@@ -12,6 +22,8 @@ from .problem import build_qp
 from .qp import SOLVERS, QpProblem, QpSolution, solve_qp
 from .sqp import IterationReport, WholeBodySolution, plan_whole_body, solve_whole_body
 
-__all__ = ["SOLVERS", "Footprint", "IterationReport", "Lead", "QpProblem", "QpSolution",
-           "WholeBodyConfig", "WholeBodySolution", "add_lead", "build_qp", "plan_footprints",
-           "plan_whole_body", "smooth_initializer", "solve_qp", "solve_whole_body"]
+__all__ = ["SOLVERS", "CollisionOptions", "CostWeights", "FootOptions", "Footprint",
+           "ForceOptions", "IterationReport", "Lead", "LimitMargins", "QpProblem", "QpSolution",
+           "SlackPrices", "SqpOptions", "WholeBodyConfig", "WholeBodySolution", "ZmpOptions",
+           "add_lead", "build_qp", "plan_footprints", "plan_whole_body", "smooth_initializer",
+           "solve_qp", "solve_whole_body"]

@@ -38,10 +38,10 @@ def sole_errors(lin: Linearization, plan: Plan) -> tuple[np.ndarray, np.ndarray,
 
 def clearance(plan: Plan, config: WholeBodyConfig) -> np.ndarray:
     """(T, 2) [m] height the swing feet's ground points keep: ``plan.clearance``, or
-    ``config.clearance_m`` everywhere."""
+    ``config.feet.clearance_m`` everywhere."""
     if plan.clearance is not None:
         return plan.clearance
-    return np.full(plan.support.shape, config.clearance_m)
+    return np.full(plan.support.shape, config.feet.clearance_m)
 
 
 def sole_rows(out: Rows, lin: Linearization, plan: Plan, lay: Layout) -> None:

@@ -45,21 +45,21 @@ def frame_blocks(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBod
         u = lin.axes
         Jw = lin.axis_jacobians  # (T, D, 3, nv): du = omega x u = -u x omega
         Ad = -np.cross(u[..., None, :], np.swapaxes(Jw, -1, -2)).swapaxes(-1, -2)
-        w = (config.direction_weight * plan.direction_weights) ** 2
+        w = (config.costs.direction * plan.direction_weights) ** 2
         r = u - plan.target_directions
         H[:, :nv, :nv] += np.einsum("tdan,d,tdam->tnm", Ad, w, Ad)
         g[:, :nv] += np.einsum("tdan,d,tda->tn", Ad, w, r)
-    H[:, np.arange(nv), np.arange(nv)] += config.damping
-    H[:, np.arange(6, nv), np.arange(6, nv)] += config.init_weight
-    g[:, 6:nv] += config.init_weight * (q[:, 7:] - plan.q_init[:, 7:])
+    H[:, np.arange(nv), np.arange(nv)] += config.costs.damping
+    H[:, np.arange(6, nv), np.arange(6, nv)] += config.costs.init
+    g[:, 6:nv] += config.costs.init * (q[:, 7:] - plan.q_init[:, 7:])
     # the slacks' prices: above the multipliers of a feasible problem, so a slack is 0
     # wherever its rows can be met
-    g[:, lay.offset["zmp_slack"]] = config.zmp_slack_weight
-    g[:, lay.offset["sole_slack"]:lay.offset["sole_slack"] + 2] = config.elastic_weight
-    g[:, lay.offset["ground_slack"]] = config.elastic_weight
-    g[:, lay.offset["accel_slack"]] = config.elastic_weight
-    g[:, lay.offset["torque_slack"]] = config.zmp_slack_weight
-    g[:, lay.offset["collision_slack"]] = config.elastic_weight
+    g[:, lay.offset["zmp_slack"]] = config.slack.balance
+    g[:, lay.offset["sole_slack"]:lay.offset["sole_slack"] + 2] = config.slack.elastic
+    g[:, lay.offset["ground_slack"]] = config.slack.elastic
+    g[:, lay.offset["accel_slack"]] = config.slack.elastic
+    g[:, lay.offset["torque_slack"]] = config.slack.balance
+    g[:, lay.offset["collision_slack"]] = config.slack.elastic
     return block_diagonal(H), g.ravel()
 
 
@@ -69,7 +69,7 @@ def add_smoothness(P: sp.spmatrix, c: np.ndarray, lin: Linearization, plan: Plan
     """(P, c) plus ``w_a |Delta^2 (y + S dq)|^2`` at 30 fps, y the world coordinates of ``q``
     and S their change with the update (:func:`world_map`); unchanged below 3 frames."""
     T, nv, nx = lay.n_frames, lay.nv, lay.nx
-    if T >= 3 and config.accel_weight > 0:
+    if T >= 3 and config.costs.accel > 0:
         Rb = lin.base_rotations
         S = np.zeros((T, nv, nx))
         S[:, :, :nv] = world_map(Rb, nv)
@@ -77,8 +77,8 @@ def add_smoothness(P: sp.spmatrix, c: np.ndarray, lin: Linearization, plan: Plan
         D2 = sp.kron(difference_operator(T, 2), sp.identity(nv), format="csr") * scale
         A_s = D2 @ block_diagonal(S)
         r_s = D2 @ world_coordinates(q, Rb).ravel()
-        P = P + config.accel_weight * (A_s.T @ A_s)
-        c = c + config.accel_weight * (A_s.T @ r_s)
+        P = P + config.costs.accel * (A_s.T @ A_s)
+        c = c + config.costs.accel * (A_s.T @ r_s)
     return P, c
 
 

@@ -26,19 +26,19 @@ from .zmp import ZmpLinearization
 
 def force_rows(out: Rows, lin: Linearization, zl: ZmpLinearization, config: WholeBodyConfig,
                lay: Layout) -> None:
-    """Normal-force rows of the support frames, friction rows (``config.friction > 0``), then
+    """Normal-force rows of the support frames, friction rows (``config.forces.friction > 0``), then
     the free fall of the flight frames (see the module docstring)."""
     acc, acc_z, sup = lin.com_acceleration, zl.acc_z, zl.support
     slack = lay.pick(lay.offset["zmp_slack"])
     vert = (acc_z + slack).tocsr()
     flight = ~sup
     n_sup = int(sup.sum())
-    out.add(vert[sup], ((config.min_normal - 1.0) * GRAVITY - acc[:, 2])[sup],
+    out.add(vert[sup], ((config.forces.min_normal - 1.0) * GRAVITY - acc[:, 2])[sup],
             np.full(n_sup, np.inf))
     out.add((acc_z - slack).tocsr()[sup], np.full(n_sup, -np.inf),
-            ((config.max_normal - 1.0) * GRAVITY - acc[:, 2])[sup])
-    if config.friction > 0 and sup.any():
-        mu = config.friction / np.sqrt(2.0)
+            ((config.forces.max_normal - 1.0) * GRAVITY - acc[:, 2])[sup])
+    if config.forces.friction > 0 and sup.any():
+        mu = config.forces.friction / np.sqrt(2.0)
         for axis, aux in ((0, zl.cx), (1, zl.cy)):
             acc_a = zl.Dacc @ aux
             for sign in (1.0, -1.0):

@@ -29,8 +29,8 @@ def motion_rows(out: Rows, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
                                              (np.arange(T)[:, None] * nx + 6
                                               + np.arange(n_j)).ravel())), shape=(T * n_j, lay.n))
     qj = q[:, 7:]
-    for n_diff, limit, margin in ((1, plan.v_max * h, config.velocity_margin),
-                                  (2, plan.a_max * h * h, config.acceleration_margin)):
+    for n_diff, limit, margin in ((1, plan.v_max * h, config.margins.velocity),
+                                  (2, plan.a_max * h * h, config.margins.acceleration)):
         if T <= n_diff:
             continue
         D = sp.kron(difference_operator(T, n_diff), sp.identity(n_j), format="csr") @ sel
@@ -64,7 +64,7 @@ def torque_rows(out: Rows, lin: Linearization, config: WholeBodyConfig, lay: Lay
     slack = sp.csr_matrix((np.ones(R), (np.arange(R), trq.frames * nx + first)),
                           shape=(R, lay.n))
     r0 = trq.values
-    bound = 1.0 - config.torque_margin
+    bound = 1.0 - config.margins.torque
     out.add(rows - slack, np.full(R, -np.inf), bound - r0)
     out.add(rows + slack, -bound - r0, np.full(R, np.inf))
 
@@ -76,12 +76,12 @@ def bounds(plan: Plan, q: np.ndarray, config: WholeBodyConfig, lay: Layout
     qj = q[:, 7:]
     x_l = np.full((T, nx), -np.inf)
     x_u = np.full((T, nx), np.inf)
-    x_l[:, :nv], x_u[:, :nv] = -config.trust_region, config.trust_region
+    x_l[:, :nv], x_u[:, :nv] = -config.sqp.trust_region, config.sqp.trust_region
     # the base's translation moves every link: its vertical second difference enters the ZMP's
     # denominator (g + c_z''), so it gets a tighter region
-    x_l[:, :3], x_u[:, :3] = -config.trust_region * config.base_trust, \
-        config.trust_region * config.base_trust
-    x_l[:, 6:nv] = np.maximum(plan.lower - qj, -config.trust_region)
-    x_u[:, 6:nv] = np.minimum(plan.upper - qj, config.trust_region)
+    x_l[:, :3], x_u[:, :3] = -config.sqp.trust_region * config.sqp.base_trust, \
+        config.sqp.trust_region * config.sqp.base_trust
+    x_l[:, 6:nv] = np.maximum(plan.lower - qj, -config.sqp.trust_region)
+    x_u[:, 6:nv] = np.minimum(plan.upper - qj, config.sqp.trust_region)
     x_l[:, lay.offset["zmp_slack"]:] = 0.0
     return x_l, x_u

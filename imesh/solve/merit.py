@@ -27,47 +27,47 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     e = lin.points - plan.marker_points
     f = np.einsum("tka,tkl,tla->", e, plan.mesh_metric, e)
     if lin.axes.shape[1]:
-        w = (config.direction_weight * plan.direction_weights) ** 2
+        w = (config.costs.direction * plan.direction_weights) ** 2
         f += np.einsum("d,tda->", w, (lin.axes - plan.target_directions) ** 2)
-    f += config.init_weight * np.sum((q[:, 7:] - plan.q_init[:, 7:]) ** 2)
+    f += config.costs.init * np.sum((q[:, 7:] - plan.q_init[:, 7:]) ** 2)
     T = len(q)
-    if T >= 3 and config.accel_weight > 0:
+    if T >= 3 and config.costs.accel > 0:
         y = world_coordinates(q, lin.base_rotations)
-        f += config.accel_weight * np.sum((np.diff(y, 2, axis=0) * (plan.fps / 30.0) ** 2) ** 2)
+        f += config.costs.accel * np.sum((np.diff(y, 2, axis=0) * (plan.fps / 30.0) ** 2) ** 2)
     sup = plan.support.any(axis=1)
-    over = np.maximum(np.abs(lin.zmp_multibody - plan.desired_zmp)[sup] - config.zmp_band_m, 0)
-    f += config.zmp_weight * np.sum(over ** 2)
+    over = np.maximum(np.abs(lin.zmp_multibody - plan.desired_zmp)[sup] - config.zmp.band_m, 0)
+    f += config.zmp.weight * np.sum(over ** 2)
     penalty = 0.0
     hp_frame, hp_n, hp_b = plan.halfplanes
     if len(hp_frame):
-        out = hp_b + config.zmp_margin_m - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1)
+        out = hp_b + config.zmp.margin_m - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1)
         worst = np.zeros(T)
         np.maximum.at(worst, hp_frame, out)
-        penalty += config.zmp_slack_weight * np.sum(np.maximum(worst, 0.0))
+        penalty += config.slack.balance * np.sum(np.maximum(worst, 0.0))
     _, _, err = sole_errors(lin, plan)
-    penalty += config.elastic_weight * np.sum(np.abs(err).max(axis=1, initial=0.0))
+    penalty += config.slack.elastic * np.sum(np.abs(err).max(axis=1, initial=0.0))
     tt, kk = np.nonzero(~plan.support)
     if len(tt):
         short = clearance(plan, config)[tt, kk] - lin.corners[tt, kk, :, 2].min(axis=1)
         worst = np.zeros(T)
         np.maximum.at(worst, tt, short)
-        penalty += config.elastic_weight * np.sum(np.maximum(worst, 0.0))
+        penalty += config.slack.elastic * np.sum(np.maximum(worst, 0.0))
     if lin.body_z.shape[1]:
-        penalty += config.elastic_weight * np.sum(np.maximum(-lin.body_z.min(axis=1), 0.0))
+        penalty += config.slack.elastic * np.sum(np.maximum(-lin.body_z.min(axis=1), 0.0))
     az = lin.com_acceleration[:, 2]
-    penalty += config.zmp_slack_weight * (
-        np.sum(np.maximum((config.min_normal - 1.0) * GRAVITY - az[sup], 0.0))
-        + np.sum(np.maximum(az[sup] - (config.max_normal - 1.0) * GRAVITY, 0.0))
+    penalty += config.slack.balance * (
+        np.sum(np.maximum((config.forces.min_normal - 1.0) * GRAVITY - az[sup], 0.0))
+        + np.sum(np.maximum(az[sup] - (config.forces.max_normal - 1.0) * GRAVITY, 0.0))
         + (np.sum(np.maximum(np.abs(lin.com_acceleration[sup, :2]).max(axis=1)
-                             - config.friction / np.sqrt(2.0) * (GRAVITY + az[sup]), 0.0))
-           if config.friction > 0 else 0.0)
+                             - config.forces.friction / np.sqrt(2.0) * (GRAVITY + az[sup]), 0.0))
+           if config.forces.friction > 0 else 0.0)
         + np.sum(np.abs(az[~sup] + GRAVITY)))
     if lin.torques is not None:
-        penalty += config.zmp_slack_weight * np.sum(lin.torques.excess(1.0 - config.torque_margin))
+        penalty += config.slack.balance * np.sum(lin.torques.excess(1.0 - config.margins.torque))
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
-        1 - config.acceleration_margin)
-    penalty += config.elastic_weight * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
+        1 - config.margins.acceleration)
+    penalty += config.slack.elastic * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
     if lin.collision is not None:
-        penalty += config.elastic_weight * collision_violation(lin.collision,
-                                                               config.collision_margin_m)
+        penalty += config.slack.elastic * collision_violation(lin.collision,
+                                                               config.collision.margin_m)
     return float(0.5 * f + penalty)

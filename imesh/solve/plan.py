@@ -86,7 +86,7 @@ class Plan:
         rest_frames: the first and the last this many frames are held identical (the motion
             starts and ends at rest: zero velocity and acceleration for a controller); 0: free.
         clearance: (T, 2) [m] height the swing feet's ground points keep per frame (None:
-            ``config.clearance_m`` everywhere).
+            ``config.feet.clearance_m`` everywhere).
         fixed_frames: the first this many frames do not move (a window of a long clip starts
             on the previous window's solution: :mod:`imesh.solve.windows`).
         rest_ends: whether the rest rows (``rest_frames``) hold at the (start, end): a window

@@ -116,7 +116,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     force_rows(rows, lin, zl, config, lay)
     if lin.collision is not None and len(lin.collision.frames):
         rows.add(*collision_qp_rows(lin.collision, T, lay.nx, lay.offset["collision_slack"],
-                                    config.collision_margin_m))
+                                    config.collision.margin_m))
     G = sp.vstack(rows.blocks, format="csc") if rows.blocks else sp.csc_matrix((0, lay.n))
     x_l, x_u = bounds(plan, q, config, lay)
     P = ((P + P.T) * 0.5).tocsc()

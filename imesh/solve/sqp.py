@@ -135,12 +135,12 @@ class _Frames:
         self.capsules = None
         self.capsule_frames = np.zeros(0, dtype=int)
         self.collision_activation = 0.0
-        if config is not None and config.self_collision and robot.config.collision.in_solve:
+        if config is not None and config.collision.enabled and robot.config.collision.in_solve:
             self.capsules = robot.capsule_model()
             cf = [robot.frame_id(f) for f in self.capsules.frames]
             ids += [f for f in dict.fromkeys(cf) if f not in ids]
             self.capsule_frames = np.array([ids.index(f) for f in cf], dtype=int)
-            self.collision_activation = config.collision_activation_m
+            self.collision_activation = config.collision.activation_m
 
 
 def leg_ground_points(robot, below: float = 0.4) -> tuple[list[int], np.ndarray]:
@@ -303,7 +303,7 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     kin = robot.trajectory_kinematics(q_init, [frames.ids[i] for i in frames.soles])
     poses = {s: kin.placements[:, k] for k, s in enumerate(SIDES)}
     support = split_pivots(robot, poses, support, fps)
-    footprints = plan_footprints(robot, poses, support, load=config.max_normal)
+    footprints = plan_footprints(robot, poses, support, load=config.forces.max_normal)
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
         sole_targets[f.start:f.stop, SIDES.index(f.side)] = f.frame_pose
@@ -311,7 +311,7 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     kp_markers = markers[:, targets.kp_markers]
     lap = keypoint_laplacians(kp_markers)
     w2 = targets.kp_weights ** 2
-    metric = np.einsum("tji,tjk->tik", lap, lap) * config.mesh_weight
+    metric = np.einsum("tji,tjk->tik", lap, lap) * config.costs.mesh
     metric[:, np.arange(len(w2)), np.arange(len(w2))] += w2
     d = markers[:, targets.dir_to] - markers[:, targets.dir_from]
     d /= np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-12)
@@ -323,8 +323,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                 lower=limits.lower, upper=limits.upper, v_max=limits.v_max,
                 a_max=limits.a_max, fps=fps,
                 rest_frames=rest_frames,
-                clearance=swing_clearance(support, config.clearance_m, config.swing_lift_m,
-                                          config.swing_edge_m))
+                clearance=swing_clearance(support, config.feet.clearance_m,
+                                          config.feet.swing_lift_m, config.feet.swing_edge_m))
     return plan, footprints
 
 
@@ -361,7 +361,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                      progress: Callable[[int, int], None] | None = None) -> WholeBodySolution:
     """Sequential QP from ``plan.q_init`` (see the module docstring).
 
-    ``progress(iteration, config.iterations)`` is called after every SQP iteration (the solve
+    ``progress(iteration, config.sqp.iterations)`` is called after every SQP iteration (the solve
     may stop earlier).
 
     Raises:
@@ -374,30 +374,31 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     t_all = time.perf_counter()
     t0 = time.perf_counter()
     # torque rows unless the margin is 1 (the whole limit given up)
-    support = plan.support if config.torque_margin < 1 else None
-    lin = linearize(robot, q, frames, plan.fps, support, 1.0 - config.torque_margin)
+    support = plan.support if config.margins.torque < 1 else None
+    lin = linearize(robot, q, frames, plan.fps, support, 1.0 - config.margins.torque)
     seconds["linearize"] += time.perf_counter() - t0
-    history = [_report(lin, plan, q, 0.0, 0.0, 0, config.zmp_margin_m)]
+    history = [_report(lin, plan, q, 0.0, 0.0, 0, config.zmp.margin_m)]
     converged = False
     T, nv = len(q), robot.nv
     phi = merit(lin, plan, q, config)
-    trust = config.trust_region
-    for it in range(config.iterations):
+    trust = config.sqp.trust_region
+    for it in range(config.sqp.iterations):
         t0 = time.perf_counter()
-        qp = build_qp(lin, plan, q, dataclasses.replace(config, trust_region=trust))
+        qp = build_qp(lin, plan, q, dataclasses.replace(
+            config, sqp=dataclasses.replace(config.sqp, trust_region=trust)))
         seconds["build"] += time.perf_counter() - t0
         try:
             # a window's QP (fixed first frames): PIQP's duality-gap test stalls there
-            sol = solve_qp(qp, config.solver, config.qp_tolerance,
+            sol = solve_qp(qp, config.sqp.solver, config.sqp.qp_tolerance,
                            gap_check=plan.fixed_frames == 0 and plan.fixed_end_frames == 0)
         except SolverError as exc:
-            if config.solver == "clarabel":
+            if config.sqp.solver == "clarabel":
                 raise SolverError(f"whole-body solve, iteration {it + 1}: {exc}",
                                   residual=exc.residual) from None
             # PIQP stalls on some badly scaled linearizations where Clarabel's homogeneous
             # embedding still converges (measured: docs/wholebody.md)
             log.info("whole-body iteration %d: %s; retrying with clarabel", it + 1, exc)
-            sol = solve_qp(qp, "clarabel", config.qp_tolerance)
+            sol = solve_qp(qp, "clarabel", config.sqp.qp_tolerance)
         seconds["qp"] += sol.seconds
         dq = sol.x.reshape(T, -1)[:, :nv].copy()
         # held frames: their equality rows hold to the QP's tolerance; keep them exact, so
@@ -409,34 +410,34 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         for alpha in (1.0, 0.5, 0.25, 0.125):
             q_new = np.array([robot.integrate(q[t], alpha * dq[t]) for t in range(T)])
             lin_new = linearize(robot, q_new, frames, plan.fps, support,
-                                1.0 - config.torque_margin)
+                                1.0 - config.margins.torque)
             phi_new = merit(lin_new, plan, q_new, config)
             # a step may not deepen the self-collisions, whatever else it gains: a long step
             # can carry a hand through a body, where the distance's gradient then points
             # through (G1 walk: a wrist stuck 70 mm inside the hip, marker RMS 47 -> 58 mm)
-            deeper = collision_violation(lin_new.collision, config.collision_margin_m) > \
-                collision_violation(lin.collision, config.collision_margin_m) + 1e-6
+            deeper = collision_violation(lin_new.collision, config.collision.margin_m) > \
+                collision_violation(lin.collision, config.collision.margin_m) + 1e-6
             if phi_new < phi and not deeper:
                 break
             phi_new = max(phi_new, phi) if deeper else phi_new
         seconds["linearize"] += time.perf_counter() - t0
         step = float(alpha * np.abs(dq).max())
         if progress is not None:
-            progress(it + 1, config.iterations)
+            progress(it + 1, config.sqp.iterations)
         if phi_new >= phi:  # no decrease along the step: a smaller trust region next time
             trust *= 0.25
             log.info("whole-body iteration %d: no merit decrease (%.6g >= %.6g); trust region "
                      "%.3g", it + 1, phi_new, phi, trust)
-            if trust < config.step_tolerance:
+            if trust < config.sqp.step_tolerance:
                 converged = True
                 break
             continue
         if alpha == 1.0:
-            trust = min(2.0 * trust, config.trust_region)
+            trust = min(2.0 * trust, config.sqp.trust_region)
         gain = phi - phi_new
         q, lin, phi = q_new, lin_new, phi_new
         history.append(_report(lin, plan, q, step, sol.seconds, sol.iterations,
-                               config.zmp_margin_m))
+                               config.zmp.margin_m))
         r = history[-1]
         log.info("whole-body iteration %d: step %.2e (alpha %.3g), merit %.6g, soles %.2f mm / "
                  "%.3f deg, swing low %.1f mm, ZMP outside %.1f mm, v %.3f a %.3f of limits, "
@@ -445,8 +446,9 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                  1e3 * r.zmp_outside_m, r.velocity_ratio, r.acceleration_ratio,
                  1e3 * r.keypoint_rms_m, sol.seconds, sol.iterations)
         feasible = (r.sole_error_m < 1e-3 and r.zmp_outside_m < 1e-3
-                    and r.lowest_swing_m > config.clearance_m - 1e-3)
-        if step < config.step_tolerance or (feasible and gain < config.merit_tolerance * phi):
+                    and r.lowest_swing_m > config.feet.clearance_m - 1e-3)
+        if step < config.sqp.step_tolerance or (
+                feasible and gain < config.sqp.merit_tolerance * phi):
             converged = True
             break
     seconds["total"] = time.perf_counter() - t_all

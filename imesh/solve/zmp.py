@@ -82,7 +82,7 @@ def band_cost(P: sp.spmatrix, lin: Linearization, plan: Plan, zl: ZmpLinearizati
     ``|p0 + Z x - p*| <= band + b`` (per axis) as (Z rows, excess selector, p0 - p*) for
     :func:`band_rows` (None without the cost or without support)."""
     sup = zl.support
-    if not (config.zmp_weight > 0 and sup.any()):
+    if not (config.zmp.weight > 0 and sup.any()):
         return P, None
     nx, B0 = lay.nx, lay.offset["band_excess"]
     rows = np.flatnonzero(np.repeat(sup, 2))
@@ -91,7 +91,7 @@ def band_cost(P: sp.spmatrix, lin: Linearization, plan: Plan, zl: ZmpLinearizati
                                                  (rows // 2) * nx + B0 + rows % 2)),
                            shape=(len(rows), lay.n))
     diag = np.zeros(lay.n)
-    diag[(np.flatnonzero(sup)[:, None] * nx + B0 + np.arange(2)).ravel()] = config.zmp_weight
+    diag[(np.flatnonzero(sup)[:, None] * nx + B0 + np.arange(2)).ravel()] = config.zmp.weight
     return P + sp.diags(diag), (zl.Z[rows], excess, r_z)
 
 
@@ -100,8 +100,8 @@ def band_rows(out: Rows, band: tuple | None, config: WholeBodyConfig) -> None:
     if band is None:
         return
     Zs, excess, r_z = band
-    out.add(Zs - excess, np.full(len(r_z), -np.inf), config.zmp_band_m - r_z)
-    out.add(Zs + excess, -config.zmp_band_m - r_z, np.full(len(r_z), np.inf))
+    out.add(Zs - excess, np.full(len(r_z), -np.inf), config.zmp.band_m - r_z)
+    out.add(Zs + excess, -config.zmp.band_m - r_z, np.full(len(r_z), np.inf))
 
 
 def polygon_rows(out: Rows, lin: Linearization, plan: Plan, zl: ZmpLinearization,
@@ -119,7 +119,7 @@ def polygon_rows(out: Rows, lin: Linearization, plan: Plan, zl: ZmpLinearization
     slack = sp.csr_matrix((np.ones(R), (np.arange(R), hp_frame * lay.nx + lay.offset["zmp_slack"])),
                           shape=(R, lay.n))
     out.add(Nmat @ zl.Z + slack,
-            hp_b + config.zmp_margin_m - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1),
+            hp_b + config.zmp.margin_m - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1),
             np.full(R, np.inf))
 
 
