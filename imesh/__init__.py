@@ -42,6 +42,7 @@ _LAZY = {
     "to_standard": ".human.standard",
     "InteractionMesh": ".mesh.interaction", "build_interaction_mesh": ".mesh.interaction",
     "MorphConfig": ".morph.problem", "MorphProblem": ".morph.problem",
+    "MorphWeights": ".morph.problem", "LagrangianOptions": ".morph.problem",
     "build_morph_problem": ".morph.problem",
     "MorphResult": ".morph.solver", "solve_morph": ".morph.solver",
     "MarkerMotion": ".core.motion",
@@ -78,10 +79,11 @@ __version__ = "0.1.0"
 
 __all__ = [
     "AdaptResult", "ConstraintError", "ImeshError", "InteractionMesh", "InvalidMotionError",
-    "MarkerMappingError", "MarkerMotion", "MissingMarkerError", "MorphConfig", "MorphProblem",
-    "MorphResult", "MotionFileError", "OptionError", "RetargetConfig", "RetargetResult",
-    "RobotMotion", "STANDARD_BONES", "STANDARD_MARKERS", "SolverError", "UnsupportedFormatError",
-    "__version__", "adapt_motion", "build_interaction_mesh", "build_morph_problem", "demo_clip",
-    "evaluate", "export_motion", "fill_gaps", "load_motion", "load_robot", "load_robot_motion",
-    "retarget", "solve_morph", "to_standard",
+    "LagrangianOptions", "MarkerMappingError", "MarkerMotion", "MissingMarkerError", "MorphConfig",
+    "MorphProblem", "MorphResult", "MorphWeights", "MotionFileError", "OptionError",
+    "RetargetConfig", "RetargetResult", "RobotMotion", "STANDARD_BONES", "STANDARD_MARKERS",
+    "SolverError", "UnsupportedFormatError", "__version__", "adapt_motion",
+    "build_interaction_mesh", "build_morph_problem", "demo_clip", "evaluate", "export_motion",
+    "fill_gaps", "load_motion", "load_robot", "load_robot_motion", "retarget", "solve_morph",
+    "to_standard",
 ]

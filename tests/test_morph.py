@@ -10,6 +10,7 @@ from imesh import (
     ConstraintError,
     MarkerMotion,
     MorphConfig,
+    MorphWeights,
     build_interaction_mesh,
     build_morph_problem,
     fill_gaps,
@@ -67,7 +68,8 @@ def test_identity_morph_returns_input(name, walk, synthetic):
 def test_one_step_matches_dense_kkt_solution(walk):
     """The banded multiplier method returns the exact solution of the step's KKT system."""
     motion = walk.frames(0, 40)
-    cfg = MorphConfig(steps=1, max_polish_steps=0, contact_weight=0.0, bone_tolerance_m=1.0)
+    cfg = MorphConfig(steps=1, max_polish_steps=0, weights=MorphWeights(contact=0.0),
+                      bone_tolerance_m=1.0)
     target = bone_lengths(motion.positions_m, motion.bones) * 1.2
     problem = build_morph_problem(motion, target_lengths_m=target, config=cfg)
     result = solve_morph(problem)

@@ -12,7 +12,7 @@ from ..io import load_motion
 from ..io.atomic import write_json
 from ..io.npz import save_marker_motion
 from ..morph.adapt import AdaptResult, adapt_motion
-from ..morph.problem import MorphConfig
+from ..morph.problem import MorphConfig, MorphWeights
 from .loading import load_clip, parse_units
 
 
@@ -42,7 +42,7 @@ def run(args) -> int:
 
 def _adapt(args, motion, people=None) -> AdaptResult:
     """The morph with the parsed options, a progress bar per morph step unless ``-q``."""
-    config = MorphConfig(steps=args.steps, accel_weight=args.accel_weight,
+    config = MorphConfig(steps=args.steps, weights=MorphWeights(accel=args.accel_weight),
                          window_frames=args.window_frames)
     bar, update = None, None
     if not args.quiet:

@@ -138,7 +138,8 @@ class BandedKKT:
         factor, info = dpbtrf(self.work, lower=0, overwrite_ab=1)
         if info != 0:
             raise SolverError(f"banded Cholesky failed (LAPACK info {info}): the morph Hessian is "
-                              "not positive definite; check weights (anchor_weight must be > 0)")
+                              "not positive definite; check weights (MorphWeights.anchor must "
+                              "be > 0)")
         self._factor = factor
         vals_a = np.concatenate([np.concatenate([directions, -directions], axis=1).reshape(-1),
                                  np.ones(len(self.pos_cols))])

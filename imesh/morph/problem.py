@@ -12,10 +12,11 @@ lengths (eq. 3) and positional constraints (eq. 4).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.checks import NonNegative, require_finite
 from ..core.motion import MarkerMotion
 from ..errors import ConstraintError, InvalidMotionError, OptionError
 from ..mesh.bones import bone_lengths, check_target_lengths
@@ -23,35 +24,75 @@ from ..mesh.interaction import WEIGHTINGS
 
 
 @dataclass(frozen=True)
-class MorphConfig:
-    """Weights and solver settings of the spacetime morph.
+class MorphWeights(NonNegative):
+    """The morph's energy: its terms' weights and the Laplacian's (eq. 2, 5, 6).
 
     Attributes:
-        steps: number of morph steps K; targets move linearly from source to final over them.
-        accel_weight: w_A, weight of the acceleration energy, defined on the change of the
-            per-frame second difference relative to the source motion, normalized to 30 fps:
+        accel: w_A, weight of the acceleration energy, defined on the change of the per-frame
+            second difference relative to the source motion, normalized to 30 fps:
             E_A = w_A (fps/30)^4 / 2 sum_i |(V'-V)_{i-1} - 2 (V'-V)_i + (V'-V)_{i+1}|^2, so a given
             w_A means the same smoothing at any frame rate.
-        anchor_weight: small proximal weight pulling every marker towards its position of the
+        anchor: small proximal weight pulling every marker towards its position of the
             previous morph step; removes the null space (a translation linear in time costs no
             Laplacian or acceleration energy) without biasing the result towards the source.
-        soft_weight: default weight of soft positional constraints (eq. 5).
-        weighting: Laplacian weights, "inverse_distance" or "uniform".
-        contact_weight: w_D, weight of the soft term that keeps the source distance of close
-            marker pairs (closer than ``contact_fraction`` x body height in the source frame,
-            not joined by a constrained pair): w_D (1 - d/d_max) (|p'_a - p'_b| - s d)^2 / 2,
+        soft: default weight of soft positional constraints (eq. 5).
+        contact: w_D, weight of the soft term that keeps the source distance of close marker
+            pairs (closer than ``contact_fraction`` x body height in the source frame, not
+            joined by a constrained pair): w_D (1 - d/d_max) (|p'_a - p'_b| - s d)^2 / 2,
             linearized like the bones, with s the median target/source length ratio. Hands
             that touch keep touching; 0 turns it off (pure Laplacian energy of eq. 2).
         contact_fraction: closeness threshold relative to the body height.
+        weighting: Laplacian weights, "inverse_distance" or "uniform".
+    """
+
+    accel: float = 1.0
+    anchor: float = 1e-3
+    soft: float = 1.0
+    contact: float = 30.0
+    contact_fraction: float = 0.15
+    weighting: str = "inverse_distance"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        require_finite(self, ("anchor",), positive=True)
+        if self.weighting not in WEIGHTINGS:
+            raise OptionError("weighting", self.weighting, WEIGHTINGS)
+
+
+@dataclass(frozen=True)
+class LagrangianOptions:
+    """The augmented-Lagrangian solve of the hard constraints in every morph step
+    (:meth:`imesh.morph.kkt.KktSystem.solve`).
+
+    Attributes:
+        tolerance_m: residual of the linearized hard constraints per solve [m].
+        fail_tolerance_m: at the final targets, a residual still above this after
+            ``max_iterations`` means conflicting hard constraints (SolverError) [m].
+        penalty: penalty relative to the mean diagonal of the Hessian.
+        max_iterations: limit on multiplier updates per solve.
+    """
+
+    tolerance_m: float = 1e-10
+    fail_tolerance_m: float = 1e-5
+    penalty: float = 1e5
+    max_iterations: int = 30
+
+    def __post_init__(self) -> None:
+        require_finite(self, ("tolerance_m", "penalty"), positive=True)
+
+
+@dataclass(frozen=True)
+class MorphConfig:
+    """Settings of the spacetime morph.
+
+    Attributes:
+        steps: number of morph steps K; targets move linearly from source to final over them.
+        weights: the energy's weights.
+        lagrangian: the hard constraints' solve.
         bone_tolerance_m: every constrained length ends within this of its target: after the K
             steps, up to ``max_polish_steps`` re-solves at the final targets, then a Newton
             projection onto the exact lengths (``projection.project_lengths``).
         max_polish_steps: re-solves of the whole problem at the final targets.
-        constraint_tolerance_m: residual of the linearized hard constraints per solve.
-        fail_tolerance_m: at the final targets, a residual still above this after
-            ``max_al_iterations`` means conflicting hard constraints (SolverError).
-        penalty: augmented-Lagrangian penalty relative to the mean diagonal of the Hessian.
-        max_al_iterations: limit on multiplier updates per solve.
         window_frames: clips longer than this are solved in windows (memory stays bounded).
         window_lookahead: frames a window solves beyond what it keeps, so its end is not
             shaped by the artificial window boundary.
@@ -60,18 +101,10 @@ class MorphConfig:
     """
 
     steps: int = 10
-    accel_weight: float = 1.0
-    anchor_weight: float = 1e-3
-    soft_weight: float = 1.0
-    weighting: str = "inverse_distance"
-    contact_weight: float = 30.0
-    contact_fraction: float = 0.15
+    weights: MorphWeights = field(default_factory=MorphWeights)
+    lagrangian: LagrangianOptions = field(default_factory=LagrangianOptions)
     bone_tolerance_m: float = 1e-9
     max_polish_steps: int = 1
-    constraint_tolerance_m: float = 1e-10
-    fail_tolerance_m: float = 1e-5
-    penalty: float = 1e5
-    max_al_iterations: int = 30
     window_frames: int = 2000
     window_lookahead: int = 60
     threads: int | None = None
@@ -79,16 +112,7 @@ class MorphConfig:
     def __post_init__(self) -> None:
         if int(self.steps) < 1:
             raise OptionError("morph steps", self.steps, "an integer >= 1")
-        for name in ("accel_weight", "soft_weight", "contact_weight", "contact_fraction"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v >= 0):
-                raise OptionError(name, v, "a finite number >= 0")
-        for name in ("anchor_weight", "bone_tolerance_m", "constraint_tolerance_m", "penalty"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise OptionError(name, v, "a finite number > 0")
-        if self.weighting not in WEIGHTINGS:
-            raise OptionError("weighting", self.weighting, WEIGHTINGS)
+        require_finite(self, ("bone_tolerance_m",), positive=True)
         if self.window_frames < 8 or not (0 <= self.window_lookahead < self.window_frames // 2):
             raise OptionError("window_frames/window_lookahead",
                               (self.window_frames, self.window_lookahead),
@@ -173,7 +197,7 @@ def build_morph_problem(motion: MarkerMotion, *, pairs: np.ndarray | None = None
             lengths.
         hard_positions_m: (T, M, 3) final hard targets [m], NaN for free coordinates.
         soft_positions_m: (T, M, 3) final soft targets [m], NaN for free coordinates.
-        soft_weights: (T, M) or scalar weight of the soft targets (default config.soft_weight).
+        soft_weights: (T, M) or scalar weight of the soft targets (default config.weights.soft).
         config: MorphConfig (defaults if None).
 
     Raises:
@@ -205,7 +229,7 @@ def build_morph_problem(motion: MarkerMotion, *, pairs: np.ndarray | None = None
     hard = _position_array("hard_positions_m", hard_positions_m, shape, motion.names)
     soft = _position_array("soft_positions_m", soft_positions_m, shape, motion.names)
     if soft_weights is None:
-        soft_weights = config.soft_weight
+        soft_weights = config.weights.soft
     w = np.broadcast_to(np.asarray(soft_weights, dtype=float), shape[:2]).copy()
     if not (np.isfinite(w).all() and (w >= 0).all()):
         raise ConstraintError("soft_weights must be finite and >= 0")

@@ -118,10 +118,10 @@ class _Window:
         n, m = problem.n_frames, problem.n_markers
         self.problem = problem
         self.fixed_frames = fixed_frames
-        mesh = build_interaction_mesh(problem.source, weighting=cfg.weighting)
+        mesh = build_interaction_mesh(problem.source, weighting=cfg.weights.weighting)
         t1 = time.perf_counter()
         lap = mesh.laplacian
-        w_accel = cfg.accel_weight * (problem.fps / 30.0) ** 4
+        w_accel = cfg.weights.accel * (problem.fps / 30.0) ** 4
         d2 = _second_difference(n)
         h_scalar = (lap.T @ lap + w_accel * sp.kron(d2.T @ d2, sp.identity(m))).tocsr()
         h_shape = sp.kron(h_scalar, sp.identity(3), format="csr")
@@ -131,7 +131,7 @@ class _Window:
         self.soft_w = (problem.soft_weights[..., None] * soft_mask).reshape(-1)
         self.soft_target_final = np.where(soft_mask, problem.soft_positions_m,
                                           problem.source).reshape(-1)
-        self.anchor = cfg.anchor_weight
+        self.anchor = cfg.weights.anchor
         diag = self.anchor + self.soft_w
         hessian = (h_shape + sp.diags(diag)).tocsr()
         self.hessian = hessian
@@ -151,7 +151,7 @@ class _Window:
         # Constraint rows couple 2 markers of one frame: inside the 6M band of the Hessian.
         kd = 6 * m if n >= 3 else 3 * m - 1
         self.kkt = BandedKKT(hessian, kd, bone_cols.reshape(-1, 2, 3), self.pos_cols,
-                             cfg.penalty, soft_cols=self.contact_cols)
+                             cfg.lagrangian.penalty, soft_cols=self.contact_cols)
         self.seconds_mesh = t1 - t0
         self.seconds_assemble = time.perf_counter() - t1
 
@@ -164,7 +164,7 @@ class _Window:
         self.contact_frames = np.zeros(0, dtype=np.int64)
         self.contact_pairs = np.zeros((0, 2), dtype=np.int64)
         self.contact_cols = np.zeros((0, 2, 3), dtype=np.int64)
-        if cfg.contact_weight <= 0:
+        if cfg.weights.contact <= 0:
             return
         i, j = np.triu_indices(m, k=1)
         joined = np.zeros((m, m), dtype=bool)
@@ -174,12 +174,12 @@ class _Window:
         pairs = np.stack([i[keep], j[keep]], axis=1)
         d = np.linalg.norm(problem.source[:, pairs[:, 0]] - problem.source[:, pairs[:, 1]],
                            axis=2)  # (T, P)
-        d_max = cfg.contact_fraction * problem.height_m
+        d_max = cfg.weights.contact_fraction * problem.height_m
         fr, k = np.nonzero(d < d_max)
         self.contact_frames = fr
         self.contact_pairs = pairs[k]
         self.contact_d0 = d[fr, k]
-        self.contact_w = cfg.contact_weight * (1.0 - self.contact_d0 / d_max)
+        self.contact_w = cfg.weights.contact * (1.0 - self.contact_d0 / d_max)
         marker_cols = fr[:, None] * m + self.contact_pairs  # (R, 2)
         self.contact_cols = marker_cols[..., None] * 3 + np.arange(3)
 
@@ -271,14 +271,14 @@ def _run_window(problem: MorphProblem, index: int, seams: list | None, keep_fram
         # Solve for the increment dx = x' - x: for an identity morph it is exactly zero, and
         # round-off scales with the step, not with the distance of the markers from the origin.
         sol = win.kkt.solve(rhs, win.targets(alpha, seam) - a @ x, multipliers=lam,
-                            tolerance=cfg.constraint_tolerance_m,
+                            tolerance=cfg.lagrangian.tolerance_m,
                             # intermediate targets (linear in alpha) need not be exactly
                             # consistent, and the first solve at the final targets starts
                             # from a stale linearization; only the last solve must succeed
-                            fail_tolerance=(cfg.fail_tolerance_m
+                            fail_tolerance=(cfg.lagrangian.fail_tolerance_m
                                             if step >= cfg.steps + cfg.max_polish_steps
                                             else np.inf),
-                            max_iterations=cfg.max_al_iterations)
+                            max_iterations=cfg.lagrangian.max_iterations)
         x, lam = x + sol.x, sol.multipliers
         pos = x.reshape(shape)
         target = (1 - alpha) * problem.source_lengths_m + alpha * problem.target_lengths_m

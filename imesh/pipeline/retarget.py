@@ -35,7 +35,7 @@ from ..fit.targets import compile_targets
 from ..human.arrange import Arrangement, arrange_for_robot
 from ..human.filtering import lowpass
 from ..morph.adapt import prepare_markers
-from ..morph.problem import MorphConfig, build_morph_problem
+from ..morph.problem import MorphConfig, MorphWeights, build_morph_problem
 from ..morph.solver import MorphResult, MorphStepReport, solve_morph, window_layout
 from ..robot.markers_config import Direction
 from ..solve import (
@@ -103,7 +103,8 @@ class RetargetConfig:
     """
 
     fps: float | None = 30.0
-    morph: MorphConfig = field(default_factory=lambda: MorphConfig(accel_weight=10.0))
+    morph: MorphConfig = field(
+        default_factory=lambda: MorphConfig(weights=MorphWeights(accel=10.0)))
     contacts: ContactConfig = field(default_factory=ContactConfig)
     support: SupportConfig | None = field(default_factory=SupportConfig)
     fit: FitConfig | None = None
