@@ -31,7 +31,7 @@ Tables (each printed as it is measured; docs/speed.md quotes them):
   (the resident memory of the process and its children summed, sampled every 0.2 s with
   psutil: a worker's memory counts too), and the exponent of a least-squares fit
   ``time ~ frames^k`` of both times. ``--workers 1`` or ``2`` is passed on as ``imesh
-  retarget --solve-workers`` (``RetargetConfig.workers``; default 1).
+  retarget --solve-workers`` (``RetargetConfig.windows.workers``; default 1).
 
 Single runs: on a shared machine quote ``farm-bench`` medians for any claim (docs/speed.md).
 """

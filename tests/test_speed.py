@@ -14,7 +14,7 @@ from conftest import load_test_robot
 from imesh import load_motion
 from imesh.core.progress import JobBar, StageProgress, retarget_bar
 from imesh.pipeline.retarget import RetargetConfig, retarget
-from imesh.solve import SqpOptions, WholeBodyConfig
+from imesh.solve import SqpOptions, WholeBodyConfig, WindowOptions
 
 
 def test_job_bar_moves_forward_through_the_stages_and_ends_full(monkeypatch):
@@ -159,7 +159,7 @@ def test_solve_workers_flag_reaches_the_retarget_config():
     for argv, workers in ((["retarget", "c.bvh", "-o", "o.npz"], 1),
                           (["retarget", "c.bvh", "-o", "o.npz", "--solve-workers", "2"], 2)):
         args = build_parser().parse_args(argv)
-        assert _retarget_config(args, args.steps, args.window_frames).workers == workers
+        assert _retarget_config(args, args.steps, args.window_frames).windows.workers == workers
     with pytest.raises(SystemExit):  # argparse names the valid choices
         build_parser().parse_args(["retarget", "c.bvh", "-o", "o.npz", "--solve-workers", "3"])
 
@@ -169,8 +169,8 @@ def test_workers_option_names_what_is_valid():
 
     for bad in (0, 3, 1.0, True, "2", None):
         with pytest.raises(OptionError, match="workers"):
-            RetargetConfig(workers=bad)
-    assert RetargetConfig(workers=2).workers == 2 and RetargetConfig().workers == 1
+            WindowOptions(workers=bad)
+    assert WindowOptions(workers=2).workers == 2 and RetargetConfig().windows.workers == 1
 
 
 def _border_checks(robot, written, borders) -> None:
@@ -225,7 +225,7 @@ def test_windows_hold_soles_limits_and_zmp_across_their_borders(mocap, tmp_path)
 
     robot = load_test_robot("g1")
     motion = load_motion(mocap("cmu_02_01_walk.bvh"))
-    config = RetargetConfig(window_frames=80, window_overlap_frames=16, workers=1)
+    config = RetargetConfig(windows=WindowOptions(frames=80, overlap_frames=16, workers=1))
     res = retarget(motion, robot, config=config)
     layout = window_layout(res.motion.n_frames, 80, 16)
     assert len(layout) == 3 and res.wholebody.seconds["windows"] == 3
@@ -254,7 +254,7 @@ def test_two_chains_and_their_join_window_hold_both_ends_and_every_border(
         return sol
 
     monkeypatch.setattr(windows, "solve_whole_body", recorded)
-    config = RetargetConfig(window_frames=80, window_overlap_frames=16, workers=2)
+    config = RetargetConfig(windows=WindowOptions(frames=80, overlap_frames=16, workers=2))
     res = retarget(motion, robot, config=config)
     T = res.motion.n_frames
     stop1, start2, j0, j1 = windows.join_layout(T, 80, 16)

@@ -93,7 +93,9 @@ def _retarget_config(args, steps: int, window_frames: int = 2000, support: bool 
                           fps=getattr(args, "fps", None) or base.fps,
                           allow_flight=getattr(args, "allow_flight", False),
                           lead_s=0.0 if getattr(args, "no_lead", False) else base.lead_s,
-                          workers=getattr(args, "solve_workers", base.workers),
+                          windows=dataclasses.replace(
+                              base.windows,
+                              workers=getattr(args, "solve_workers", base.windows.workers)),
                           arms=_arms_config(args))
 
 

@@ -152,11 +152,11 @@ class MorphProblem:
 
     @property
     def n_frames(self) -> int:
-        return self.source.shape[0]
+        return len(self.source)
 
     @property
     def n_markers(self) -> int:
-        return self.source.shape[1]
+        return len(self.names)
 
     def frames(self, start: int, stop: int) -> MorphProblem:
         """The sub-problem of frames start:stop (for windowed solves)."""

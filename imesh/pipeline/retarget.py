@@ -40,6 +40,7 @@ from ..morph.solver import MorphResult, MorphStepReport, solve_morph, window_lay
 from ..robot.markers_config import Direction
 from ..solve import (
     WholeBodyConfig,
+    WindowOptions,
     add_lead,
     plan_whole_body,
     smooth_initializer,
@@ -89,17 +90,8 @@ class RetargetConfig:
             fit, relative to the markers.toml weights.
         lowpass_hz: cut-off of the zero-phase low-pass applied to the human markers first
             (``imesh.human.filtering``); None keeps them as recorded.
-        window_frames: a whole-body solve longer than this many frames (lead-in/out included)
-            is made in overlapping windows of at most this length
-            (:mod:`imesh.solve.windows`): memory stays that of one window and time grows
-            linearly; 900 frames (30 s at 30 fps) keeps every shared clip but the long idle in
-            one window.
-        window_overlap_frames: frames at the end of a window solved again by the next.
-        workers: processes of a windowed whole-body solve: 1 (the windows in order) or 2 (two
-            chains of windows in two processes joined by a window held at both ends,
-            :func:`imesh.solve.windows.solve_windowed`). 1 by default: two cost 1.25x the
-            cpu and were not faster on a shared 2-core machine (docs/speed.md); they pay only
-            with a free core. A solve of one window ignores it.
+        windows: WindowOptions of a long whole-body solve (window length, overlap, worker
+            processes).
     """
 
     fps: float | None = 30.0
@@ -117,9 +109,7 @@ class RetargetConfig:
     lowpass_hz: float | None = 8.0
     foot_weight: float = 10.0
     pelvis_weight: float = 3.0
-    window_frames: int = 900
-    window_overlap_frames: int = 60
-    workers: int = 1
+    windows: WindowOptions = field(default_factory=WindowOptions)
 
     def __post_init__(self) -> None:
         if self.balance not in BALANCE_MODES:
@@ -128,17 +118,6 @@ class RetargetConfig:
             raise OptionError("fps", self.fps, "a positive number or None")
         if not (np.isfinite(self.lead_s) and self.lead_s >= 0):
             raise OptionError("lead_s", self.lead_s, "a number of seconds >= 0")
-        if not (isinstance(self.window_overlap_frames, int) and self.window_overlap_frames >= 2):
-            raise OptionError("window_overlap_frames", self.window_overlap_frames,
-                              "an integer >= 2")
-        if not (isinstance(self.window_frames, int)
-                and self.window_frames >= 2 * (self.window_overlap_frames + 4)):
-            raise OptionError("window_frames", self.window_frames,
-                              f"an integer >= {2 * (self.window_overlap_frames + 4)} (twice "
-                              "the overlap and the 4 frames held at the previous window)")
-        if type(self.workers) is not int or self.workers not in (1, 2):
-            raise OptionError("workers", self.workers,
-                              "1 (windows in order) or 2 (two chains in two processes)")
         if self.balance == "wholebody" and self.support is None:
             raise OptionError("support", None, "a SupportConfig: the whole-body solve plans "
                               "footprints from the support phases")
@@ -436,13 +415,14 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         def sqp_step(done: int, total: int) -> None:
             notify(progress, "wholebody", done, total, n_out, f"SQP iteration {done}")
 
-        if n_out > config.window_frames:
+        if n_out > config.windows.frames:
             def window_step(done: int, total: int, text: str) -> None:
                 notify(progress, "wholebody", done, total, n_out, text)
 
             solution = windows.solve_windowed(
-                robot, plan, footprints, targets, config.wholebody, config.window_frames,
-                config.window_overlap_frames, progress=window_step, workers=config.workers)
+                robot, plan, footprints, targets, config.wholebody, config.windows.frames,
+                config.windows.overlap_frames, progress=window_step,
+                workers=config.windows.workers)
         else:
             solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody,
                                         progress=sqp_step)

@@ -13,6 +13,7 @@ from .config import (
     SlackPrices,
     SqpOptions,
     WholeBodyConfig,
+    WindowOptions,
     ZmpOptions,
 )
 from .footprints import Footprint, plan_footprints
@@ -24,6 +25,7 @@ from .sqp import IterationReport, WholeBodySolution, plan_whole_body, solve_whol
 
 __all__ = ["SOLVERS", "CollisionOptions", "CostWeights", "FootOptions", "Footprint",
            "ForceOptions", "IterationReport", "Lead", "LimitMargins", "QpProblem", "QpSolution",
-           "SlackPrices", "SqpOptions", "WholeBodyConfig", "WholeBodySolution", "ZmpOptions",
+           "SlackPrices", "SqpOptions", "WholeBodyConfig", "WholeBodySolution", "WindowOptions",
+           "ZmpOptions",
            "add_lead", "build_qp", "plan_footprints", "plan_whole_body", "smooth_initializer",
            "solve_qp", "solve_whole_body"]

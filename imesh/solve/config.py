@@ -196,6 +196,39 @@ class SqpOptions:
 
 
 @dataclass(frozen=True)
+class WindowOptions:
+    """A long solve in overlapping windows (:mod:`imesh.solve.windows`).
+
+    Attributes:
+        frames: a whole-body solve longer than this many frames (lead-in/out included) is made
+            in overlapping windows of at most this length: memory stays that of one window and
+            time grows linearly; 900 frames (30 s at 30 fps) keeps every shared clip but the
+            long idle in one window.
+        overlap_frames: frames at the end of a window solved again by the next.
+        workers: processes of a windowed solve: 1 (the windows in order) or 2 (two chains of
+            windows in two processes joined by a window held at both ends,
+            :func:`imesh.solve.windows.solve_windowed`). 1 by default: two cost 1.25x the cpu
+            and were not faster on a shared 2-core machine (docs/speed.md); they pay only with
+            a free core. A solve of one window ignores it.
+    """
+
+    frames: int = 900
+    overlap_frames: int = 60
+    workers: int = 1
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.overlap_frames, int) and self.overlap_frames >= 2):
+            raise OptionError("window overlap_frames", self.overlap_frames, "an integer >= 2")
+        if not (isinstance(self.frames, int) and self.frames >= 2 * (self.overlap_frames + 4)):
+            raise OptionError("window frames", self.frames,
+                              f"an integer >= {2 * (self.overlap_frames + 4)} (twice the "
+                              "overlap and the 4 frames held at the previous window)")
+        if type(self.workers) is not int or self.workers not in (1, 2):
+            raise OptionError("workers", self.workers,
+                              "1 (windows in order) or 2 (two chains in two processes)")
+
+
+@dataclass(frozen=True)
 class WholeBodyConfig:
     """Settings of the whole-body solve, one part per concept.
 

@@ -47,7 +47,7 @@ from .torque import linearize_torques
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True)
 class IterationReport:
     """Residuals of one SQP iterate, measured on the nonlinear trajectory.
 
