@@ -280,9 +280,11 @@ def walk(mocap):
 
 @pytest.fixture(scope="module")
 def reduced(walk):
-    from imesh.reduction import ReductionConfig, reduce_motion
+    from imesh.reduction import ReductionConfig, SolverConfig, SubspaceConfig, reduce_motion
 
-    return reduce_motion(walk, "planar_biped", ReductionConfig(rank=3, max_iterations=80))
+    config = ReductionConfig(subspace=SubspaceConfig(rank=3),
+                             solver=SolverConfig(max_iterations=80))
+    return reduce_motion(walk, "planar_biped", config)
 
 
 def test_cyclic_motion_of_a_real_walk(reduced):

@@ -123,8 +123,8 @@ class ReductionResult:
             "E_final": fin.E,
             "converged": opt.converged,
             "optimization_seconds": opt.seconds,
-            "rank": opt.config.rank,
-            "method": opt.config.method,
+            "rank": opt.config.subspace.rank,
+            "method": opt.config.solver.method,
             "pca_explained": None if opt.basis is None else opt.basis.explained(),
             "pca_singular_values": None if opt.basis is None else
             opt.basis.singular_values.tolist(),
