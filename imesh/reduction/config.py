@@ -4,7 +4,8 @@ concept, composed by :class:`ReductionConfig`:
 - :class:`SubspaceConfig`: the reduced dimension r (eqs 23-27), the band limit of the optimized
   trajectories and the cut-off of the differentiating filters (eqs 14-22);
 - :class:`MotionWeights`: the weights of the evaluation function E = J_r + J_m (eqs 4, 12, 31);
-- :class:`GroundConfig`: the ground-force condition (eq. 32) with the base pad's friction;
+- :class:`GroundConfig`: the ground-force condition (eq. 32);
+- :class:`FrictionConfig`: the base pad's friction cone, added to the ground-force condition;
 - :class:`LimitConfig`: the joint-angle and torque limits as squared violations (eqs 8-11, 33-34);
 - :class:`ProjectionConfig`: the stage (II) projections and their gains (eqs 8-11);
 - :class:`SolverConfig`: the stage (I) step and the stopping tests.
@@ -84,30 +85,41 @@ class MotionWeights:
 
 @dataclass(frozen=True)
 class GroundConfig:
-    """The ground-force condition (eq. 32) and the base pad's friction, as squared violations.
+    """The ground-force condition (eq. 32) as a squared violation.
 
     Forces are for an 8.4 kg robot with 0.34 m legs (:data:`REFERENCE_MASS`,
     :data:`REFERENCE_LEG`) and scale with the robot's mass.
 
     Attributes:
-        f_min: [N] ground forces must exceed this (eq. 32 with a margin from zero).
+        f_min: [N] vertical ground forces must exceed this (eq. 32 with a margin from zero).
         margin: [N] the force terms aim at f_min + margin.
         weight: weight of the squared violation of the ground-force condition [1/N^2].
-        friction: the base pad must not slip: |f_x| <= friction * f_z (added to the
-            ground-force condition; a pad standing on a few newtons cannot take large
-            horizontal forces).
-        weight_friction: weight of the squared violation of the friction cone [1/N^2].
     """
 
     f_min: float = 1.0
     margin: float = 2.0
     weight: float = 1.0
-    friction: float = 0.5
-    weight_friction: float = 1.0
 
     def __post_init__(self):
-        require_finite(self, ("f_min", "margin", "weight", "friction", "weight_friction"),
-                       positive=False)
+        require_finite(self, ("f_min", "margin", "weight"), positive=False)
+
+
+@dataclass(frozen=True)
+class FrictionConfig:
+    """The base pad must not slip: |f_x| <= coefficient * f_z, with the ground-force margin
+    (added to the ground-force condition; a pad standing on a few newtons cannot take large
+    horizontal forces).
+
+    Attributes:
+        coefficient: friction coefficient mu of the base pad.
+        weight: weight of the squared violation of the friction cone [1/N^2].
+    """
+
+    coefficient: float = 0.5
+    weight: float = 1.0
+
+    def __post_init__(self):
+        require_finite(self, ("coefficient", "weight"), positive=False)
 
 
 @dataclass(frozen=True)
@@ -141,14 +153,14 @@ class ProjectionConfig:
     """Stage (II): the projections of eqs 8-11 back inside the angle and torque limits.
 
     Attributes:
-        enabled: run stage (II) after every stage (I).
         k_theta: K_theta of eqs 8-9 (1 = project onto the angle limit).
         k_u: K_u of eqs 10-11 (1 = project onto the torque limit).
+        enabled: run stage (II) after every stage (I).
     """
 
-    enabled: bool = True
     k_theta: float = 1.0
     k_u: float = 1.0
+    enabled: bool = True
 
     def __post_init__(self):
         require_finite(self, ("k_theta", "k_u"), positive=False)
@@ -192,7 +204,8 @@ class ReductionConfig:
     Attributes:
         subspace: PCA rank, band limits, filter cut-off (eqs 14-27).
         weights: weights of J_m and J_r (eqs 4, 12, 31).
-        ground: ground-force condition and friction (eq. 32).
+        ground: ground-force condition (eq. 32).
+        friction: friction cone of the base pad.
         limits: joint-angle and torque limit terms (eqs 8-11, 33-34).
         projection: stage (II) (eqs 8-11).
         solver: stage (I) method and stopping tests.
@@ -201,6 +214,7 @@ class ReductionConfig:
     subspace: SubspaceConfig = field(default_factory=SubspaceConfig)
     weights: MotionWeights = field(default_factory=MotionWeights)
     ground: GroundConfig = field(default_factory=GroundConfig)
+    friction: FrictionConfig = field(default_factory=FrictionConfig)
     limits: LimitConfig = field(default_factory=LimitConfig)
     projection: ProjectionConfig = field(default_factory=ProjectionConfig)
     solver: SolverConfig = field(default_factory=SolverConfig)

@@ -121,7 +121,7 @@ class MotionOptimizer(Linearization, Projection):
         self.f_margin = c.ground.margin * self.force_scale
         self.f_target = self.f_min + self.f_margin
         self.s_grf = np.sqrt(c.ground.weight) / self.force_scale
-        self.s_friction = np.sqrt(c.ground.weight_friction) / self.force_scale
+        self.s_friction = np.sqrt(c.friction.weight) / self.force_scale
         self.s_torque = np.sqrt(c.limits.weight_torque) / self.torque_scale
         self.w_rate = c.weights.torque_rate / self.torque_scale ** 2
 
