@@ -50,13 +50,13 @@ def reached(history, J_m0: float) -> tuple[int | None, float | None]:
 def run(clip: str, rank, method: str, iterations: int, robot: str,
         harmonics: int | None = 15) -> dict:
     from imesh.io import load_motion
-    from imesh.reduction import ReductionConfig, reduce_motion
+    from imesh.reduction import ReductionConfig, SolverConfig, SubspaceConfig, reduce_motion
 
     motion = load_motion(data_path(clip))
     t0 = time.perf_counter()
-    res = reduce_motion(motion, robot, ReductionConfig(rank=rank, method=method,
-                                                       max_iterations=iterations,
-                                                       harmonics=harmonics))
+    config = ReductionConfig(subspace=SubspaceConfig(rank=rank, harmonics=harmonics),
+                             solver=SolverConfig(method=method, max_iterations=iterations))
+    res = reduce_motion(motion, robot, config)
     total = time.perf_counter() - t0
     o = res.optimization
     it, sec = reached(o.history, o.initial.J_m)

@@ -280,17 +280,20 @@ def walk(mocap):
 
 @pytest.fixture(scope="module")
 def reduced(walk):
-    from imesh.reduction import ReductionConfig, reduce_motion
+    from imesh.reduction import ReductionConfig, SolverConfig, SubspaceConfig, reduce_motion
 
-    return reduce_motion(walk, "planar_biped", ReductionConfig(rank=3, max_iterations=80))
+    config = ReductionConfig(subspace=SubspaceConfig(rank=3),
+                             solver=SolverConfig(max_iterations=80))
+    return reduce_motion(walk, "planar_biped", config)
 
 
 def test_cyclic_motion_of_a_real_walk(reduced):
     rep = reduced.cyclic.report
-    assert 1.0 < rep["period_s"] < 1.2                       # CMU 02_01: ~1.1 s gait cycle
-    assert len(rep["cycles"]) >= 2
-    assert rep["lowpass_rms_deg"] < 1.0
-    assert 0.4 < rep["left_toe_off_fraction"] < 0.6
+    assert 1.0 < rep.period_s < 1.2                          # CMU 02_01: ~1.1 s gait cycle
+    assert len(rep.cycles) >= 2
+    assert rep.lowpass_rms_deg < 1.0
+    assert 0.4 < rep.left_toe_off_fraction < 0.6
+    assert reduced.report()["cyclic"] == rep.as_dict()
     assert reduced.capture.ik_rms_m < 0.01
     a = reduced.cyclic.angles
     assert np.allclose(a[0], a[-1] + (a[-1] - a[-2]), atol=np.radians(2))  # wraps smoothly

@@ -14,7 +14,7 @@ from ..io import load_motion
 from ..io.atomic import write_json
 from ..io.reduction import save_reduction
 from ..physics.reduction import DartConfig, simulate_planar
-from ..reduction.config import ReductionConfig
+from ..reduction.config import ReductionConfig, SolverConfig, SubspaceConfig
 from ..reduction.pipeline import CycleConfig, reduce_motion
 from ..viz.reduction import plot_all, plot_dart
 
@@ -28,9 +28,9 @@ def run(args) -> int:
     if args.max_iterations < 1:
         raise OptionError("--max-iterations", args.max_iterations, "an integer >= 1")
     motion = load_motion(args.clip, units=args.units, up_axis=args.up_axis, fps=args.source_fps)
-    config = ReductionConfig(rank=args.rank, method=args.method,
-                             max_iterations=args.max_iterations, harmonics=args.harmonics,
-                             cutoff_hz=args.cutoff)
+    config = ReductionConfig(
+        subspace=SubspaceConfig(rank=args.rank, harmonics=args.harmonics, cutoff_hz=args.cutoff),
+        solver=SolverConfig(method=args.method, max_iterations=args.max_iterations))
     bar = None
     update = None
     if not getattr(args, "quiet", False):

@@ -18,7 +18,8 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..errors import ImeshError
+from ..core.checks import require_finite
+from ..errors import ImeshError, OptionError
 from ..reduction.chain import joint_matrix, rot
 from ..reduction.dynamics import PLANAR_BIPED_URDF
 from .world import dartpy
@@ -26,6 +27,20 @@ from .world import dartpy
 log = logging.getLogger(__name__)
 
 
+@dataclass(frozen=True)
+class PDGains:
+    """A proportional-derivative feedback on an angle.
+
+    Attributes:
+        kp: [Nm/rad] stiffness.
+        kd: [Nm s/rad] damping.
+    """
+
+    kp: float
+    kd: float
+
+    def __post_init__(self):
+        require_finite(self, ("kp", "kd"), positive=False)
 
 
 @dataclass(frozen=True)
@@ -35,23 +50,25 @@ class DartConfig:
     Attributes:
         cycles: cycles to run.
         time_step: [s] simulation step.
-        kp: [Nm/rad] PD stiffness on the joint angles.
-        kd: [Nm s/rad] PD damping.
         friction: friction coefficient of the toe pads and the ground (rollers: 0).
         clip_torque: saturate the total torque at the robot's limits.
-        torso_kp, torso_kd: PD on the torso pitch (the one link angle no joint measures),
-            applied through the base leg's hip instead of that hip's joint PD [Nm/rad,
-            Nm s/rad]; 0 for joint PD only.
+        joints: PD on the joint angles, added to the designed torques.
+        torso: PD on the torso pitch (the one link angle no joint measures), applied through
+            the base leg's hip instead of that hip's joint PD; zero gains for joint PD only.
     """
 
     cycles: int = 3
     time_step: float = 1e-3
-    kp: float = 30.0
-    kd: float = 0.5
     friction: float = 0.8
     clip_torque: bool = True
-    torso_kp: float = 30.0
-    torso_kd: float = 1.0
+    joints: PDGains = field(default_factory=lambda: PDGains(kp=30.0, kd=0.5))
+    torso: PDGains = field(default_factory=lambda: PDGains(kp=30.0, kd=1.0))
+
+    def __post_init__(self):
+        if not (isinstance(self.cycles, int) and self.cycles >= 1):
+            raise OptionError("DART cycles", self.cycles, "an integer >= 1")
+        require_finite(self, ("time_step",), positive=True)
+        require_finite(self, ("friction",), positive=False)
 
 
 @dataclass
@@ -197,13 +214,13 @@ def simulate_planar(result, config: DartConfig | None = None, urdf_path=PLANAR_B
         v = robot.getVelocities()
         qr = q_ref(t % period)
         ur = u_ref(t % period)
-        fb = cfg.kp * (qr - q[3:]) + cfg.kd * (dq_ref(t % period) - v[3:])
-        if cfg.torso_kp or cfg.torso_kd:
+        fb = cfg.joints.kp * (qr - q[3:]) + cfg.joints.kd * (dq_ref(t % period) - v[3:])
+        if cfg.torso.kp or cfg.torso.kd:
             k_s = int(t % period / period * result.n) % result.n
             hip = 3 * int(result.schedule.base[k_s])       # the base leg's hip joint
             et = phi_torso(t % period)[0] - q[2]
             wt = dphi_torso(t % period)[0] - v[2]
-            fb[hip] = -(cfg.torso_kp * et + cfg.torso_kd * wt) * ch.joint_sign[hip]
+            fb[hip] = -(cfg.torso.kp * et + cfg.torso.kd * wt) * ch.joint_sign[hip]
         u = ur + fb
         ratio = max(ratio, float(np.max(np.abs(u) / limit)))
         if cfg.clip_torque:
@@ -251,7 +268,7 @@ def simulate_planar(result, config: DartConfig | None = None, urdf_path=PLANAR_B
     survived = (k + 1) * cfg.time_step
     final = robot.getPositions()
     planned = (float(result.ball_x[-1] - result.ball_x[0])
-               + float(result.extra.get("last_step_m", 0.0))) * cfg.cycles
+               + result.last_step_m) * cfg.cycles
     samples = {k: np.array(v) for k, v in rec.items()}
     rep = DartReport(
         fell=fell, survived_s=survived, duration_s=steps * cfg.time_step,

@@ -32,9 +32,11 @@ _LAZY = {
     **dict.fromkeys(("SagittalCapture", "sagittal_capture"), ".capture"),
     **dict.fromkeys(("JOINTS", "LINKS", "PlanarChain"), ".chain"),
     **dict.fromkeys(("ContactSchedule", "contact_schedule"), ".contact"),
-    **dict.fromkeys(("CyclicMotion", "make_cyclic"), ".cyclic"),
+    **dict.fromkeys(("CyclicMotion", "CyclicReport", "make_cyclic"), ".cyclic"),
     "derivative_matrices": ".diff",
-    "ReductionConfig": ".config",
+    **dict.fromkeys(("FrictionConfig", "GroundConfig", "LimitConfig", "MotionWeights",
+                     "ProjectionConfig", "ReductionConfig", "SolverConfig", "SubspaceConfig"),
+                    ".config"),
     "MotionOptimizer": ".optimize",
     "OptimizationResult": ".result",
     **dict.fromkeys(("PCABasis", "pca_basis"), ".pca"),
@@ -44,8 +46,9 @@ _LAZY = {
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 
 __all__ = [
-    "JOINTS", "LINKS", "ContactSchedule", "CycleConfig", "CyclicMotion",
-    "MotionOptimizer", "OptimizationResult", "PCABasis", "PlanarChain", "ReductionConfig",
-    "ReductionResult", "SagittalCapture", "contact_schedule", "derivative_matrices",
-    "make_cyclic", "pca_basis", "reduce_motion", "sagittal_capture",
+    "JOINTS", "LINKS", "ContactSchedule", "CycleConfig", "CyclicMotion", "CyclicReport",
+    "FrictionConfig", "GroundConfig", "LimitConfig", "MotionOptimizer", "MotionWeights",
+    "OptimizationResult", "PCABasis", "PlanarChain", "ProjectionConfig", "ReductionConfig",
+    "ReductionResult", "SagittalCapture", "SolverConfig", "SubspaceConfig", "contact_schedule",
+    "derivative_matrices", "make_cyclic", "pca_basis", "reduce_motion", "sagittal_capture",
 ]

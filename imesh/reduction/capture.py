@@ -12,7 +12,7 @@ forward, foot toe-down).
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,7 +36,8 @@ class SagittalCapture:
         source: the clip.
         fps: frame rate [1/s].
         forward: (2,) unit horizontal direction of travel (world x, y).
-        markers: name -> (T, 2) projected marker positions (s forward, z up) [m].
+        markers: name (:data:`POINTS`) -> (T, 2) projected marker positions (s forward, z up)
+            [m].
         lengths: human link lengths [m]: thigh, shank, foot (ankle -> toe), torso (hips -> neck),
             per side where it applies (``thigh_l`` ...).
         angles: (T, 7) link angles from inverse kinematics [rad] (LINKS order).
@@ -44,19 +45,22 @@ class SagittalCapture:
         ik_rms_m: RMS distance between fitted model points and projected markers [m].
         out_of_plane_rms_m: RMS lateral distance of the leg markers from the sagittal plane
             through the pelvis path, i.e. what the projection discards [m].
-        meta: decisions taken (foot reference angle, ...).
+        foot_reference_rad: the ankle -> toe line's angle below the horizontal when the foot
+            is flat [rad] (median over the low-toe frames, mean of both sides).
+        links: the link order of ``angles`` (:data:`LINKS`).
     """
 
     source: str
     fps: float
     forward: np.ndarray
-    markers: dict
-    lengths: dict
+    markers: dict[str, np.ndarray]
+    lengths: dict[str, float]
     angles: np.ndarray
     hip: np.ndarray
     ik_rms_m: float
     out_of_plane_rms_m: float
-    meta: dict = field(default_factory=dict)
+    foot_reference_rad: float
+    links: tuple[str, ...] = LINKS
 
     @property
     def n_frames(self) -> int:
@@ -67,7 +71,7 @@ class SagittalCapture:
         """Points of the 2D human model for link angles (default: the fitted ones)."""
         return _human_fk(self.angles if angles is None else angles,
                          self.hip if hip is None else hip, self.lengths,
-                         float(self.meta["foot_reference_rad"]))
+                         self.foot_reference_rad)
 
 
 def _human_fk(phi: np.ndarray, hip: np.ndarray, L: dict, foot_ref: float) -> dict:
@@ -192,4 +196,4 @@ def sagittal_capture(motion: MarkerMotion, iterations: int = 8) -> SagittalCaptu
     return SagittalCapture(source=motion.source, fps=std.fps, forward=fwd, markers=markers,
                            lengths=L, angles=x[:, 2:], hip=x[:, :2], ik_rms_m=ik_rms,
                            out_of_plane_rms_m=out_of_plane,
-                           meta={"foot_reference_rad": foot_ref, "links": LINKS})
+                           foot_reference_rad=foot_ref, links=LINKS)

@@ -15,7 +15,7 @@ is from the cyclic result, and what the low-pass changed.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -23,6 +23,45 @@ from ..errors import InvalidMotionError, OptionError
 from .capture import SagittalCapture
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class CyclicReport:
+    """Measurements of the cyclic processing (the ``cyclic`` part of the ``imesh reduce``
+    report, :meth:`as_dict`).
+
+    Attributes:
+        period_s: cycle duration, with the time scale applied [s].
+        period_autocorrelation_s: the period the autocorrelation found (no time scale) [s].
+        cycles: [start, end] fractional frames of each cycle averaged.
+        samples: n, samples per cycle.
+        harmonics: K, harmonics kept by the FFT low-pass.
+        time_scale: period multiplier.
+        drift_deg_max: largest end-to-start drift of a link angle over a cycle [deg].
+        drift_deg_mean: mean absolute drift [deg].
+        cycle_rms_deg: per cycle, RMS link-angle distance of the drift-corrected cycle from the
+            cyclic result [deg].
+        raw_cycle_rms_deg: the same before the drift correction [deg].
+        lowpass_rms_deg: RMS change of the link angles by the FFT low-pass [deg].
+        left_toe_off_fraction: left toe-off sample / n.
+    """
+
+    period_s: float
+    period_autocorrelation_s: float
+    cycles: list[list[float]]
+    samples: int
+    harmonics: int
+    time_scale: float
+    drift_deg_max: float
+    drift_deg_mean: float
+    cycle_rms_deg: list[float]
+    raw_cycle_rms_deg: list[float]
+    lowpass_rms_deg: float
+    left_toe_off_fraction: float
+
+    def as_dict(self) -> dict:
+        """The JSON-able measurements, keys in field order."""
+        return asdict(self)
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,7 +80,7 @@ class CyclicMotion:
     toe_velocity: np.ndarray
     period_s: float
     left_toe_off: int
-    report: dict = field(default_factory=dict)
+    report: CyclicReport
 
     @property
     def n(self) -> int:
@@ -171,22 +210,22 @@ def make_cyclic(capture: SagittalCapture, n: int | None = None, harmonics: int =
     per_cycle = [float(deg(np.sqrt(np.mean((r[:, :7] - angles) ** 2)))) for r in resampled]
     raw_rms = [float(deg(np.sqrt(np.mean((_sample(sig, a + (b - a) * k)[:, :7] - angles) ** 2))))
                for a, b in cycles]
-    report = {
-        "period_s": period_s,
-        "period_autocorrelation_s": period / fps,
-        "cycles": [[float(a), float(b)] for a, b in cycles],
-        "samples": n_out,
-        "harmonics": harmonics,
-        "time_scale": time_scale,
-        "drift_deg_max": float(deg(np.max(np.abs(np.array(drifts)[:, :7])))),
-        "drift_deg_mean": float(deg(np.mean(np.abs(np.array(drifts)[:, :7])))),
-        "cycle_rms_deg": per_cycle,
-        "raw_cycle_rms_deg": raw_rms,
-        "lowpass_rms_deg": float(deg(np.sqrt(np.mean((mean[:, :7] - angles) ** 2)))),
-        "left_toe_off_fraction": left_off / n_out,
-    }
+    report = CyclicReport(
+        period_s=period_s,
+        period_autocorrelation_s=period / fps,
+        cycles=[[float(a), float(b)] for a, b in cycles],
+        samples=n_out,
+        harmonics=harmonics,
+        time_scale=time_scale,
+        drift_deg_max=float(deg(np.max(np.abs(np.array(drifts)[:, :7])))),
+        drift_deg_mean=float(deg(np.mean(np.abs(np.array(drifts)[:, :7])))),
+        cycle_rms_deg=per_cycle,
+        raw_cycle_rms_deg=raw_rms,
+        lowpass_rms_deg=float(deg(np.sqrt(np.mean((mean[:, :7] - angles) ** 2)))),
+        left_toe_off_fraction=left_off / n_out,
+    )
     log.info("%s: period %.3f s from %d cycle(s), drift max %.1f deg, low-pass change %.2f deg",
-             capture.source, period_s, len(cycles), report["drift_deg_max"],
-             report["lowpass_rms_deg"])
+             capture.source, period_s, len(cycles), report.drift_deg_max,
+             report.lowpass_rms_deg)
     return CyclicMotion(angles=angles, toe_velocity=toe_v, period_s=period_s,
                         left_toe_off=left_off, report=report)

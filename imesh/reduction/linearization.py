@@ -56,7 +56,7 @@ class Linearization(Parametrization, Objective):
         """Gauss-Newton matrix J^T J, gradient J^T e and objective e^T e, built block by block
         (the torque block is block-diagonal plus the torque-rate coupling) instead of from the
         dense Jacobian."""
-        if self.config.torque_harmonics is not None:
+        if self.config.subspace.torque_harmonics is not None:
             e, J = self.full_jacobian(ev)
             return J.T @ J, J.T @ e, float(e @ e)
         e, Eq, Ev, Ea, Eu = self.residual_blocks(ev)

@@ -118,10 +118,10 @@ class Objective:
         ev = Evaluation(phi=phi, phid=phid, phidd=phidd, torque=np.array(torque, float),
                         dyn=dyn, residual=res, y=y, dy=dy, slip=slip, dslip_dphi=dsq,
                         dslip_dphid=dsv, step=step, dstep_dphi=dstep,
-                        J_m=float(c.weight_acc * np.sum(res ** 2)),
-                        J_r=float(c.weight_closure * np.sum(y ** 2)
-                                  + c.weight_slip * np.sum(slip ** 2)
-                                  + c.weight_step * np.sum(step ** 2)))
+                        J_m=float(c.weights.acc * np.sum(res ** 2)),
+                        J_r=float(c.weights.closure * np.sum(y ** 2)
+                                  + c.weights.slip * np.sum(slip ** 2)
+                                  + c.weights.step * np.sum(step ** 2)))
         e = self._penalty_residuals(ev)
         ev.penalty = float(np.sum(e ** 2)) + self.w_rate * float(
             np.sum((self.rate_matrix @ ev.torque) ** 2))
@@ -134,14 +134,14 @@ class Objective:
         ft = self.f_target
         grf = np.where(ev.dyn.grf_active, np.maximum(ft - ev.dyn.grf, 0.0), 0.0)
         q = ev.phi @ self.A_joint.T
-        lo, hi = ch.q_lower + c.angle_margin, ch.q_upper - c.angle_margin
+        lo, hi = ch.q_lower + c.limits.angle_margin, ch.q_upper - c.limits.angle_margin
         ang = np.maximum(q - hi, 0.0) + np.maximum(lo - q, 0.0)
-        um = ch.effort * (1.0 - c.torque_margin)
+        um = ch.effort * (1.0 - c.limits.torque_margin)
         tq = np.maximum(np.abs(ev.torque) - um, 0.0)
         lam = ev.dyn.lam
-        fr = np.maximum(np.abs(lam[:, 0]) - c.friction * lam[:, 1]
-                        + self.f_margin * c.friction, 0.0)
-        return np.concatenate([self.s_grf * grf, np.sqrt(c.weight_angle) * ang,
+        fr = np.maximum(np.abs(lam[:, 0]) - c.friction.coefficient * lam[:, 1]
+                        + self.f_margin * c.friction.coefficient, 0.0)
+        return np.concatenate([self.s_grf * grf, np.sqrt(c.limits.weight_angle) * ang,
                                self.s_torque * tq, self.s_friction * fr[:, None]], axis=1)
 
     def residual_blocks(self, ev: Evaluation):
@@ -161,17 +161,17 @@ class Objective:
         Ev = np.zeros((n, N_RESIDUALS, 7))
         Ea = np.zeros((n, N_RESIDUALS, 7))
         Eu = np.zeros((n, N_RESIDUALS, 6))
-        sw = np.sqrt(c.weight_acc)
+        sw = np.sqrt(c.weights.acc)
         a = RESIDUAL_ROWS["acc"]
         e[:, a] = sw * ev.residual
         Eq[:, a] = -sw * d.dacc_dphi
         Ev[:, a] = -sw * d.dacc_dphid
         Ea[:, a] = sw * np.eye(7)[None]
         Eu[:, a] = -sw * d.dacc_du
-        sy = np.sqrt(c.weight_closure)
+        sy = np.sqrt(c.weights.closure)
         e[:, 7] = sy * ev.y
         Eq[:, 7] = sy * ev.dy
-        sv = np.sqrt(c.weight_slip)
+        sv = np.sqrt(c.weights.slip)
         e[:, 8] = sv * ev.slip
         Eq[:, 8] = sv * ev.dslip_dphi
         Ev[:, 8] = sv * ev.dslip_dphid
@@ -186,15 +186,15 @@ class Objective:
         Eu[:, g] = -sf[..., None] * d.dgrf_du
         # joint angles
         q = ev.phi @ self.A_joint.T
-        lo, hi = ch.q_lower + c.angle_margin, ch.q_upper - c.angle_margin
-        sa = np.sqrt(c.weight_angle)
+        lo, hi = ch.q_lower + c.limits.angle_margin, ch.q_upper - c.limits.angle_margin
+        sa = np.sqrt(c.limits.weight_angle)
         up, dn = q > hi, q < lo
         sign = sa * (up.astype(float) - dn.astype(float))           # (n, 6)
         r = RESIDUAL_ROWS["angle"]
         e[:, r] = sa * (np.maximum(q - hi, 0.0) + np.maximum(lo - q, 0.0))
         Eq[:, r] = sign[..., None] * self.A_joint[None]
         # torques
-        um = ch.effort * (1.0 - c.torque_margin)
+        um = ch.effort * (1.0 - c.limits.torque_margin)
         st = self.s_torque
         tsign = st * (np.sign(ev.torque) * (np.abs(ev.torque) > um))
         t = RESIDUAL_ROWS["torque"]
@@ -202,14 +202,15 @@ class Objective:
         Eu[:, t] = tsign[..., None] * np.eye(6)[None]
         # friction cone of the base pad: |fx| <= mu fz (with a margin)
         lam = d.lam
-        viol = np.abs(lam[:, 0]) - c.friction * lam[:, 1] + self.f_margin * c.friction
+        mu = c.friction.coefficient
+        viol = np.abs(lam[:, 0]) - mu * lam[:, 1] + self.f_margin * mu
         act = self.s_friction * (viol > 0)
-        coef = np.stack([np.sign(lam[:, 0]), -c.friction * np.ones(n)], axis=1)  # d/d(fx, fz)
+        coef = np.stack([np.sign(lam[:, 0]), -mu * np.ones(n)], axis=1)  # d/d(fx, fz)
         e[:, 24] = act * np.maximum(viol, 0.0)
         Eq[:, 24] = act[:, None] * np.einsum("tc,tcj->tj", coef, d.dlam_dphi[:, :2])
         Ev[:, 24] = act[:, None] * np.einsum("tc,tcj->tj", coef, d.dlam_dphid[:, :2])
         Eu[:, 24] = act[:, None] * np.einsum("tc,tcj->tj", coef, d.dlam_du[:, :2])
-        ss = np.sqrt(c.weight_step)
+        ss = np.sqrt(c.weights.step)
         e[:, 25] = ss * ev.step
         Eq[:, 25] = ss * ev.dstep_dphi
         return e, Eq, Ev, Ea, Eu

@@ -83,7 +83,7 @@ class MotionOptimizer(Linearization, Projection):
         if schedule.n != n:
             raise OptionError("contact schedule length", schedule.n, f"{n} (the motion's)")
         self.dt = float(dt)
-        self.F1, self.F2 = derivative_matrices(n, self.dt, c.cutoff_hz)
+        self.F1, self.F2 = derivative_matrices(n, self.dt, c.subspace.cutoff_hz)
         phi0 = np.array(phi0, float)
         phi0[:, FEET[0]] = schedule.feet[:, 0]
         phi0[:, FEET[1]] = schedule.feet[:, 1]
@@ -91,10 +91,10 @@ class MotionOptimizer(Linearization, Projection):
         self.feet_d1 = schedule.feet_d1 / self.dt
         self.feet_d2 = schedule.feet_d2 / self.dt ** 2
         self.mid = list(MID)
-        self.basis = (pca_basis(phi0[:, self.mid].T, c.rank, c.center)
-                      if c.rank is not None else None)
-        self.fourier = fourier_basis(n, c.harmonics)
-        self.fourier_u = fourier_basis(n, c.torque_harmonics)
+        self.basis = (pca_basis(phi0[:, self.mid].T, c.subspace.rank, c.subspace.center)
+                      if c.subspace.rank is not None else None)
+        self.fourier = fourier_basis(n, c.subspace.harmonics)
+        self.fourier_u = fourier_basis(n, c.subspace.torque_harmonics)
         # cyclic forward difference inside contact phases (rows zero across a change of base
         # foot or contact case)
         same = (schedule.base == np.roll(schedule.base, -1)) & \
@@ -117,13 +117,13 @@ class MotionOptimizer(Linearization, Projection):
         leg = float(chain.joint_xz[0, 1] - chain.ground_z)
         self.force_scale = chain.total_mass / REFERENCE_MASS
         self.torque_scale = self.force_scale * leg / REFERENCE_LEG
-        self.f_min = c.f_min * self.force_scale
-        self.f_margin = c.grf_margin * self.force_scale
+        self.f_min = c.ground.f_min * self.force_scale
+        self.f_margin = c.ground.margin * self.force_scale
         self.f_target = self.f_min + self.f_margin
-        self.s_grf = np.sqrt(c.weight_grf) / self.force_scale
-        self.s_friction = np.sqrt(c.weight_friction) / self.force_scale
-        self.s_torque = np.sqrt(c.weight_torque) / self.torque_scale
-        self.w_rate = c.weight_torque_rate / self.torque_scale ** 2
+        self.s_grf = np.sqrt(c.ground.weight) / self.force_scale
+        self.s_friction = np.sqrt(c.friction.weight) / self.force_scale
+        self.s_torque = np.sqrt(c.limits.weight_torque) / self.torque_scale
+        self.w_rate = c.weights.torque_rate / self.torque_scale ** 2
 
     # --- evidence ---------------------------------------------------------------------------
 
@@ -145,10 +145,10 @@ class MotionOptimizer(Linearization, Projection):
                                seconds=time.perf_counter() - t0, step=step)
 
     def _done(self, ev: Evaluation, J_m0: float) -> bool:
-        c = self.config
+        s = self.config.solver
         ang, tq, grf = self.violations(ev)
-        return (ev.J_m <= c.jm_target_ratio * J_m0 and np.max(np.abs(ev.y)) <= c.closure_tol_m
-                and np.max(np.abs(ev.slip)) <= c.slip_tol_m_s
+        return (ev.J_m <= s.jm_target_ratio * J_m0 and np.max(np.abs(ev.y)) <= s.closure_tol_m
+                and np.max(np.abs(ev.slip)) <= s.slip_tol_m_s
                 and ang == 0 and tq == 0 and grf >= self.f_min)
 
     # --- the solvers ------------------------------------------------------------------------
@@ -178,16 +178,16 @@ class MotionOptimizer(Linearization, Projection):
         mu, step = 1e-3, 1.0
         best, stall = ev.objective, 0
         converged = False
-        for it in range(1, c.max_iterations + 1):
+        for it in range(1, c.solver.max_iterations + 1):
             # stage (I)
-            if c.method == "gauss-newton":
+            if c.solver.method == "gauss-newton":
                 params, pu, ev, mu = self._lm_step(params, pu, ev, mu)
                 step = mu
             else:
                 params, pu, ev, step = self._gradient_step(params, pu, ev, step)
             # stage (II)
             n_ang = n_tq = 0
-            if c.stage2:
+            if c.projection.enabled:
                 phi2, torque2 = self.stage2(ev.phi, ev.torque)
                 n_ang = int(np.sum(np.any(phi2 != ev.phi, axis=1)))
                 n_tq = int(np.sum(torque2 != ev.torque))
@@ -206,7 +206,7 @@ class MotionOptimizer(Linearization, Projection):
                 best, stall = ev.objective, 0
             else:
                 stall += 1
-                if stall >= c.patience:
+                if stall >= c.solver.patience:
                     break
         return OptimizationResult(phi=ev.phi, phid=ev.phid, phidd=ev.phidd, torque=ev.torque,
                                   initial=init, final=ev, history=history, basis=self.basis,

@@ -11,7 +11,7 @@ import logging
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -66,6 +66,8 @@ class ReductionResult:
         ball_x: (n,) world x of the base foot's ball per sample (the robot walks forward).
         seconds: wall time of the whole method [s].
         source: the clip.
+        last_step_m: the step at the end of the cycle, from the last sample's base ball to the
+            next cycle's first base ball [m] (:func:`ball_positions`).
     """
 
     robot: str
@@ -77,7 +79,7 @@ class ReductionResult:
     ball_x: np.ndarray
     seconds: float
     source: str
-    extra: dict = field(default_factory=dict)
+    last_step_m: float = 0.0
 
     @property
     def dt(self) -> float:
@@ -123,8 +125,8 @@ class ReductionResult:
             "E_final": fin.E,
             "converged": opt.converged,
             "optimization_seconds": opt.seconds,
-            "rank": opt.config.rank,
-            "method": opt.config.method,
+            "rank": opt.config.subspace.rank,
+            "method": opt.config.solver.method,
             "pca_explained": None if opt.basis is None else opt.basis.explained(),
             "pca_singular_values": None if opt.basis is None else
             opt.basis.singular_values.tolist(),
@@ -145,8 +147,8 @@ class ReductionResult:
             "friction_ratio_max": float(np.max(friction)),
             "period_s": self.cyclic.period_s,
             "samples": self.n,
-            "stride_m": step + float(self.extra.get("last_step_m", 0.0)),
-            "cyclic": self.cyclic.report,
+            "stride_m": step + self.last_step_m,
+            "cyclic": self.cyclic.report.as_dict(),
             "ik_rms_mm": 1e3 * self.capture.ik_rms_m,
             "out_of_plane_rms_mm": 1e3 * self.capture.out_of_plane_rms_m,
             "contact": {"switch_sample": int(self.schedule.switches[1]),
@@ -157,7 +159,6 @@ class ReductionResult:
             "chain": {"mass_kg": self.chain.total_mass, "height_m": self.chain.height,
                       "source": self.chain.source},
         }
-        rep.update(self.extra.get("report", {}))
         return rep
 
 
@@ -236,7 +237,7 @@ def reduce_motion(motion: MarkerMotion, robot: str | PlanarChain | Robot = PLANA
              res.initial.J_m, res.final.J_m, len(res.history) - 1, seconds)
     return ReductionResult(robot=name, chain=chain, capture=cap, cyclic=cyc, schedule=sched,
                            optimization=res, ball_x=ball_x, seconds=seconds,
-                           source=motion.source, extra={"last_step_m": last})
+                           source=motion.source, last_step_m=last)
 
 
 #: Keys of the .npz written by save_reduction.

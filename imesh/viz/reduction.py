@@ -222,7 +222,7 @@ def plot_all(result, folder) -> list[str]:
         paths.append(str(folder / name))
     plot_sequence(result, folder / "sequence_final.png", "final")
     plot_sequence(result, folder / "sequence_initial.png", "initial")
-    plot_convergence({f"r = {result.optimization.config.rank or 'full'}":
+    plot_convergence({f"r = {result.optimization.config.subspace.rank or 'full'}":
                       result.optimization.history}, folder / "convergence.png")
     paths += [str(folder / n) for n in ("sequence_final.png", "sequence_initial.png",
                                          "convergence.png")]
