@@ -34,7 +34,7 @@ _LAZY = {
     **dict.fromkeys(("ContactSchedule", "contact_schedule"), ".contact"),
     **dict.fromkeys(("CyclicMotion", "CyclicReport", "make_cyclic"), ".cyclic"),
     "derivative_matrices": ".diff",
-    **dict.fromkeys(("FrictionConfig", "GroundConfig", "LimitConfig", "MotionWeights",
+    **dict.fromkeys(("FrictionConfig", "GroundForceConfig", "LimitPenaltyConfig", "MotionWeights",
                      "ProjectionConfig", "ReductionConfig", "SolverConfig", "SubspaceConfig"),
                     ".config"),
     "MotionOptimizer": ".optimize",
@@ -47,7 +47,7 @@ __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 
 __all__ = [
     "JOINTS", "LINKS", "ContactSchedule", "CycleConfig", "CyclicMotion", "CyclicReport",
-    "FrictionConfig", "GroundConfig", "LimitConfig", "MotionOptimizer", "MotionWeights",
+    "FrictionConfig", "GroundForceConfig", "LimitPenaltyConfig", "MotionOptimizer", "MotionWeights",
     "OptimizationResult", "PCABasis", "PlanarChain", "ProjectionConfig", "ReductionConfig",
     "ReductionResult", "SagittalCapture", "SolverConfig", "SubspaceConfig", "contact_schedule",
     "derivative_matrices", "make_cyclic", "pca_basis", "reduce_motion", "sagittal_capture",

@@ -4,9 +4,10 @@ concept, composed by :class:`ReductionConfig`:
 - :class:`SubspaceConfig`: the reduced dimension r (eqs 23-27), the band limit of the optimized
   trajectories and the cut-off of the differentiating filters (eqs 14-22);
 - :class:`MotionWeights`: the weights of the evaluation function E = J_r + J_m (eqs 4, 12, 31);
-- :class:`GroundConfig`: the ground-force condition (eq. 32);
+- :class:`GroundForceConfig`: the ground-force condition (eq. 32);
 - :class:`FrictionConfig`: the base pad's friction cone, added to the ground-force condition;
-- :class:`LimitConfig`: the joint-angle and torque limits as squared violations (eqs 8-11, 33-34);
+- :class:`LimitPenaltyConfig`: the joint-angle and torque limits as squared violations
+  (eqs 8-11, 33-34);
 - :class:`ProjectionConfig`: the stage (II) projections and their gains (eqs 8-11);
 - :class:`SolverConfig`: the stage (I) step and the stopping tests.
 """
@@ -15,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..core.checks import require_finite
+from ..core.checks import NonNegative, require_finite
 from ..errors import OptionError
 
 METHODS = ("gauss-newton", "gradient")
@@ -55,7 +56,7 @@ class SubspaceConfig:
 
 
 @dataclass(frozen=True)
-class MotionWeights:
+class MotionWeights(NonNegative):
     """Weights of J_m (eq. 4) and of the motion conditions of J_r (eq. 31).
 
     Attributes:
@@ -79,12 +80,9 @@ class MotionWeights:
     step: float = 1e4
     torque_rate: float = 1.0
 
-    def __post_init__(self):
-        require_finite(self, ("acc", "closure", "slip", "step", "torque_rate"), positive=False)
-
 
 @dataclass(frozen=True)
-class GroundConfig:
+class GroundForceConfig(NonNegative):
     """The ground-force condition (eq. 32) as a squared violation.
 
     Forces are for an 8.4 kg robot with 0.34 m legs (:data:`REFERENCE_MASS`,
@@ -100,12 +98,9 @@ class GroundConfig:
     margin: float = 2.0
     weight: float = 1.0
 
-    def __post_init__(self):
-        require_finite(self, ("f_min", "margin", "weight"), positive=False)
-
 
 @dataclass(frozen=True)
-class FrictionConfig:
+class FrictionConfig(NonNegative):
     """The base pad must not slip: |f_x| <= coefficient * f_z, with the ground-force margin
     (added to the ground-force condition; a pad standing on a few newtons cannot take large
     horizontal forces).
@@ -118,12 +113,9 @@ class FrictionConfig:
     coefficient: float = 0.5
     weight: float = 1.0
 
-    def __post_init__(self):
-        require_finite(self, ("coefficient", "weight"), positive=False)
-
 
 @dataclass(frozen=True)
-class LimitConfig:
+class LimitPenaltyConfig(NonNegative):
     """Joint-angle and torque limits as squared violations of stage (I): their gradients are
     the directions of eqs 33-34 and 8-11.
 
@@ -141,9 +133,8 @@ class LimitConfig:
     weight_angle: float = 1e4
     weight_torque: float = 1e2
 
-    def __post_init__(self):
-        require_finite(self, ("angle_margin", "torque_margin", "weight_angle", "weight_torque"),
-                       positive=False)
+    def __post_init__(self) -> None:
+        super().__post_init__()
         if not self.torque_margin < 1.0:
             raise OptionError("torque margin", self.torque_margin, "a fraction in [0, 1)")
 
@@ -213,8 +204,8 @@ class ReductionConfig:
 
     subspace: SubspaceConfig = field(default_factory=SubspaceConfig)
     weights: MotionWeights = field(default_factory=MotionWeights)
-    ground: GroundConfig = field(default_factory=GroundConfig)
+    ground: GroundForceConfig = field(default_factory=GroundForceConfig)
     friction: FrictionConfig = field(default_factory=FrictionConfig)
-    limits: LimitConfig = field(default_factory=LimitConfig)
+    limits: LimitPenaltyConfig = field(default_factory=LimitPenaltyConfig)
     projection: ProjectionConfig = field(default_factory=ProjectionConfig)
     solver: SolverConfig = field(default_factory=SolverConfig)
