@@ -247,11 +247,11 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
-    from imesh.physics import PhysicsConfig
+    from imesh.physics import ControlConfig, PhysicsConfig
 
     physics = not args.no_physics
-    physics_config = PhysicsConfig(controller=args.controller,
-                                   torque_limit_scale=args.torque_limit_scale)
+    physics_config = PhysicsConfig(control=ControlConfig(
+        controller=args.controller, torque_limit_scale=args.torque_limit_scale))
     plots = Path(args.plots) if args.plots else None
     rows, standing = [], []
     t0 = time.perf_counter()

@@ -8,7 +8,7 @@ import pytest
 from conftest import load_test_robot, mocap_path
 
 import imesh
-from imesh.balance import BalanceConfig, FlightPhaseError, nishiwaki_correction
+from imesh.balance import BalanceConfig, ConvergenceConfig, FlightPhaseError, nishiwaki_correction
 from imesh.contacts.phases import detect_contacts, runs
 from imesh.metrics.derivatives import motion_derivatives
 from imesh.metrics.zmp import zmp_trajectory
@@ -112,7 +112,8 @@ def test_balance_loop_lowers_the_zmp_error_on_a_real_clip():
     motion = imesh.load_motion(mocap_path("cmu_02_10_wash_self_cc3rig.bvh")).frames(0, 480)
     robot = load_test_robot("jvrc1")
     result = retarget(motion, robot, config=RetargetConfig(
-        balance="nishiwaki", nishiwaki=BalanceConfig(iterations=3, error_lowpass_hz=1.5)))
+        balance="nishiwaki", nishiwaki=BalanceConfig(convergence=ConvergenceConfig(iterations=3),
+                                                 error_lowpass_hz=1.5)))
     bal = result.balance
     assert bal.after.zmp_error_mm < 0.9 * bal.before.zmp_error_mm
     assert bal.after.zmp_inside_fraction >= bal.before.zmp_inside_fraction
@@ -144,7 +145,8 @@ def test_balance_loop_stops_only_when_the_morph_cannot_meet_a_correction(error, 
         calls.append(waist_xy)
         raise error
 
-    config = BalanceConfig(iterations=3, tolerance_mm=1e-3, inside_target=1.0)
+    config = BalanceConfig(convergence=ConvergenceConfig(iterations=3, tolerance_mm=1e-3,
+                                                       inside_target=1.0))
     if stops:
         result = balance_loop(robot, q, 30.0, support, q[:, :2], step, config)
         assert len(calls) == 1 and result.best == 0 and len(result.iterations) == 1

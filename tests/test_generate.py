@@ -210,13 +210,13 @@ def test_icub_holds_its_nominal_pose_in_dart(tmp_path, detector):
     foot link l_foot sits under the sole frame l_sole), and the robot stands 2 s in its
     generated nominal pose without a joint reaching its torque limit."""
     from imesh.core.robot_motion import RobotMotion
-    from imesh.physics import PhysicsConfig, simulate_motion
+    from imesh.physics import GroundConfig, PhysicsConfig, simulate_motion
     from imesh.physics.world import DartRobot, sphere_moment
 
     urdf = erd("icub_description/robots/icub.urdf")
     write_generated(generate_robot_config(urdf), tmp_path)
     robot = load_robot(tmp_path / "robot.toml", urdf=urdf)
-    config = PhysicsConfig(collision_detector=detector)
+    config = PhysicsConfig(ground=GroundConfig(collision_detector=detector))
     sim = DartRobot(robot, config)
     head = sim.skeleton.getBodyNode("head")
     assert head.getMass() == pytest.approx(1.33687)

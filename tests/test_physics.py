@@ -22,9 +22,11 @@ pytest.importorskip("dartpy")
 
 from imesh.physics import (  # noqa: E402
     PHYSICS_METRICS,
+    ControlConfig,
     DartRobot,
     PhysicsConfig,
     PhysicsResult,
+    TimingConfig,
     simulate_motion,
 )
 
@@ -145,7 +147,8 @@ def test_nominal_pose_stands_for_5_s(robot):
 
 def test_weak_motors_fall_and_the_result_says_when(jvrc1):
     """With 2 % of the torque the robot collapses: fell, survived < duration, NaN after."""
-    config = PhysicsConfig(torque_limit_scale=0.02, settle_s=0.05)
+    config = PhysicsConfig(control=ControlConfig(torque_limit_scale=0.02),
+                           timing=TimingConfig(settle_s=0.05))
     result = simulate_motion(jvrc1, standing(jvrc1, 1.5), config=config)
     assert result.fell
     assert "below the reference" in result.fall_reason or "tilted" in result.fall_reason
@@ -158,7 +161,8 @@ def test_weak_motors_fall_and_the_result_says_when(jvrc1):
 
 def test_pid_controller_stands(jvrc1):
     result = simulate_motion(jvrc1, standing(jvrc1, 1.0),
-                             config=PhysicsConfig(controller="pid", settle_s=0.2))
+                             config=PhysicsConfig(control=ControlConfig(controller="pid"),
+                                                  timing=TimingConfig(settle_s=0.2)))
     assert not result.fell
     assert result.tracking_rms_rad < 0.01
 
@@ -173,7 +177,8 @@ def test_fixed_base_tracks_an_arm_motion(jvrc1):
     for name, amp in (("L_SHOULDER_P", -0.8), ("L_ELBOW_P", -0.6), ("R_SHOULDER_R", -0.5)):
         q[:, 7 + jvrc1.joint_index(name)] += amp * np.sin(np.pi * t) ** 2
     motion = RobotMotion(q=q, fps=fps, robot=jvrc1.name, joint_names=jvrc1.joint_names)
-    result = simulate_motion(jvrc1, motion, config=PhysicsConfig(fixed_base=True, settle_s=0.1))
+    result = simulate_motion(jvrc1, motion, config=PhysicsConfig(
+        fixed_base=True, timing=TimingConfig(settle_s=0.1)))
     assert not result.fell
     assert result.tracking_rms_rad < 0.01
     assert np.nanmax(np.abs(result.joint_error_rad)) < 0.05
@@ -187,7 +192,8 @@ def test_fixed_base_tracks_an_arm_motion(jvrc1):
 
 
 def test_result_metrics_and_plot(jvrc1, tmp_path):
-    result = simulate_motion(jvrc1, standing(jvrc1, 0.5), config=PhysicsConfig(settle_s=0.1))
+    result = simulate_motion(jvrc1, standing(jvrc1, 0.5), config=PhysicsConfig(
+        timing=TimingConfig(settle_s=0.1)))
     assert isinstance(result, PhysicsResult)
     assert tuple(result.metrics()) == PHYSICS_METRICS
     T = 16
@@ -209,11 +215,11 @@ def test_motion_of_another_robot_is_refused(jvrc1):
 
 def test_bad_config_values():
     with pytest.raises(ImeshError, match="controller"):
-        PhysicsConfig(controller="lqr")
+        ControlConfig(controller="lqr")
     with pytest.raises(ImeshError, match="dt"):
-        PhysicsConfig(dt=0.05)
+        TimingConfig(dt=0.05)
     with pytest.raises(ImeshError, match="mass_matrix_every"):
-        PhysicsConfig(mass_matrix_every=0)
+        ControlConfig(mass_matrix_every=0)
 
 
 def test_missing_dartpy_says_how_to_install(jvrc1, monkeypatch):
@@ -245,7 +251,7 @@ def test_feasible_squat_is_tracked_without_falling(jvrc1):
     for i in range(n):
         q[i, 2] -= jvrc1.sole_center(q[i], "left")[2]
     motion = RobotMotion(q=q, fps=fps, robot=jvrc1.name, joint_names=jvrc1.joint_names)
-    result = simulate_motion(jvrc1, motion, config=PhysicsConfig(settle_s=0.2))
+    result = simulate_motion(jvrc1, motion, config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
     assert not result.fell, result.fall_reason
     assert result.tracking_rms_rad < 0.005
     assert result.base_drift_m < 0.01

@@ -6,6 +6,7 @@ from .loop import (
     BalanceConfig,
     BalanceIteration,
     BalanceResult,
+    ConvergenceConfig,
     FlightPhaseError,
     ZmpState,
     balance_loop,
@@ -14,5 +15,6 @@ from .loop import (
 )
 from .nishiwaki import nishiwaki_correction
 
-__all__ = ["BalanceConfig", "BalanceIteration", "BalanceResult", "FlightPhaseError", "ZmpState",
-           "balance_loop", "check_flight", "nishiwaki_correction", "zmp_state"]
+__all__ = ["BalanceConfig", "BalanceIteration", "BalanceResult", "ConvergenceConfig",
+           "FlightPhaseError", "ZmpState", "balance_loop", "check_flight", "nishiwaki_correction",
+           "zmp_state"]

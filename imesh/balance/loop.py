@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -48,8 +48,8 @@ class FlightPhaseError(ImeshError):
 
 
 @dataclass(frozen=True)
-class BalanceConfig:
-    """Settings of the balance loop.
+class ConvergenceConfig:
+    """When the balance loop stops.
 
     Attributes:
         iterations: largest number of waist corrections (each one morph and one fit).
@@ -57,6 +57,26 @@ class BalanceConfig:
             over the support frames is below this [mm] ...
         inside_target: ... and at least this fraction of the support frames has its ZMP inside
             the support polygon.
+    """
+
+    iterations: int = 10
+    tolerance_mm: float = 10.0
+    inside_target: float = 0.99
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.iterations, int) and self.iterations >= 0):
+            raise OptionError("iterations", self.iterations, "an integer >= 0")
+        require_finite(self, ("tolerance_mm",), positive=True)
+        if not 0.0 <= self.inside_target <= 1.0:
+            raise OptionError("inside_target", self.inside_target, "a fraction in [0, 1]")
+
+
+@dataclass(frozen=True)
+class BalanceConfig:
+    """Settings of the balance loop.
+
+    Attributes:
+        convergence: when the loop stops.
         gain: fraction of the Nishiwaki correction applied per iteration (the CoM moves less
             than the waist; the iteration makes up the rest).
         transition_s: blending time of the desired ZMP between support phases [s].
@@ -69,9 +89,7 @@ class BalanceConfig:
             strong as the support-foot footprints; the Laplacian rows weigh ~1).
     """
 
-    iterations: int = 10
-    tolerance_mm: float = 10.0
-    inside_target: float = 0.99
+    convergence: ConvergenceConfig = field(default_factory=ConvergenceConfig)
     gain: float = 1.0
     transition_s: float = 0.1
     allow_flight: bool = False
@@ -79,11 +97,7 @@ class BalanceConfig:
     waist_weight: float = 1e3
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.iterations, int) and self.iterations >= 0):
-            raise OptionError("iterations", self.iterations, "an integer >= 0")
-        require_finite(self, ("tolerance_mm", "gain", "transition_s"), positive=True)
-        if not 0.0 <= self.inside_target <= 1.0:
-            raise OptionError("inside_target", self.inside_target, "a fraction in [0, 1]")
+        require_finite(self, ("gain", "transition_s"), positive=True)
 
 
 @dataclass(frozen=True)
@@ -233,14 +247,16 @@ def balance_loop(robot, q: np.ndarray, fps: float, support: np.ndarray, waist_xy
                                 state0.max_outside_mm, 0.0, 0.0)]
     target = np.asarray(waist_xy, dtype=np.float64).copy()
 
+    stop = config.convergence
+
     def good(s: ZmpState) -> bool:
-        return s.error_mm <= config.tolerance_mm and s.inside_fraction >= config.inside_target
+        return s.error_mm <= stop.tolerance_mm and s.inside_fraction >= stop.inside_target
 
     state = state0
     worse = 0
     log.info("balance: before: ZMP error %.1f mm, inside %.1f %%", state0.error_mm,
              100 * state0.inside_fraction)
-    for k in range(1, config.iterations + 1):
+    for k in range(1, stop.iterations + 1):
         if good(state):
             break
         t0 = time.perf_counter()

@@ -7,7 +7,7 @@ from ..evaluate.motion_files import load_motion_file
 from ..evaluate.scoreboard import evaluate_motion
 from ..evaluate.table import format_table
 from ..io.atomic import write_json
-from ..physics import PhysicsConfig
+from ..physics import ControlConfig, PhysicsConfig
 from ..robot import load_robot
 from ..viz.report import write_report
 
@@ -18,7 +18,8 @@ def run(args) -> int:
     motion = load_motion_file(args.motion, robot, fps=args.fps)
     config = None
     if args.physics:
-        config = PhysicsConfig(controller=args.controller, fixed_base=args.fixed_base)
+        config = PhysicsConfig(fixed_base=args.fixed_base,
+                               control=ControlConfig(controller=args.controller))
     report = evaluate_motion(robot, motion, source=args.source, physics=args.physics,
                              adapted=args.adapted, physics_config=config,
                              plot=args.plot if args.physics else None,

@@ -8,7 +8,7 @@ in it) and a minimum phase duration, so marker noise does not chatter the states
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -23,6 +23,46 @@ FOOT_MARKERS = {"left": ("toe_l", "ankle_l"), "right": ("toe_r", "ankle_r")}
 
 
 @dataclass(frozen=True)
+class PhaseFilter:
+    """How a foot's thresholded support is kept from chattering: hysteresis and a minimum phase
+    duration (shared by the marker detection here and the sole detection of
+    :mod:`imesh.metrics.support`).
+
+    Attributes:
+        hysteresis: to leave support the height/speed must exceed the thresholds times this.
+        min_phase_s: support and swing phases shorter than this are merged into their
+            neighbours [s].
+    """
+
+    hysteresis: float = 1.5
+    min_phase_s: float = 0.08
+
+    def __post_init__(self) -> None:
+        require_finite(self, ("min_phase_s",), positive=True)
+        if not self.hysteresis >= 1.0:
+            raise OptionError("hysteresis", self.hysteresis, "a number >= 1")
+
+    def support(self, height: np.ndarray, speed: np.ndarray, height_max: float,
+                speed_max: float, fps: float) -> np.ndarray:
+        """(T,) bool support of one foot.
+
+        Args:
+            height: (T,) height of the foot above the ground (or its resting height) [m].
+            speed: (T,) speed of the foot [m/s].
+            height_max: the foot enters support below this height [m] ...
+            speed_max: ... and this speed [m/s]; it stays while both are below ``hysteresis``
+                times these.
+            fps: frame rate [1/s].
+
+        Returns:
+            (T,) bool support mask with phases shorter than ``min_phase_s`` merged.
+        """
+        enter = (height < height_max) & (speed < speed_max)
+        stay = (height < height_max * self.hysteresis) & (speed < speed_max * self.hysteresis)
+        return drop_short(hysteresis(enter, stay), max(1, int(round(self.min_phase_s * fps))))
+
+
+@dataclass(frozen=True)
 class ContactConfig:
     """Thresholds of the contact detection (relative to the body height where it helps).
 
@@ -31,20 +71,15 @@ class ContactConfig:
             height above its own resting height (its 5th percentile over the clip).
         speed_fraction: a foot is slow when its toe moves slower than this many body heights per
             second (0.5 -> 0.7 m/s for a 1.4 m joint-extent height).
-        hysteresis: to leave support the height/speed must exceed the thresholds times this.
-        min_phase_s: support and swing phases shorter than this are merged into their
-            neighbours.
+        phases: hysteresis and minimum phase duration.
     """
 
     height_fraction: float = 0.04
     speed_fraction: float = 0.5
-    hysteresis: float = 1.5
-    min_phase_s: float = 0.08
+    phases: PhaseFilter = field(default_factory=PhaseFilter)
 
     def __post_init__(self) -> None:
-        require_finite(self, ("height_fraction", "speed_fraction", "min_phase_s"), positive=True)
-        if not self.hysteresis >= 1.0:
-            raise OptionError("hysteresis", self.hysteresis, "a number >= 1")
+        require_finite(self, ("height_fraction", "speed_fraction"), positive=True)
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,7 +173,6 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
     height = motion.height_m
     dt = 1.0 / motion.fps
     support = np.zeros((motion.n_frames, 2), dtype=bool)
-    min_frames = max(1, int(round(config.min_phase_s * motion.fps)))
     for k, side in enumerate(SIDES):
         idx = motion.indices(FOOT_MARKERS[side])
         p = motion.positions_m[:, idx]  # (T, 2, 3)
@@ -148,11 +182,8 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
         lift = lifts[np.arange(len(p)), lower]  # the heel at heel strike, the toe at toe-off
         speeds = np.linalg.norm(np.gradient(p, dt, axis=0), axis=2)
         speed = speeds[np.arange(len(p)), lower]
-        h_thr = config.height_fraction * height
-        v_thr = config.speed_fraction * height
-        enter = (lift < h_thr) & (speed < v_thr)
-        stay = (lift < h_thr * config.hysteresis) & (speed < v_thr * config.hysteresis)
-        support[:, k] = drop_short(hysteresis(enter, stay), min_frames)
+        support[:, k] = config.phases.support(lift, speed, config.height_fraction * height,
+                                              config.speed_fraction * height, motion.fps)
     contacts = Contacts(support=support, fps=motion.fps)
     log.info("%s: %d footfalls, %d flight phases", motion.source, contacts.footfalls(),
              len(contacts.flight_phases()))

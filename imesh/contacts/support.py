@@ -19,13 +19,13 @@ A robot foot is flat and rigid, a human foot rolls: the human toe is still desce
 detector declares support (heel strike) and the heel rises long before the toe leaves (toe-off).
 Switching the targets on and off in one frame would ask the morph for a step in the foot markers,
 which the robot can only follow with joint accelerations of several hundred rad/s^2. So the
-targets are blended in over ``ramp_s`` before a phase and out over ``ramp_s`` after it:
-``target = (1 - s) source + s pinned`` with a smoothstep s from 0 to 1.
+targets are blended in over ``FootRampConfig.duration_s`` before a phase and out over as long
+after it: ``target = (1 - s) source + s pinned`` with a smoothstep s from 0 to 1.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,22 +36,15 @@ from .phases import FOOT_MARKERS, SIDES, Contacts, runs
 
 
 @dataclass(frozen=True)
-class SupportConfig:
-    """Attributes:
-        horizontal: also pin the support foot horizontally (no skating).
-        slide_threshold_m: a source toe travelling more than this over the middle half of a
-            support phase is sliding for real and keeps its horizontal motion [m].
-        horizontal_weight: weight of the soft horizontal targets (the Laplacian rows weigh ~1).
-        ramp_s: blend the targets in over this time before each phase and out after it [s].
-        flat_pitch_deg: the robot's foot is held flat only while the source foot's pitch
-            (the toe -> ankle vector against the horizontal) is within this of its value in
-            the middle of the support phase: a human heel that rises (toe-off) or a toe still
-            coming down (heel strike) hand the robot foot to the ramps, which pivot it about the
-            toe, instead of pinning a flat foot against a vertical human foot.
-        ramp_max_pitch_deg: largest foot pitch the ramps ask for [deg] (a foot near vertical
-            makes the hard heights and the foot bone nearly dependent: the morph's constraint
-            solve stalls; seen on HRP-4C with the CMU veer at 88 deg, and on its walk at 85;
-            50 made the targets kink where the cap bites and the fit chatter at toe-off).
+class FlatFootConfig:
+    """Which part of a support phase the robot's foot is held flat.
+
+    Attributes:
+        pitch_deg: the robot's foot is held flat only while the source foot's pitch (the toe ->
+            ankle vector against the horizontal) is within this of its value in the middle of
+            the support phase: a human heel that rises (toe-off) or a toe still coming down
+            (heel strike) hand the robot foot to the ramps, which pivot it about the toe,
+            instead of pinning a flat foot against a vertical human foot [deg].
         stand_s: a support phase longer than this is a standing foot, held flat from end to
             end [s]: a robot cannot stand on its toes, and lifting the foot instead (keeping
             only the flat part) leaves the robot on one foot where the person stands on two
@@ -59,22 +52,58 @@ class SupportConfig:
             points 190 mm RMS on G1 after the whole-body solve, whole phase: 73 mm).
     """
 
-    horizontal: bool = True
-    slide_threshold_m: float = 0.05
-    horizontal_weight: float = 1e3
-    ramp_s: float = 0.12
-    flat_pitch_deg: float = 20.0
-    ramp_max_pitch_deg: float = 80.0
+    pitch_deg: float = 20.0
     stand_s: float = 1.5
 
     def __post_init__(self) -> None:
-        require_finite(self, ("slide_threshold_m", "horizontal_weight"), positive=True)
-        if not (np.isfinite(self.flat_pitch_deg) and 0 < self.flat_pitch_deg <= 90):
-            raise OptionError("flat_pitch_deg", self.flat_pitch_deg, "a number in (0, 90]")
+        if not (np.isfinite(self.pitch_deg) and 0 < self.pitch_deg <= 90):
+            raise OptionError("pitch_deg", self.pitch_deg, "a number in (0, 90]")
         if not (np.isfinite(self.stand_s) and self.stand_s > 0):
             raise OptionError("stand_s", self.stand_s, "a positive number [s]")
-        if not (np.isfinite(self.ramp_s) and self.ramp_s >= 0):
-            raise OptionError("ramp_s", self.ramp_s, "a number >= 0 [s]")
+
+
+@dataclass(frozen=True)
+class FootRampConfig:
+    """The blends of the support-foot targets in before and out after each flat phase.
+
+    Attributes:
+        duration_s: blend the targets in over this time before each phase and out after it
+            [s].
+        max_pitch_deg: largest foot pitch the ramps ask for [deg] (a foot near vertical makes
+            the hard heights and the foot bone nearly dependent: the morph's constraint solve
+            stalls; seen on HRP-4C with the CMU veer at 88 deg, and on its walk at 85; 50 made
+            the targets kink where the cap bites and the fit chatter at toe-off).
+    """
+
+    duration_s: float = 0.12
+    max_pitch_deg: float = 80.0
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.duration_s) and self.duration_s >= 0):
+            raise OptionError("duration_s", self.duration_s, "a number >= 0 [s]")
+
+
+@dataclass(frozen=True)
+class SupportConfig:
+    """Support-foot targets of the morph.
+
+    Attributes:
+        horizontal: also pin the support foot horizontally (no skating).
+        slide_threshold_m: a source toe travelling more than this over the middle half of a
+            support phase is sliding for real and keeps its horizontal motion [m].
+        horizontal_weight: weight of the soft horizontal targets (the Laplacian rows weigh ~1).
+        flat: the part of each support phase where the robot's foot is flat.
+        ramp: the blends in and out of the targets around it.
+    """
+
+    horizontal: bool = True
+    slide_threshold_m: float = 0.05
+    horizontal_weight: float = 1e3
+    flat: FlatFootConfig = field(default_factory=FlatFootConfig)
+    ramp: FootRampConfig = field(default_factory=FootRampConfig)
+
+    def __post_init__(self) -> None:
+        require_finite(self, ("slide_threshold_m", "horizontal_weight"), positive=True)
 
 
 def middle_half(start: int, stop: int) -> tuple[int, int]:
@@ -112,7 +141,7 @@ def flat_support(motion: MarkerMotion, contacts: Contacts,
     """The part of each support phase in which the source foot is flat (the robot's support).
 
     A frame of a support phase is flat when the foot's pitch, ``atan2(z_ankle - z_toe,
-    |xy_ankle - xy_toe|)``, is within ``config.flat_pitch_deg`` of its median over the middle
+    |xy_ankle - xy_toe|)``, is within ``config.flat.pitch_deg`` of its median over the middle
     half of the phase. Each phase keeps its longest flat run, so the number of footfalls is the
     source's; a phase without one (a toe walk) keeps its middle half.
 
@@ -132,12 +161,12 @@ def flat_support(motion: MarkerMotion, contacts: Contacts,
         d = pos[:, ankle] - pos[:, toe]
         pitch = np.degrees(np.arctan2(d[:, 2], np.linalg.norm(d[:, :2], axis=1)))
         for start, stop in contacts.phases(side):
-            if stop - start > config.stand_s * motion.fps:
+            if stop - start > config.flat.stand_s * motion.fps:
                 flat[start:stop, k] = True
                 continue
             q1, q3 = middle_half(start, stop)
             ref = np.median(pitch[q1:q3])
-            ok = np.abs(pitch[start:stop] - ref) <= config.flat_pitch_deg
+            ok = np.abs(pitch[start:stop] - ref) <= config.flat.pitch_deg
             best = max(((a + start, b + start) for a, b in runs(ok)),
                        key=lambda r: r[1] - r[0], default=(q1, q3))
             flat[best[0]:best[1], k] = True
@@ -175,7 +204,7 @@ def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
     targets = np.full(pos.shape, np.nan)
     soft = np.full(pos.shape, np.nan)
     weights = np.zeros(pos.shape[:2])
-    ramp = int(round(config.ramp_s * motion.fps))
+    ramp = int(round(config.ramp.duration_s * motion.fps))
     for side in SIDES:
         toe_name, ankle_name = FOOT_MARKERS[side]
         toe, ankle = motion.index(toe_name), motion.index(ankle_name)
@@ -223,7 +252,7 @@ def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
         u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-9)
         # a foot near vertical (the human's at toe-off) makes the toe-ankle bone and the two
         # hard heights nearly dependent: cap the ramp's foot pitch
-        zmax = np.sin(np.radians(config.ramp_max_pitch_deg))
+        zmax = np.sin(np.radians(config.ramp.max_pitch_deg))
         uz = np.clip(u[:, 2], -zmax, zmax)
         horiz = u[:, :2]
         hn = np.linalg.norm(horiz, axis=1, keepdims=True)

@@ -8,13 +8,12 @@ needed, so motions from other retargeting tools are scored on the same terms.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..contacts.phases import SIDES, Contacts, drop_short, hysteresis
+from ..contacts.phases import SIDES, Contacts, PhaseFilter
 from ..core.checks import require_finite
-from ..errors import OptionError
 from .soles import SoleTracks
 
 
@@ -26,20 +25,15 @@ class SupportDetection:
         height_m: a foot can enter support when the lowest corner of its sole is within this
             height of the ground [m].
         speed_mps: ... and its sole centre moves slower than this [m/s].
-        hysteresis: to leave support the height/speed must exceed the thresholds times this.
-        min_phase_s: support and swing phases shorter than this are merged into their
-            neighbours [s].
+        phases: hysteresis and minimum phase duration (0.05 s here, 0.08 s for markers).
     """
 
     height_m: float = 0.01
     speed_mps: float = 0.5
-    hysteresis: float = 1.5
-    min_phase_s: float = 0.05
+    phases: PhaseFilter = field(default_factory=lambda: PhaseFilter(min_phase_s=0.05))
 
     def __post_init__(self) -> None:
-        require_finite(self, ("height_m", "speed_mps", "min_phase_s"), positive=True)
-        if not self.hysteresis >= 1.0:
-            raise OptionError("hysteresis", self.hysteresis, "a number >= 1")
+        require_finite(self, ("height_m", "speed_mps"), positive=True)
 
 
 def detect_support(soles: SoleTracks, config: SupportDetection | None = None) -> Contacts:
@@ -55,13 +49,9 @@ def detect_support(soles: SoleTracks, config: SupportDetection | None = None) ->
     config = config or SupportDetection()
     T = soles.n_frames
     support = np.zeros((T, 2), dtype=bool)
-    min_frames = max(1, int(round(config.min_phase_s * soles.fps)))
     for k, side in enumerate(SIDES):
-        low, speed = soles.lowest(side), soles.speed(side)
-        enter = (low < config.height_m) & (speed < config.speed_mps)
-        stay = ((low < config.height_m * config.hysteresis)
-                & (speed < config.speed_mps * config.hysteresis))
-        support[:, k] = drop_short(hysteresis(enter, stay), min_frames)
+        support[:, k] = config.phases.support(soles.lowest(side), soles.speed(side),
+                                              config.height_m, config.speed_mps, soles.fps)
     return Contacts(support=support, fps=soles.fps)
 
 

@@ -12,12 +12,12 @@ Every dartpy call of imesh lives in this package; dartpy is imported when a worl
 See ``docs/checking.md``.
 """
 
-from .config import PhysicsConfig
+from .config import ControlConfig, FallConfig, GroundConfig, PhysicsConfig, TimingConfig
 from .result import PHYSICS_METRICS, PhysicsResult
 from .simulate import feedforward, simulate_motion
 from .world import DartRobot, PhysicsError
 
 __all__ = [
-    "PHYSICS_METRICS", "DartRobot", "PhysicsConfig", "PhysicsError", "PhysicsResult",
-    "feedforward", "simulate_motion",
+    "PHYSICS_METRICS", "ControlConfig", "DartRobot", "FallConfig", "GroundConfig", "PhysicsConfig",
+    "PhysicsError", "PhysicsResult", "TimingConfig", "feedforward", "simulate_motion",
 ]

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.robot_motion import RobotMotion
-from . import PhysicsConfig, simulate_motion
+from . import ControlConfig, PhysicsConfig, TimingConfig, simulate_motion
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +67,7 @@ def track_arms(robot, motion: RobotMotion, joints: Sequence[str] | None = None, 
         joints: the arm joints to report on (None: every joint).
         feedforward: add inverse-dynamics torques of the reference (imesh's default tracker
             does; the paper's PID does not).
-        kp_per_effort: proportional gain per Nm of torque limit [1/rad] (see PhysicsConfig).
+        kp_per_effort: proportional gain per Nm of torque limit [1/rad] (see ControlConfig).
         settle_s: time the first frame is held before tracking [s].
 
     Returns:
@@ -77,8 +77,10 @@ def track_arms(robot, motion: RobotMotion, joints: Sequence[str] | None = None, 
         MissingDependencyError: dartpy missing (names the install command).
         PhysicsError: a model mismatch.
     """
-    config = PhysicsConfig(fixed_base=True, controller="pid", feedforward=feedforward,
-                           kp_per_effort=kp_per_effort, settle_s=settle_s)
+    config = PhysicsConfig(fixed_base=True,
+                           control=ControlConfig(controller="pid", feedforward=feedforward,
+                                                 kp_per_effort=kp_per_effort),
+                           timing=TimingConfig(settle_s=settle_s))
     result = simulate_motion(robot, motion, config=config)
     names = tuple(joints) if joints is not None else tuple(robot.joint_names)
     cols = np.array([robot.joint_index(n) for n in names], dtype=np.int64)

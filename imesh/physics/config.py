@@ -1,4 +1,6 @@
-"""Settings of the DART dynamics check (:class:`PhysicsConfig`)."""
+"""Settings of the DART dynamics check (:class:`PhysicsConfig`), one small part per concept:
+the joint controller (:class:`ControlConfig`), the time line (:class:`TimingConfig`), the fall
+detection (:class:`FallConfig`) and the ground contact (:class:`GroundConfig`)."""
 
 from __future__ import annotations
 
@@ -14,9 +16,16 @@ CONTROLLERS = ("spd", "pid")
 COLLISION_DETECTORS = ("ode", "bullet", "dart", "fcl")
 
 
+def _require_every(config: object, name: str) -> None:
+    """``config.<name>`` is a step count (an integer >= 1)."""
+    value = getattr(config, name)
+    if not (isinstance(value, int) and value >= 1):
+        raise OptionError(name, value, "an integer >= 1")
+
+
 @dataclass(frozen=True)
-class PhysicsConfig:
-    """How a robot motion is simulated and judged in DART.
+class ControlConfig:
+    """The joint controller and its gains.
 
     Gains are set per joint from its torque limit, so one setting suits robots with 5 Nm wrists
     and 140 Nm knees: ``kp = kp_per_effort * effort_max`` [Nm/rad] (a joint saturates at
@@ -24,8 +33,6 @@ class PhysicsConfig:
     ``ki = ki_ratio * kp`` [Nm/(rad s)] (PID only). ``gains`` overrides single joints.
 
     Attributes:
-        fixed_base: weld the base to the world at the motion's first base pose (arm-only
-            tracking; no ground, no falls, no contact ZMP).
         controller: ``"spd"`` (stable PD, Tan et al. 2011: implicit in the joint damping, stable
             at high gains) or ``"pid"`` (explicit PID).
         kp_per_effort: proportional gain per Nm of torque limit [1/rad].
@@ -35,15 +42,75 @@ class PhysicsConfig:
         feedforward: add the inverse-dynamics torques of the reference motion (contact forces
             of the support feet distributed by weighted least squares).
         torque_limit_scale: torques are clamped to ``effort_max * torque_limit_scale``.
-        dt: simulation and control period [s] (1 kHz).
         mass_matrix_every: the SPD controller refreshes the mass matrix every this many steps
             (DART's mass matrix costs about as much as a physics step; it changes slowly).
+    """
+
+    controller: str = "spd"
+    kp_per_effort: float = 20.0
+    kd_ratio: float = 0.05
+    ki_ratio: float = 2.0
+    gains: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    feedforward: bool = True
+    torque_limit_scale: float = 1.0
+    mass_matrix_every: int = 8
+
+    def __post_init__(self) -> None:
+        if self.controller not in CONTROLLERS:
+            raise OptionError("physics controller", self.controller, CONTROLLERS)
+        require_finite(self, ("kp_per_effort", "torque_limit_scale"), positive=True)
+        require_finite(self, ("kd_ratio", "ki_ratio"), positive=False)
+        _require_every(self, "mass_matrix_every")
+        for joint, pair in self.gains.items():
+            if (len(pair) != 2 or not all(np.isfinite(g) and g >= 0 for g in pair)):
+                raise OptionError(f"gains of {joint}", pair, "(kp >= 0, kd >= 0)")
+
+
+@dataclass(frozen=True)
+class TimingConfig:
+    """The simulated time line.
+
+    Attributes:
+        dt: simulation and control period [s] (1 kHz).
         settle_s: time the robot holds the first frame on the ground before tracking [s].
         extra_time_s: time the robot holds the last frame after the motion [s].
-        fall_height_m: fallen when the base is this much lower than the reference [m].
-        fall_tilt_rad: fallen when the base orientation differs from the reference by more than
+    """
+
+    dt: float = 0.001
+    settle_s: float = 0.5
+    extra_time_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        require_finite(self, ("dt",), positive=True)
+        require_finite(self, ("settle_s", "extra_time_s"), positive=False)
+        if self.dt > 0.01:
+            raise OptionError("dt", self.dt, "at most 0.01 s (1 kHz is the default)")
+
+
+@dataclass(frozen=True)
+class FallConfig:
+    """When the robot has fallen, and what a fall does.
+
+    Attributes:
+        height_m: fallen when the base is this much lower than the reference [m].
+        tilt_rad: fallen when the base orientation differs from the reference by more than
             this angle [rad].
-        stop_on_fall: end the simulation at a fall (the rest of the result is NaN).
+        stop: end the simulation at a fall (the rest of the result is NaN).
+    """
+
+    height_m: float = 0.25
+    tilt_rad: float = 0.8
+    stop: bool = True
+
+    def __post_init__(self) -> None:
+        require_finite(self, ("height_m", "tilt_rad"), positive=True)
+
+
+@dataclass(frozen=True)
+class GroundConfig:
+    """The ground, the robot's soles and how their contacts are computed and read.
+
+    Attributes:
         friction: Coulomb friction coefficient of the ground and the robot.
         sole_thickness_m: thickness of the sole boxes that replace the foot proxies [m].
         start_clearance_m: the first frame is placed this high above the ground before settling
@@ -54,21 +121,6 @@ class PhysicsConfig:
             steps.
     """
 
-    fixed_base: bool = False
-    controller: str = "spd"
-    kp_per_effort: float = 20.0
-    kd_ratio: float = 0.05
-    ki_ratio: float = 2.0
-    gains: Mapping[str, tuple[float, float]] = field(default_factory=dict)
-    feedforward: bool = True
-    torque_limit_scale: float = 1.0
-    dt: float = 0.001
-    mass_matrix_every: int = 8
-    settle_s: float = 0.5
-    extra_time_s: float = 0.0
-    fall_height_m: float = 0.25
-    fall_tilt_rad: float = 0.8
-    stop_on_fall: bool = True
     friction: float = 1.0
     sole_thickness_m: float = 0.02
     start_clearance_m: float = 0.001
@@ -76,22 +128,29 @@ class PhysicsConfig:
     contact_sample_every: int = 4
 
     def __post_init__(self) -> None:
-        if self.controller not in CONTROLLERS:
-            raise OptionError("physics controller", self.controller, CONTROLLERS)
         if self.collision_detector not in COLLISION_DETECTORS:
             raise OptionError("collision detector", self.collision_detector,
                               COLLISION_DETECTORS)
-        positive = ("kp_per_effort", "dt", "fall_height_m", "fall_tilt_rad",
-                    "torque_limit_scale", "sole_thickness_m")
-        require_finite(self, positive, positive=True)
-        require_finite(self, ("kd_ratio", "ki_ratio", "settle_s", "extra_time_s", "friction",
-                              "start_clearance_m"), positive=False)
-        if self.dt > 0.01:
-            raise OptionError("dt", self.dt, "at most 0.01 s (1 kHz is the default)")
-        for name in ("mass_matrix_every", "contact_sample_every"):
-            value = getattr(self, name)
-            if not (isinstance(value, int) and value >= 1):
-                raise OptionError(name, value, "an integer >= 1")
-        for joint, pair in self.gains.items():
-            if (len(pair) != 2 or not all(np.isfinite(g) and g >= 0 for g in pair)):
-                raise OptionError(f"gains of {joint}", pair, "(kp >= 0, kd >= 0)")
+        require_finite(self, ("sole_thickness_m",), positive=True)
+        require_finite(self, ("friction", "start_clearance_m"), positive=False)
+        _require_every(self, "contact_sample_every")
+
+
+@dataclass(frozen=True)
+class PhysicsConfig:
+    """How a robot motion is simulated and judged in DART.
+
+    Attributes:
+        fixed_base: weld the base to the world at the motion's first base pose (arm-only
+            tracking; no ground, no falls, no contact ZMP).
+        control: the joint controller and its gains.
+        timing: simulation period, settling and hold times.
+        fall: fall detection.
+        ground: ground, soles and contact computation.
+    """
+
+    fixed_base: bool = False
+    control: ControlConfig = field(default_factory=ControlConfig)
+    timing: TimingConfig = field(default_factory=TimingConfig)
+    fall: FallConfig = field(default_factory=FallConfig)
+    ground: GroundConfig = field(default_factory=GroundConfig)

@@ -32,7 +32,8 @@ class Reference:
         soles: sole tracks of ``q``.
         zmp_m: (T, 2) float [m] planned multibody ZMP of ``q``.
         ground_offset_m: [m] added to the base height so that the lowest point of the first
-            frame (soles and non-foot proxies) sits ``start_clearance_m`` above the ground.
+            frame (soles and non-foot proxies) sits ``GroundConfig.start_clearance_m`` above
+            the ground.
     """
 
     q: np.ndarray

@@ -27,7 +27,8 @@ class PhysicsResult:
             simulation diverged.
         fall_reason: why it was judged fallen ("" when it did not fall).
         survived_s: motion time until the fall [s] (the motion's duration when it did not).
-        duration_s: motion time simulated when nothing fails (motion + ``extra_time_s``) [s].
+        duration_s: motion time simulated when nothing fails (motion +
+            ``TimingConfig.extra_time_s``) [s].
         tracking_rms_rad: RMS joint error over the survived frames and all joints [rad].
         torque_ratio_max: largest demanded |torque| / torque limit over joints and control
             steps (before clamping; > 1 means the controller wanted more than the motors have).
@@ -119,6 +120,6 @@ class PhysicsResult:
             "controller_us_per_step": self.controller_us_per_step,
             "physics_us_per_step": self.physics_us_per_step,
             "ground_offset_m": self.ground_offset_m,
-            "controller": self.config.controller,
+            "controller": self.config.control.controller,
             "fixed_base": self.config.fixed_base,
         }

@@ -10,9 +10,9 @@ The loop, per control step (all vectors in DART's DOF order, the base rows of th
   predicts that an ankle torque spins the light foot; the implicit damping then cancels the
   ankles' stiffness and a standing robot tips over (JVRC-1) or chatters (G1, HRP-4C). The mass
   matrix (about as costly as a physics step) is refreshed and Cholesky-factored every
-  ``mass_matrix_every`` steps; ``C`` (Coriolis and gravity) and ``f_c`` every step.
+  ``ControlConfig.mass_matrix_every`` steps; ``C`` (Coriolis and gravity) and ``f_c`` every step.
 - PID: ``tau = tau_ff + Kp e + Kd de + Ki int(e)``.
-- ``tau`` clamped to ``effort_max * torque_limit_scale``.
+- ``tau`` clamped to ``effort_max * ControlConfig.torque_limit_scale``.
 
 The feed-forward is precomputed once per motion frame with pinocchio's inverse dynamics of the
 reference (recursive Newton-Euler on the model the motion was fitted with; the DART model is
@@ -50,9 +50,9 @@ WRENCH_ARM_M = 0.05
 
 
 def _gains(robot, config: PhysicsConfig) -> tuple[np.ndarray, np.ndarray]:
-    kp = config.kp_per_effort * robot.effort_max
-    kd = config.kd_ratio * kp
-    for name, (p, d) in config.gains.items():
+    kp = config.control.kp_per_effort * robot.effort_max
+    kd = config.control.kd_ratio * kp
+    for name, (p, d) in config.control.gains.items():
         i = robot.joint_index(name)
         kp[i], kd[i] = p, d
     return kp, kd
@@ -133,8 +133,8 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     """Track a robot motion in DART and judge it.
 
     The motion's first frame is placed on the ground (base height shifted for all frames so its
-    lowest point is ``start_clearance_m`` above z = 0), held for ``settle_s``, then tracked; the
-    last frame is held for ``extra_time_s``.
+    lowest point is ``ground.start_clearance_m`` above z = 0), held for ``timing.settle_s``,
+    then tracked; the last frame is held for ``timing.extra_time_s``.
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
@@ -156,22 +156,22 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
                          f"joints cannot be simulated on robot {robot.name!r} "
                          f"({robot.dof} joints): robot or joint names differ")
     t_setup = time.perf_counter()
-    ref = build_reference(robot, motion.q, motion.fps, clearance_m=config.start_clearance_m,
+    ref = build_reference(robot, motion.q, motion.fps, clearance_m=config.ground.start_clearance_m,
                           place_on_ground=not config.fixed_base)
     base_pose = np.eye(4)
     base_pose[:3, :3] = Rotation.from_quat(ref.q[0, 3:7]).as_matrix()
     base_pose[:3, 3] = ref.q[0, :3]
     sim = DartRobot(robot, config, base_pose=base_pose)
     skel, world = sim.skeleton, sim.world
-    n, nb, dt = sim.n_dofs, sim.base_dofs, config.dt
+    n, nb, dt = sim.n_dofs, sim.base_dofs, config.timing.dt
     fps = ref.fps
 
     # --- reference at the control rate ---------------------------------------------------------
-    settle = int(round(config.settle_s / dt))
-    track = int(round((ref.duration_s + config.extra_time_s) / dt))
+    settle = int(round(config.timing.settle_s / dt))
+    track = int(round((ref.duration_s + config.timing.extra_time_s) / dt))
     spline = joint_splines(ref.q, fps)
     jd = sim.joint_dofs
-    if config.feedforward:
+    if config.control.feedforward:
         tau_ff_frames = feedforward(sim, ref)[0]
     else:
         tau_ff_frames = np.zeros((ref.n_frames, n))
@@ -192,17 +192,17 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
 
     sim.set_state(ref.q[0])  # the first frame, at rest
     kp_j, kd_j = _gains(robot, config)
-    if config.controller == "pid":
+    if config.control.controller == "pid":
         kp_j, kd_j = _explicit_gains(sim, kp_j, kd_j, dt)
     kp, kd = np.zeros(n), np.zeros(n)
     kp[jd], kd[jd] = kp_j, kd_j
-    ki = config.ki_ratio * kp
+    ki = config.control.ki_ratio * kp
     limit = np.full(n, np.inf)
-    limit[jd] = robot.effort_max * config.torque_limit_scale
+    limit[jd] = robot.effort_max * config.control.torque_limit_scale
     inv_limit = np.zeros(n)
     inv_limit[jd] = 1.0 / limit[jd]
     kd_dt = kd * dt
-    spd = config.controller == "spd"
+    spd = config.control.controller == "spd"
 
     setup_s = time.perf_counter() - t_setup
 
@@ -215,7 +215,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     ratio_rec = np.full(T, np.nan)
     cop = np.zeros((T, 3))  # sum fz*x, fz*y, fz over contact samples
     samples = np.zeros(T)
-    sample_every = config.contact_sample_every
+    sample_every = config.ground.contact_sample_every
 
     get_pos, get_vel = skel.getPositions, skel.getVelocities
     get_mass, get_cg = skel.getMassMatrix, skel.getCoriolisAndGravityForces
@@ -249,7 +249,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
             c0_step = i
             qbar, dqbar, tau_ff = reference_chunk(i)
         if spd:
-            if chol is None or k % config.mass_matrix_every == 0:
+            if chol is None or k % config.control.mass_matrix_every == 0:
                 M = get_mass()
                 M[diag] += kd_dt
                 chol, info = lapack.dpotrf(M)
@@ -300,20 +300,20 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
                 pos_rec[f] = pos
                 tau_rec[f] = tau
                 if nb:
-                    low = pos[5] < base_z_ref[f] - config.fall_height_m
+                    low = pos[5] < base_z_ref[f] - config.fall.height_m
                     tilt = _tilt(pos[:3], ref.q[f, 3:7])
-                    if (low or tilt > config.fall_tilt_rad) and not fell:
+                    if (low or tilt > config.fall.tilt_rad) and not fell:
                         fell, fall_step = True, i
                         reason = (f"base {base_z_ref[f] - pos[5]:.2f} m below the reference"
                                   if low else f"base tilted {np.degrees(tilt):.0f} deg from the "
                                   "reference") + f" at t = {i * dt:.2f} s"
-            if fell and config.stop_on_fall:
+            if fell and config.fall.stop:
                 pos_rec[f] = np.nan
                 tau_rec[f] = np.nan
                 break
         elif nb and k == settle - 1:
             tilt = _tilt(pos[:3], ref.q[0, 3:7])
-            if pos[5] < base_z_ref[0] - config.fall_height_m or tilt > config.fall_tilt_rad:
+            if pos[5] < base_z_ref[0] - config.fall.height_m or tilt > config.fall.tilt_rad:
                 fell, fall_step, reason = True, 0, "fell while settling on the first frame"
                 break
         step()
@@ -360,7 +360,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     result = PhysicsResult(
         robot=robot.name, joint_names=tuple(robot.joint_names), fps=fps, fell=fell,
         fall_reason=reason, survived_s=float(survived),
-        duration_s=float(ref.duration_s + config.extra_time_s),
+        duration_s=float(ref.duration_s + config.timing.extra_time_s),
         tracking_rms_rad=tracking_rms, torque_ratio_max=float(ratio_max),
         saturation_fraction=saturated / max(tracked_steps, 1), base_drift_m=drift,
         base_height_drift_m=height_drift, real_time_factor=sim_time / max(wall, 1e-9),
@@ -372,6 +372,6 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         ground_offset_m=ref.ground_offset_m, config=config)
     log.info("DART %s (%s, %d frames at %g fps): %s, survived %.2f of %.2f s, tracking RMS "
              "%.4f rad, torque ratio %.2f, real-time factor %.2f (setup %.2f s)", robot.name,
-             config.controller, T, fps, f"FELL ({reason})" if fell else "did not fall", survived,
-             ref.duration_s, tracking_rms, ratio_max, result.real_time_factor, setup_s)
+             config.control.controller, T, fps, f"FELL ({reason})" if fell else "did not fall",
+             survived, ref.duration_s, tracking_rms, ratio_max, result.real_time_factor, setup_s)
     return result

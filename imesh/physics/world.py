@@ -10,9 +10,9 @@ skeleton's mass and centre of mass equal the pinocchio model's. A link whose ine
 degenerate (a point mass: iCub's head and neck) gets a solid sphere's, so no joint has a zero
 effective inertia. Collision: the robot's
 primitive proxies (``Robot.collision_shapes``), except on the feet, which get one box per sole
-(``sole_thickness_m`` thick, its bottom face on the sole rectangle). Self-collision is off in
-DART (checked separately on the proxies with python-fcl). The ground is a large box whose top
-face is z = 0, with Coulomb friction.
+(``GroundConfig.sole_thickness_m`` thick, its bottom face on the sole rectangle).
+Self-collision is off in DART (checked separately on the proxies with python-fcl). The ground
+is a large box whose top face is z = 0, with Coulomb friction.
 
 State conventions: DART (6.20) orders a floating base's positions as (rotation vector,
 translation) and its velocities as (angular, linear) velocity in the *world* frame; pinocchio
@@ -211,7 +211,7 @@ class DartRobot:
         base_pose: (4, 4) float world pose of the base for ``fixed_base`` (ignored otherwise).
 
     Attributes:
-        world: the dartpy World (gravity -9.81 z, time step ``config.dt``).
+        world: the dartpy World (gravity -9.81 z, time step ``config.timing.dt``).
         skeleton: the robot's dartpy Skeleton.
         ground: the ground Skeleton (None for a fixed base).
         n_dofs: DART degrees of freedom (6 + joints, or joints for a fixed base).
@@ -261,13 +261,13 @@ class DartRobot:
 
         world = dart.simulation.World()
         world.setGravity(np.array([0.0, 0.0, -9.81]))
-        world.setTimeStep(config.dt)
+        world.setTimeStep(config.timing.dt)
         detector = {
             "ode": dart.collision.OdeCollisionDetector,
             "bullet": dart.collision.BulletCollisionDetector,
             "dart": dart.collision.DARTCollisionDetector,
             "fcl": dart.collision.FCLCollisionDetector,
-        }[config.collision_detector]()
+        }[config.ground.collision_detector]()
         world.getConstraintSolver().setCollisionDetector(detector)
         world.addSkeleton(skel)
         self.ground = None
@@ -277,7 +277,7 @@ class DartRobot:
         self.world = world
         # ground contact is the only collision: a fixed base has no ground at all
         log.debug("DART world of %s: %d DOF, %.2f kg, %d shape nodes, detector %s", robot.name,
-                  self.n_dofs, mass, skel.getNumShapeNodes(), config.collision_detector)
+                  self.n_dofs, mass, skel.getNumShapeNodes(), config.ground.collision_detector)
 
     # --- building ---------------------------------------------------------------------------
 
@@ -296,8 +296,8 @@ class DartRobot:
                                    f"of link {shape.frame!r}")
             node = body.createShapeNode(_shape(dart, shape.kind, shape.dims))
             node.setRelativeTransform(_isometry(dart, shape.placement))
-            _add_collision(node, cfg.friction)
-        th = cfg.sole_thickness_m
+            _add_collision(node, cfg.ground.friction)
+        th = cfg.ground.sole_thickness_m
         for side, sole in robot.soles.items():
             body = self.skeleton.getBodyNode(sole.frame)
             if body is None:
@@ -314,7 +314,7 @@ class DartRobot:
             node = body.createShapeNode(dart.dynamics.BoxShape(size))
             node.setRelativeTransform(_isometry(dart, pose))
             node.setName(f"{side}_sole")
-            _add_collision(node, cfg.friction)
+            _add_collision(node, cfg.ground.friction)
 
     def _make_ground(self):
         dart = self.dart
@@ -326,7 +326,7 @@ class DartRobot:
         pose = np.eye(4)
         pose[2, 3] = -thick / 2
         node.setRelativeTransform(_isometry(dart, pose))
-        _add_collision(node, self.config.friction)
+        _add_collision(node, self.config.ground.friction)
         return ground
 
     def _check_kinematics(self) -> None:

@@ -328,7 +328,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                f"step {report.step}, window {report.window + 1}")
 
     fit_config = config.fit if config.fit is not None else FitConfig()
-    blend = (support_blend(flat, config.support.ramp_s) if config.support is not None
+    blend = (support_blend(flat, config.support.ramp.duration_s) if config.support is not None
              else None)
     # Priorities (W_e of eq. 7) as in the paper's order of fitting: the waist from the pelvis
     # triangle, the feet (they carry the robot), then the rest; so the fit does not swing the
