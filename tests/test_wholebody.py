@@ -8,17 +8,21 @@ import numpy as np
 import pytest
 from conftest import load_test_robot
 
+from imesh.balance import BalanceConfig, ConvergenceConfig
 from imesh.contacts.phases import SIDES
 from imesh.core.limits import LimitOptions
 from imesh.errors import OptionError
 from imesh.fit.limits import joint_limits
 from imesh.fit.targets import compile_targets
+from imesh.morph.problem import MorphConfig
+from imesh.physics import ControlConfig, PhysicsConfig
 from imesh.solve import (
     CostWeights,
     ForceOptions,
     LimitMargins,
     SqpOptions,
     WholeBodyConfig,
+    WindowOptions,
     ZmpOptions,
     build_qp,
     plan_whole_body,
@@ -320,3 +324,22 @@ def test_each_part_of_the_config_validates_itself(build, field):
     with pytest.raises(OptionError) as err:
         build()
     assert err.value.name == field
+
+
+@pytest.mark.parametrize(("build", "field", "valid"), [
+    (lambda: SqpOptions(iterations=True), "iterations", "an integer >= 1"),
+    (lambda: WindowOptions(overlap_frames=1), "overlap_frames", "an integer >= 2"),
+    (lambda: WindowOptions(frames=100, overlap_frames=60), "frames", "an integer >= 128"),
+    (lambda: MorphConfig(steps=2.5), "steps", "an integer >= 1"),
+    (lambda: BalanceConfig(convergence=ConvergenceConfig(iterations=-1)), "iterations",
+     "an integer >= 0"),
+    (lambda: PhysicsConfig(control=ControlConfig(mass_matrix_every=0)), "mass_matrix_every",
+     "an integer >= 1"),
+])
+def test_counts_are_integers_with_a_minimum(build, field, valid):
+    """Iteration, step and frame counts of every configuration go through one check
+    (``imesh.core.checks.require_count``): a bool, a float or a count below the minimum is
+    refused, and the error names the field and the smallest valid count."""
+    with pytest.raises(OptionError) as err:
+        build()
+    assert err.value.name == field and err.value.valid == valid

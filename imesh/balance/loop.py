@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..contacts.phases import runs
-from ..core.checks import require_finite
+from ..core.checks import require_count, require_finite
 from ..errors import ImeshError, OptionError, SolverError
 from ..human.filtering import lowpass_array
 from ..metrics.derivatives import motion_derivatives
@@ -64,8 +64,7 @@ class ConvergenceConfig:
     inside_target: float = 0.99
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.iterations, int) and self.iterations >= 0):
-            raise OptionError("iterations", self.iterations, "an integer >= 0")
+        require_count(self, ("iterations",), minimum=0)
         require_finite(self, ("tolerance_mm",), positive=True)
         if not 0.0 <= self.inside_target <= 1.0:
             raise OptionError("inside_target", self.inside_target, "a fraction in [0, 1]")

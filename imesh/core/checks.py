@@ -45,3 +45,16 @@ class NonNegative:
     def __post_init__(self) -> None:
         require_finite(self, [f.name for f in fields(self)
                               if f.type in ("float", float)], positive=False)
+
+
+def require_count(config: object, names: Iterable[str], *, minimum: int = 1) -> None:
+    """Every field ``names`` of ``config`` is an ``int`` (not a bool) of at least ``minimum``:
+    an iteration, step or frame count.
+
+    Raises:
+        OptionError: the first field that is not ("an integer >= minimum").
+    """
+    for name in names:
+        value = getattr(config, name)
+        if type(value) is not int or value < minimum:
+            raise OptionError(name, value, f"an integer >= {minimum}")

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.checks import NonNegative, require_finite
+from ..core.checks import NonNegative, require_count, require_finite
 from ..core.motion import MarkerMotion
 from ..errors import ConstraintError, InvalidMotionError, OptionError
 from ..mesh.bones import bone_lengths, check_target_lengths
@@ -78,7 +78,8 @@ class LagrangianOptions:
     max_iterations: int = 30
 
     def __post_init__(self) -> None:
-        require_finite(self, ("tolerance_m", "penalty"), positive=True)
+        require_finite(self, ("tolerance_m", "fail_tolerance_m", "penalty"), positive=True)
+        require_count(self, ("max_iterations",))
 
 
 @dataclass(frozen=True)
@@ -110,8 +111,8 @@ class MorphConfig:
     threads: int | None = None
 
     def __post_init__(self) -> None:
-        if int(self.steps) < 1:
-            raise OptionError("morph steps", self.steps, "an integer >= 1")
+        require_count(self, ("steps",))
+        require_count(self, ("max_polish_steps",), minimum=0)
         require_finite(self, ("bone_tolerance_m",), positive=True)
         if self.window_frames < 8 or not (0 <= self.window_lookahead < self.window_frames // 2):
             raise OptionError("window_frames/window_lookahead",

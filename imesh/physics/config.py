@@ -9,18 +9,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.checks import require_finite
+from ..core.checks import require_count, require_finite
 from ..errors import OptionError
 
 CONTROLLERS = ("spd", "pid")
 COLLISION_DETECTORS = ("ode", "bullet", "dart", "fcl")
-
-
-def _require_every(config: object, name: str) -> None:
-    """``config.<name>`` is a step count (an integer >= 1)."""
-    value = getattr(config, name)
-    if not (isinstance(value, int) and value >= 1):
-        raise OptionError(name, value, "an integer >= 1")
 
 
 @dataclass(frozen=True)
@@ -60,7 +53,7 @@ class ControlConfig:
             raise OptionError("physics controller", self.controller, CONTROLLERS)
         require_finite(self, ("kp_per_effort", "torque_limit_scale"), positive=True)
         require_finite(self, ("kd_ratio", "ki_ratio"), positive=False)
-        _require_every(self, "mass_matrix_every")
+        require_count(self, ("mass_matrix_every",))
         for joint, pair in self.gains.items():
             if (len(pair) != 2 or not all(np.isfinite(g) and g >= 0 for g in pair)):
                 raise OptionError(f"gains of {joint}", pair, "(kp >= 0, kd >= 0)")
@@ -133,7 +126,7 @@ class GroundConfig:
                               COLLISION_DETECTORS)
         require_finite(self, ("sole_thickness_m",), positive=True)
         require_finite(self, ("friction", "start_clearance_m"), positive=False)
-        _require_every(self, "contact_sample_every")
+        require_count(self, ("contact_sample_every",))
 
 
 @dataclass(frozen=True)

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..core.checks import require_finite
-from ..errors import ImeshError, OptionError
+from ..core.checks import require_count, require_finite
+from ..errors import ImeshError
 from ..reduction.chain import joint_matrix, rot
 from ..reduction.dynamics import PLANAR_BIPED_URDF
 from .world import dartpy
@@ -65,8 +65,7 @@ class DartConfig:
     torso: PDGains = field(default_factory=lambda: PDGains(kp=30.0, kd=1.0))
 
     def __post_init__(self):
-        if not (isinstance(self.cycles, int) and self.cycles >= 1):
-            raise OptionError("DART cycles", self.cycles, "an integer >= 1")
+        require_count(self, ("cycles",))
         require_finite(self, ("time_step",), positive=True)
         require_finite(self, ("friction",), positive=False)
 

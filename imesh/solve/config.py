@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..core.checks import NonNegative, require_finite
+from ..core.checks import NonNegative, require_count, require_finite
 from ..errors import OptionError
 from .qp import SOLVERS
 
@@ -186,8 +186,7 @@ class SqpOptions:
     qp_tolerance: float = 1e-7
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.iterations, int) and self.iterations >= 1):
-            raise OptionError("iterations", self.iterations, "an integer >= 1")
+        require_count(self, ("iterations",))
         require_finite(self, ("step_tolerance", "qp_tolerance", "merit_tolerance"),
                        positive=True)
         require_finite(self, ("trust_region", "base_trust"), positive=False)
@@ -217,12 +216,9 @@ class WindowOptions:
     workers: int = 1
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.overlap_frames, int) and self.overlap_frames >= 2):
-            raise OptionError("window overlap_frames", self.overlap_frames, "an integer >= 2")
-        if not (isinstance(self.frames, int) and self.frames >= 2 * (self.overlap_frames + 4)):
-            raise OptionError("window frames", self.frames,
-                              f"an integer >= {2 * (self.overlap_frames + 4)} (twice the "
-                              "overlap and the 4 frames held at the previous window)")
+        require_count(self, ("overlap_frames",), minimum=2)
+        # a window holds its first 4 frames at the previous window's and overlaps the next
+        require_count(self, ("frames",), minimum=2 * (self.overlap_frames + 4))
         if type(self.workers) is not int or self.workers not in (1, 2):
             raise OptionError("workers", self.workers,
                               "1 (windows in order) or 2 (two chains in two processes)")
