@@ -39,7 +39,7 @@ class PDGains:
     kp: float
     kd: float
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         require_finite(self, ("kp", "kd"), positive=False)
 
 
@@ -64,7 +64,7 @@ class DartConfig:
     joints: PDGains = field(default_factory=lambda: PDGains(kp=30.0, kd=0.5))
     torso: PDGains = field(default_factory=lambda: PDGains(kp=30.0, kd=1.0))
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         require_count(self, ("cycles",))
         require_finite(self, ("time_step",), positive=True)
         require_finite(self, ("friction",), positive=False)

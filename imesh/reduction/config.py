@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..core.checks import NonNegative, require_finite
+from ..core.checks import NonNegative, require_count, require_finite
 from ..errors import OptionError
 
 METHODS = ("gauss-newton", "gradient")
@@ -49,7 +49,7 @@ class SubspaceConfig:
     harmonics: int | None = 15
     torque_harmonics: int | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.rank is not None and not 1 <= self.rank <= 5:
             raise OptionError("reduced dimension r", self.rank, "1..5 or full")
         require_finite(self, ("cutoff_hz",), positive=True)
@@ -153,7 +153,7 @@ class ProjectionConfig:
     k_u: float = 1.0
     enabled: bool = True
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         require_finite(self, ("k_theta", "k_u"), positive=False)
 
 
@@ -180,10 +180,10 @@ class SolverConfig:
     slip_tol_m_s: float = 5e-3
     jm_target_ratio: float = 1e-4
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise OptionError("optimization method", self.method, METHODS)
-        require_finite(self, ("max_iterations", "patience"), positive=True)
+        require_count(self, ("max_iterations", "patience"))
         require_finite(self, ("closure_tol_m", "slip_tol_m_s", "jm_target_ratio"),
                        positive=False)
 
