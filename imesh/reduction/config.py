@@ -140,7 +140,7 @@ class LimitPenaltyConfig(NonNegative):
 
 
 @dataclass(frozen=True)
-class ProjectionConfig:
+class ProjectionConfig(NonNegative):
     """Stage (II): the projections of eqs 8-11 back inside the angle and torque limits.
 
     Attributes:
@@ -152,9 +152,6 @@ class ProjectionConfig:
     k_theta: float = 1.0
     k_u: float = 1.0
     enabled: bool = True
-
-    def __post_init__(self) -> None:
-        require_finite(self, ("k_theta", "k_u"), positive=False)
 
 
 @dataclass(frozen=True)
