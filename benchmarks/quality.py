@@ -76,8 +76,7 @@ def feasible_motion(robot, seconds: float = 3.0, fps: float = 30.0):
     q[:, 7 + robot.joint_index(arm_r)] -= 0.5 * np.sin(2 * np.pi * t / seconds) ** 2
     for i in range(n):  # the base follows the legs: soles stay on z = 0
         q[i, 2] -= robot.sole_center(q[i], "left")[2]
-    return RobotMotion(q=q, fps=fps, robot=robot.name, joint_names=robot.joint_names,
-                       meta={"source": "feasible squat + arms (synthetic)"})
+    return RobotMotion(q=q, fps=fps, robot=robot.name, joint_names=robot.joint_names)
 
 
 def feasible_row(robot, physics: bool, physics_config, plots: Path | None) -> dict:
