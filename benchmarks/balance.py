@@ -23,7 +23,7 @@ CLIPS = ("cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh", "cmu_141_16_wave_
 ROBOTS = ("jvrc1", "g1", "hrp4c")
 
 
-def row(robot, result, seconds: float, balanced: bool) -> dict:
+def row(robot, clip: str, result, seconds: float, balanced: bool) -> dict:
     from imesh.balance import zmp_state
     from imesh.metrics.limits import limit_violations
     from imesh.metrics.skid import foot_skid
@@ -38,7 +38,7 @@ def row(robot, result, seconds: float, balanced: bool) -> dict:
     limits = limit_violations(robot, motion.q, motion.fps)
     bal = result.balance
     return {
-        "robot": robot.name, "clip": motion.meta.get("source", ""), "balanced": balanced,
+        "robot": robot.name, "clip": clip, "balanced": balanced,
         "iterations": (len(bal.iterations) - 1) if bal is not None else 0,
         "best": bal.iterations[bal.best].iteration if bal is not None else 0,
         "inside": state.inside_fraction, "zmp_mm": state.error_mm,
@@ -76,7 +76,7 @@ def main() -> None:
                 except imesh.ImeshError as exc:
                     print(f"{name:6s} {clip[:30]:30s} failed: {exc}")
                     continue
-                r = row(robot, result, time.perf_counter() - t0, balanced)
+                r = row(robot, clip, result, time.perf_counter() - t0, balanced)
                 print(f"{name:6s} {clip[:30]:30s} {'yes' if balanced else 'no':>7s} "
                       f"{r['iterations']:5d} {r['best']:4d} {100 * r['inside']:8.1f} "
                       f"{r['zmp_mm']:10.1f} {r['slip']:9.2f} {r['foot_p95_mm']:11.1f} "
