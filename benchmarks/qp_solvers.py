@@ -37,7 +37,7 @@ def first_qp(clip: str, robot_name: str, fps: float):
 
     box = {}
 
-    def capture(qp, solver, tol):
+    def capture(qp, solver, tol, gap_check=True):  # the signature of imesh.solve.qp.solve_qp
         box["qp"] = qp
         raise _Captured
 
