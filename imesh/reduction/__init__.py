@@ -34,8 +34,8 @@ _LAZY = {
     **dict.fromkeys(("ContactSchedule", "contact_schedule"), ".contact"),
     **dict.fromkeys(("CyclicMotion", "CyclicReport", "make_cyclic"), ".cyclic"),
     "derivative_matrices": ".diff",
-    **dict.fromkeys(("FrictionConfig", "GroundForceConfig", "LimitPenaltyConfig", "MotionWeights",
-                     "ProjectionConfig", "ReductionConfig", "SolverConfig", "SubspaceConfig"),
+    **dict.fromkeys(("GroundForceConfig", "JointLimitConfig", "MotionWeights",
+                     "ReductionConfig", "SolverConfig", "SubspaceConfig"),
                     ".config"),
     "MotionOptimizer": ".optimize",
     "OptimizationResult": ".result",
@@ -47,8 +47,8 @@ __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
 
 __all__ = [
     "JOINTS", "LINKS", "ContactSchedule", "CycleConfig", "CyclicMotion", "CyclicReport",
-    "FrictionConfig", "GroundForceConfig", "LimitPenaltyConfig", "MotionOptimizer", "MotionWeights",
-    "OptimizationResult", "PCABasis", "PlanarChain", "ProjectionConfig", "ReductionConfig",
+    "GroundForceConfig", "JointLimitConfig", "MotionOptimizer", "MotionWeights",
+    "OptimizationResult", "PCABasis", "PlanarChain", "ReductionConfig",
     "ReductionResult", "SagittalCapture", "SolverConfig", "SubspaceConfig", "contact_schedule",
     "derivative_matrices", "make_cyclic", "pca_basis", "reduce_motion", "sagittal_capture",
 ]

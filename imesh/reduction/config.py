@@ -4,11 +4,10 @@ concept, composed by :class:`ReductionConfig`:
 - :class:`SubspaceConfig`: the reduced dimension r (eqs 23-27), the band limit of the optimized
   trajectories and the cut-off of the differentiating filters (eqs 14-22);
 - :class:`MotionWeights`: the weights of the evaluation function E = J_r + J_m (eqs 4, 12, 31);
-- :class:`GroundForceConfig`: the ground-force condition (eq. 32);
-- :class:`FrictionConfig`: the base pad's friction cone, added to the ground-force condition;
-- :class:`LimitPenaltyConfig`: the joint-angle and torque limits as squared violations
-  (eqs 8-11, 33-34);
-- :class:`ProjectionConfig`: the stage (II) projections and their gains (eqs 8-11);
+- :class:`GroundForceConfig`: the ground-force condition (eq. 32) and the base pad's friction
+  cone;
+- :class:`JointLimitConfig`: the joint-angle and torque limits, as squared violations in stage
+  (I) (eqs 33-34) and projections in stage (II) (eqs 8-11);
 - :class:`SolverConfig`: the stage (I) step and the stopping tests.
 """
 
@@ -83,41 +82,34 @@ class MotionWeights(NonNegative):
 
 @dataclass(frozen=True)
 class GroundForceConfig(NonNegative):
-    """The ground-force condition (eq. 32) as a squared violation.
+    """The ground-force condition (eq. 32) and the base pad's friction cone, as squared
+    violations.
 
     Forces are for an 8.4 kg robot with 0.34 m legs (:data:`REFERENCE_MASS`,
-    :data:`REFERENCE_LEG`) and scale with the robot's mass.
+    :data:`REFERENCE_LEG`) and scale with the robot's mass. The pad must not slip:
+    |f_x| <= friction * f_z, with the ground-force margin (a pad standing on a few newtons
+    cannot take large horizontal forces).
 
     Attributes:
         f_min: [N] vertical ground forces must exceed this (eq. 32 with a margin from zero).
         margin: [N] the force terms aim at f_min + margin.
         weight: weight of the squared violation of the ground-force condition [1/N^2].
+        friction: friction coefficient mu of the base pad.
+        friction_weight: weight of the squared violation of the friction cone [1/N^2].
     """
 
     f_min: float = 1.0
     margin: float = 2.0
     weight: float = 1.0
+    friction: float = 0.5
+    friction_weight: float = 1.0
 
 
 @dataclass(frozen=True)
-class FrictionConfig(NonNegative):
-    """The base pad must not slip: |f_x| <= coefficient * f_z, with the ground-force margin
-    (added to the ground-force condition; a pad standing on a few newtons cannot take large
-    horizontal forces).
-
-    Attributes:
-        coefficient: friction coefficient mu of the base pad.
-        weight: weight of the squared violation of the friction cone [1/N^2].
-    """
-
-    coefficient: float = 0.5
-    weight: float = 1.0
-
-
-@dataclass(frozen=True)
-class LimitPenaltyConfig(NonNegative):
-    """Joint-angle and torque limits as squared violations of stage (I): their gradients are
-    the directions of eqs 33-34 and 8-11.
+class JointLimitConfig(NonNegative):
+    """The joint-angle and torque limits: squared violations in stage (I) (their gradients are
+    the directions of eqs 33-34 and 8-11), then, if ``project``, the projections of stage (II)
+    back inside them (eqs 8-11).
 
     Torques are for an 8.4 kg robot with 0.34 m legs and scale with mass x leg length.
 
@@ -126,32 +118,23 @@ class LimitPenaltyConfig(NonNegative):
         torque_margin: fraction of the torque limit kept free by the limit terms/projections.
         weight_angle: weight of the squared joint-angle limit violations [1/rad^2].
         weight_torque: weight of the squared torque limit violations [1/(Nm)^2].
+        project: run stage (II) after every stage (I).
+        k_theta: K_theta of eqs 8-9 (1 = project onto the angle limit).
+        k_u: K_u of eqs 10-11 (1 = project onto the torque limit).
     """
 
     angle_margin: float = 0.01
     torque_margin: float = 0.02
     weight_angle: float = 1e4
     weight_torque: float = 1e2
+    project: bool = True
+    k_theta: float = 1.0
+    k_u: float = 1.0
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if not self.torque_margin < 1.0:
             raise OptionError("torque margin", self.torque_margin, "a fraction in [0, 1)")
-
-
-@dataclass(frozen=True)
-class ProjectionConfig(NonNegative):
-    """Stage (II): the projections of eqs 8-11 back inside the angle and torque limits.
-
-    Attributes:
-        k_theta: K_theta of eqs 8-9 (1 = project onto the angle limit).
-        k_u: K_u of eqs 10-11 (1 = project onto the torque limit).
-        enabled: run stage (II) after every stage (I).
-    """
-
-    k_theta: float = 1.0
-    k_u: float = 1.0
-    enabled: bool = True
 
 
 @dataclass(frozen=True)
@@ -192,17 +175,14 @@ class ReductionConfig:
     Attributes:
         subspace: PCA rank, band limits, filter cut-off (eqs 14-27).
         weights: weights of J_m and J_r (eqs 4, 12, 31).
-        ground: ground-force condition (eq. 32).
-        friction: friction cone of the base pad.
-        limits: joint-angle and torque limit terms (eqs 8-11, 33-34).
-        projection: stage (II) (eqs 8-11).
+        ground: ground-force condition (eq. 32) and friction cone of the base pad.
+        limits: joint-angle and torque limits: stage (I) terms and stage (II) projections
+            (eqs 8-11, 33-34).
         solver: stage (I) method and stopping tests.
     """
 
     subspace: SubspaceConfig = field(default_factory=SubspaceConfig)
     weights: MotionWeights = field(default_factory=MotionWeights)
     ground: GroundForceConfig = field(default_factory=GroundForceConfig)
-    friction: FrictionConfig = field(default_factory=FrictionConfig)
-    limits: LimitPenaltyConfig = field(default_factory=LimitPenaltyConfig)
-    projection: ProjectionConfig = field(default_factory=ProjectionConfig)
+    limits: JointLimitConfig = field(default_factory=JointLimitConfig)
     solver: SolverConfig = field(default_factory=SolverConfig)

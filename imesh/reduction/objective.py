@@ -139,8 +139,8 @@ class Objective:
         um = ch.effort * (1.0 - c.limits.torque_margin)
         tq = np.maximum(np.abs(ev.torque) - um, 0.0)
         lam = ev.dyn.lam
-        fr = np.maximum(np.abs(lam[:, 0]) - c.friction.coefficient * lam[:, 1]
-                        + self.f_margin * c.friction.coefficient, 0.0)
+        fr = np.maximum(np.abs(lam[:, 0]) - c.ground.friction * lam[:, 1]
+                        + self.f_margin * c.ground.friction, 0.0)
         return np.concatenate([self.s_grf * grf, np.sqrt(c.limits.weight_angle) * ang,
                                self.s_torque * tq, self.s_friction * fr[:, None]], axis=1)
 
@@ -202,7 +202,7 @@ class Objective:
         Eu[:, t] = tsign[..., None] * np.eye(6)[None]
         # friction cone of the base pad: |fx| <= mu fz (with a margin)
         lam = d.lam
-        mu = c.friction.coefficient
+        mu = c.ground.friction
         viol = np.abs(lam[:, 0]) - mu * lam[:, 1] + self.f_margin * mu
         act = self.s_friction * (viol > 0)
         coef = np.stack([np.sign(lam[:, 0]), -mu * np.ones(n)], axis=1)  # d/d(fx, fz)

@@ -121,7 +121,7 @@ class MotionOptimizer(Linearization, Projection):
         self.f_margin = c.ground.margin * self.force_scale
         self.f_target = self.f_min + self.f_margin
         self.s_grf = np.sqrt(c.ground.weight) / self.force_scale
-        self.s_friction = np.sqrt(c.friction.weight) / self.force_scale
+        self.s_friction = np.sqrt(c.ground.friction_weight) / self.force_scale
         self.s_torque = np.sqrt(c.limits.weight_torque) / self.torque_scale
         self.w_rate = c.weights.torque_rate / self.torque_scale ** 2
 
@@ -187,7 +187,7 @@ class MotionOptimizer(Linearization, Projection):
                 params, pu, ev, step = self._gradient_step(params, pu, ev, step)
             # stage (II)
             n_ang = n_tq = 0
-            if c.projection.enabled:
+            if c.limits.project:
                 phi2, torque2 = self.stage2(ev.phi, ev.torque)
                 n_ang = int(np.sum(np.any(phi2 != ev.phi, axis=1)))
                 n_tq = int(np.sum(torque2 != ev.torque))

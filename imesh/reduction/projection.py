@@ -28,16 +28,16 @@ class Projection:
 
     def stage2(self, phi: np.ndarray, torque: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Angle and torque limits by the projection updates (eqs 8-11)."""
-        lim, gains = self.config.limits, self.config.projection
+        lim = self.config.limits
         ch = self.chain
         phi = phi.copy()
         q = phi @ self.A_joint.T
         lo, hi = ch.q_lower + 0.5 * lim.angle_margin, ch.q_upper - 0.5 * lim.angle_margin
-        dq = np.where(q > hi, -gains.k_theta * (q - hi), 0.0) + \
-            np.where(q < lo, -gains.k_theta * (q - lo), 0.0)
+        dq = np.where(q > hi, -lim.k_theta * (q - hi), 0.0) + \
+            np.where(q < lo, -lim.k_theta * (q - lo), 0.0)
         if np.any(dq):
             # the smallest change of the non-foot angles that moves the joints by dq
             phi[:, self.mid] += dq @ self.A_mid_pinv.T
         um = ch.effort * (1.0 - 0.5 * lim.torque_margin)
-        torque = torque - gains.k_u * (np.maximum(torque - um, 0.0) - np.maximum(-um - torque, 0.0))
+        torque = torque - lim.k_u * (np.maximum(torque - um, 0.0) - np.maximum(-um - torque, 0.0))
         return phi, torque
