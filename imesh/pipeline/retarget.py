@@ -419,10 +419,9 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
             def window_step(done: int, total: int, text: str) -> None:
                 notify(progress, "wholebody", done, total, n_out, text)
 
-            solution = windows.solve_windowed(
-                robot, plan, footprints, targets, config.wholebody, config.windows.frames,
-                config.windows.overlap_frames, progress=window_step,
-                workers=config.windows.workers)
+            solution = windows.solve_windowed(robot, plan, footprints, targets,
+                                              config.wholebody, config.windows,
+                                              progress=window_step)
         else:
             solution = solve_whole_body(robot, plan, footprints, targets, config.wholebody,
                                         progress=sqp_step)

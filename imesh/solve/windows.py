@@ -36,7 +36,7 @@ import numpy as np
 
 from ..errors import OptionError
 from ..robot import load_robot
-from .config import WholeBodyConfig
+from .config import WholeBodyConfig, WindowOptions
 from .plan import Plan
 from .sqp import IterationReport, WholeBodySolution, solve_whole_body
 
@@ -232,32 +232,31 @@ def join_layout(n_frames: int, window_frames: int, overlap_frames: int,
 
 
 def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBodyConfig,
-                   window_frames: int, overlap_frames: int,
-                   progress: Callable[[int, int, str], None] | None = None,
-                   workers: int = 1) -> WholeBodySolution:
+                   windows: WindowOptions,
+                   progress: Callable[[int, int, str], None] | None = None
+                   ) -> WholeBodySolution:
     """The whole-body solve of ``plan`` in windows (module docstring).
 
     Args:
         robot, plan, footprints, targets, config: as :func:`imesh.solve.solve_whole_body`.
-        window_frames: window length [frames] (:func:`window_layout`).
-        overlap_frames: frames at a window's end solved again by the next.
+        windows: the window length [frames] (:func:`window_layout`), the frames at a window's
+            end solved again by the next, and the workers: 1, the windows in order; 2, two
+            chains of windows, the first half's in this process and the second half's in a
+            spawned one (starting from the initializer), then one window across their border
+            held at both ends (:func:`join_layout`).
         progress: called as ``progress(frames done, frames, text)`` after every SQP iteration
             (with two workers: of this process's chain, then of the join).
-        workers: 1: the windows in order; 2: two chains of windows, the first half's in this
-            process and the second half's in a spawned one (starting from the initializer),
-            then one window across their border held at both ends (:func:`join_layout`).
 
     Returns:
         A WholeBodySolution of all frames; its history is the windows' iterates in order, the
         first and the last entry combined over the windows (:func:`_combine`).
 
     Raises:
-        OptionError: ``workers`` not 1 or 2, or 2 for a solve of one window.
+        OptionError: two workers for a solve of one window.
     """
-    if workers not in (1, 2):
-        raise OptionError("workers", workers, "1 or 2")
+    window_frames, overlap_frames = windows.frames, windows.overlap_frames
     T = len(plan.q_init)
-    if workers == 1:
+    if windows.workers == 1:
         chain = _solve_chain(robot, plan, footprints, targets, config, window_frames,
                              overlap_frames, progress)
         parts = [(chain, 0, 0, T)]  # (chain, offset, kept from, kept to) in clip frames
@@ -314,7 +313,7 @@ def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBo
         progress(T, T, f"{n_windows} windows done")
     history = [_combine(first, frames), *iterates[:-1], _combine(last, frames)]
     seconds["windows"] = n_windows
-    seconds["workers"] = workers
+    seconds["workers"] = windows.workers
     return WholeBodySolution(q=q, footprints=footprints, plan=plan, history=history,
                              converged=all(c.converged for c, *_ in parts), seconds=seconds,
                              config=config)
