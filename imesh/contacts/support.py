@@ -58,8 +58,7 @@ class FlatFootConfig:
     def __post_init__(self) -> None:
         if not (np.isfinite(self.pitch_deg) and 0 < self.pitch_deg <= 90):
             raise OptionError("pitch_deg", self.pitch_deg, "a number in (0, 90]")
-        if not (np.isfinite(self.stand_s) and self.stand_s > 0):
-            raise OptionError("stand_s", self.stand_s, "a positive number [s]")
+        require_finite(self, ("stand_s",), positive=True)
 
 
 @dataclass(frozen=True)
@@ -79,8 +78,7 @@ class FootRampConfig:
     max_pitch_deg: float = 80.0
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.duration_s) and self.duration_s >= 0):
-            raise OptionError("duration_s", self.duration_s, "a number >= 0 [s]")
+        require_finite(self, ("duration_s",), positive=False)
 
 
 @dataclass(frozen=True)
