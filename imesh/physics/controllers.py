@@ -183,8 +183,9 @@ class KinematicTracker:
     """The paper's check: every joint a velocity actuator following the reference (DART
     computes whatever torque that takes), the base free. The joint velocity command is the
     reference's rate plus ``(q_ref - q) / tau`` with ``tau`` five steps, so the joints track to
-    the integration error; the torques DART applied are read back (they are not limited: this
-    mode asks whether the motion balances, not whether the motors can)."""
+    the integration error. DART's velocity actuators act through its constraint solver and
+    report no joint force, so this mode has no torque figures (its torque ratio reads 0): it
+    asks whether the motion balances, not whether the motors can."""
 
     def __init__(self, sim: DartRobot, ref: Reference, config: PhysicsConfig):
         dart = sim.dart
