@@ -53,15 +53,20 @@ class WbcWeights(NonNegative):
         swing: swing soles (6 rows each).
         joints: joint posture.
         acceleration: every generalized acceleration (regularization).
-        wrench: every contact wrench component, per N^2 (spreads the load).
+        force: every contact force component, per N^2 (spreads the load between the soles).
+        moment: every contact moment component about the sole centre, per (N m)^2 (keeps the
+            centres of pressure near the sole centres where the dynamics leave them free, as
+            in double support; without it the QP puts them on the edges, alternating from one
+            step to the next).
     """
 
     com: float = 100.0
     base: float = 10.0
     swing: float = 30.0
-    joints: float = 1.0
+    joints: float = 0.05
     acceleration: float = 1e-4
-    wrench: float = 1e-6
+    force: float = 1e-5
+    moment: float = 1e-2
 
 
 @dataclass(frozen=True)

@@ -57,15 +57,29 @@ class TrackPoint:
     frame: int
 
 
-class _Piecewise:
-    """A cubic spline of per-frame vectors (T, D), evaluated with its first two derivatives
-    at one time without scipy's per-call overhead (the controller asks every step)."""
+class _Track:
+    """Per-frame positions (T, D) as a cubic spline (values only) and their rates and
+    accelerations as the evaluator's central differences (``np.gradient`` at the frame rate,
+    twice), interpolated linearly; evaluated at one time without scipy's per-call overhead.
 
-    def __init__(self, values: np.ndarray, times: np.ndarray):
-        kind = "natural" if len(times) < 4 else "not-a-knot"
+    The rates are not the spline's derivatives on purpose: the planner bounds the ZMP computed
+    with central differences, an operator blind to a frame-to-frame zig-zag (its gain is 0 at
+    the Nyquist frequency), and a spline's second derivative amplifies exactly that zig-zag
+    (the G1 walk's CoM: +-7 m/s^2 from frame to frame where central differences give 0.5), so a
+    controller fed the spline's accelerations asks for centres of pressure from edge to edge.
+    """
+
+    def __init__(self, values: np.ndarray, fps: float):
+        T = len(values)
+        self.fps = fps
+        self.last = T - 1
+        times = np.arange(T) / fps
+        kind = "natural" if T < 4 else "not-a-knot"
         spline = CubicSpline(times, values, axis=0, bc_type=kind)
         self.x = spline.x
         self.c = spline.c  # (4, T - 1, D): highest power first
+        self.rate = np.gradient(values, 1.0 / fps, axis=0)
+        self.acc = np.gradient(self.rate, 1.0 / fps, axis=0)
 
     def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         i = int(np.searchsorted(self.x, t, side="right")) - 1
@@ -73,8 +87,9 @@ class _Piecewise:
         h = t - self.x[i]
         c0, c1, c2, c3 = self.c[:, i]
         value = ((c0 * h + c1) * h + c2) * h + c3
-        rate = (3.0 * c0 * h + 2.0 * c1) * h + c2
-        return value, rate, 6.0 * c0 * h + 2.0 * c1
+        w = min(max(h * self.fps, 0.0), 1.0)
+        return (value, (1 - w) * self.rate[i] + w * self.rate[i + 1],
+                (1 - w) * self.acc[i] + w * self.acc[i + 1])
 
 
 def _angular_velocity(rot: Rotation, fps: float) -> np.ndarray:
@@ -125,7 +140,6 @@ class ReferenceTrack:
         T = ref.n_frames
         self.n_frames = T
         self.duration_s = ref.duration_s
-        times = np.arange(T) / ref.fps
         frames = [robot.soles[s].frame for s in SIDES]
         centres = np.array([robot.soles[s].center for s in SIDES])
         kin = robot.trajectory_kinematics(ref.q, frames)
@@ -134,7 +148,7 @@ class ReferenceTrack:
         base_R = Rotation.from_quat(ref.q[:, 3:7]).as_matrix()
         self._single = T < 2
         self.n_joints = ref.q.shape[1] - 7
-        # one spline of [joints, com, left and right sole centres, base and sole angular
+        # one track of [joints, com, left and right sole centres, base and sole angular
         # velocities (world)]
         omegas = [_angular_velocity(Rotation.from_matrix(m), ref.fps)
                   for m in (base_R, pl[:, 0, :3, :3], pl[:, 1, :3, :3])]
@@ -142,7 +156,7 @@ class ReferenceTrack:
                                  axis=1)
         self._first = stacked[0]
         if not self._single:
-            self._vectors = _Piecewise(stacked, times)
+            self._vectors = _Track(stacked, ref.fps)
         self._base = _Orientation(base_R, ref.fps)
         self._sole_rot = [_Orientation(pl[:, k, :3, :3], ref.fps) for k in range(2)]
         self.com_height_m = float(np.mean(kin.com[:, 2]))
@@ -164,7 +178,7 @@ class ReferenceTrack:
         if rest:
             dx = ddx = np.zeros_like(x)
         n = self.n_joints
-        # the angular velocities are splined themselves: value and first derivative
+        # the angular velocities are tracked themselves: value and first derivative
         omega, alpha = (np.zeros(9), np.zeros(9)) if rest else (x[n + 9:], dx[n + 9:])
         f = self.frame(tc)
         return TrackPoint(

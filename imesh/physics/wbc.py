@@ -228,7 +228,8 @@ class WholeBodyController:
         H[np.diag_indices(nv)] += cfg.weights.acceleration
         if k:
             idx = np.arange(nv, n)
-            H[idx, idx] += cfg.weights.wrench
+            H[idx, idx] += np.tile(np.r_[np.full(3, cfg.weights.force),
+                                         np.full(3, cfg.weights.moment)], k)
 
         # --- equalities: floating-base dynamics, contacts -------------------------------------
         M, h = dyn.mass_matrix, dyn.bias
