@@ -51,7 +51,10 @@ class WbcWeights(NonNegative):
         com: centre of mass.
         base: base orientation.
         swing: swing soles (6 rows each).
-        joints: joint posture.
+        joints: joint posture of the legs (the joints between the base and a sole: they move
+            the CoM over the feet, so they yield to the CoM).
+        upper_body: joint posture of every other joint (waist, arms, head: a torso swung to
+            catch the balance moves the hands and the head far from the reference).
         acceleration: every generalized acceleration (regularization).
         force: every contact force component, per N^2 (spreads the load between the soles).
         moment: every contact moment component about the sole centre, per (N m)^2 (keeps the
@@ -64,6 +67,7 @@ class WbcWeights(NonNegative):
     base: float = 10.0
     swing: float = 30.0
     joints: float = 0.05
+    upper_body: float = 1.0
     acceleration: float = 1e-4
     force: float = 1e-5
     moment: float = 1e-2

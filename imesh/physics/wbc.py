@@ -142,6 +142,9 @@ class WholeBodyController:
                                   keep * robot.soles[s].half_extents[1], mu) for s in SIDES]
         self.half_extents = np.array([robot.soles[s].half_extents for s in SIDES])
         self.tau_max = robot.effort_max * config.torque_fraction
+        legs = np.unique(np.concatenate([robot.supporting_joints(f) for f in self.frames]))
+        self.posture_weights = np.full(self.n_joints, config.weights.upper_body)
+        self.posture_weights[legs] = config.weights.joints
         self.omega = np.sqrt(GRAVITY / max(track.com_height_m, 0.1))
         self.relaxed_steps = 0
 
@@ -218,7 +221,9 @@ class WholeBodyController:
         J_post[:, 6:] = np.eye(nj)
         qdd = (ref.qdd_joints + g.joint_kp * (ref.q_joints - q[7:])
                + g.joint_kd * (ref.qd_joints - v[6:]))
-        task(J_post, qdd, cfg.weights.joints)
+        A_rows.append(np.hstack([J_post, np.zeros((nj, n - nv))]))
+        b_rows.append(qdd)
+        w_rows.append(self.posture_weights)
 
         A = np.vstack(A_rows)
         b = np.concatenate(b_rows)
