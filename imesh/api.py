@@ -143,7 +143,7 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
         if verify:
             verify_motion(robot, result.motion, adapted=result.adapted, seconds=result.seconds,
                           name=str(clip) if isinstance(clip, str | os.PathLike) else "clip",
-                          balanced=config.balance != "none")
+                          balanced=config.balance != "none", source=human)
         save_robot_motion(output, result.motion, markers=result.adapted)
     return result
 

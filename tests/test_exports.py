@@ -23,11 +23,9 @@ from imesh.io.formats import (
 
 
 @pytest.fixture(scope="module")
-def g1_motion():
-    """The demo walk retargeted to the G1 (the whole pipeline, about 25 s)."""
-    import imesh
-
-    return imesh.retarget(imesh.demo_clip(), load_test_robot("g1")).motion
+def g1_motion(g1_walk):
+    """The demo walk retargeted to the G1 by ``imesh retarget`` (conftest's g1_walk)."""
+    return read_export(g1_walk[0])
 
 
 @pytest.fixture(scope="module")

@@ -43,7 +43,7 @@ from ..errors import ImeshError, MotionFileError, OptionError
 from ..robot import load_robot
 from .atomic import atomic_path
 from .npz import load_npz
-from .robot_motion import load_robot_motion, save_robot_motion
+from .robot_motion import load_robot_motion, read_provenance, save_robot_motion
 
 log = logging.getLogger(__name__)
 
@@ -275,6 +275,51 @@ def robot_named_in(path: str | os.PathLike) -> str | None:
 
     match = re.search(r"robot=(\S+)", _first_data_line(path))
     return match[1] if match else None
+
+
+def robot_for_motion_file(path: str | os.PathLike, robot: str | os.PathLike | None = None,
+                          urdf: str | os.PathLike | None = None):
+    """The robot of a motion file: ``robot``/``urdf`` when given (``load_robot(robot, urdf)``),
+    else the robot the file names (``imesh view|evaluate|export`` without ``--robot``).
+
+    A robot whose model the user provides (HRP-4C, a URDF alone) is found by the robot.toml
+    and URDF paths its provenance records, when they still exist. A robot configuration that
+    changed since the motion was made (another SHA-256 than its provenance's) is logged as a
+    warning.
+
+    Raises:
+        MotionFileError: the file names no robot (a headerless CSV, plain arrays without
+            ``robot``): pass ``--robot``.
+        RobotConfigError: the named robot cannot be loaded (unknown name, model missing).
+    """
+    from ..core.provenance import robot_sha256
+    from ..robot.errors import RobotConfigError
+
+    if robot is not None or urdf is not None:
+        return load_robot(None if robot is None else str(robot),
+                          urdf=None if urdf is None else str(urdf))
+    path = Path(path)
+    if not path.is_file():
+        raise MotionFileError(str(path), "no such file")
+    name = robot_named_in(path) if path.suffix.lower() in (".npz", ".csv") else None
+    if not name:
+        raise MotionFileError(str(path), "the file does not name its robot: pass --robot "
+                              "(robot=)")
+    provenance = read_provenance(path)
+    try:
+        loaded = load_robot(name)
+    except RobotConfigError:
+        if provenance is None or not Path(provenance.robot_toml).is_file():
+            raise
+        log.info("%s: robot %s from the files its provenance names (%s, %s)", path, name,
+                 provenance.robot_toml, provenance.urdf)
+        loaded = load_robot(provenance.robot_toml, urdf=provenance.urdf
+                            if Path(provenance.urdf).is_file() else None)
+    if provenance is not None and robot_sha256(loaded) != provenance.robot_sha256:
+        log.warning("%s: the configuration of robot %s (robot.toml, markers.toml, URDF) "
+                    "changed since the motion was made (imesh %s)", path, name,
+                    provenance.imesh_version)
+    return loaded
 
 
 def read_export(path: str | os.PathLike, robot=None, fps: float | None = None) -> RobotMotion:
