@@ -133,7 +133,7 @@ def mujoco_model(robot: str, mjcf: str | os.PathLike | None = None):
         ExportError: no ``mujoco``/``mujoco-menagerie`` installed, a robot without a known MJCF
             (names the robots that have one), or a model that cannot be loaded.
     """
-    mujoco = optional("mujoco", "pip install imesh[mujoco]", "the MuJoCo export")
+    mujoco = optional("mujoco", "pip install imesh-retarget[mujoco]", "the MuJoCo export")
     if mjcf is not None:
         try:
             return mujoco.MjModel.from_xml_path(str(mjcf)), str(mjcf)
@@ -144,8 +144,8 @@ def mujoco_model(robot: str, mjcf: str | os.PathLike | None = None):
                           f"{', '.join(sorted(MENAGERIE))}); pass --mjcf FILE with an MJCF "
                           "whose joint names are the robot's")
     name, entry = MENAGERIE[robot]
-    mujoco_menagerie = optional("mujoco_menagerie", "pip install imesh[mujoco] (or pass --mjcf "
-                                "FILE)", f"the MuJoCo model of {robot}")
+    mujoco_menagerie = optional("mujoco_menagerie", "pip install imesh-retarget[mujoco] (or "
+                                "pass --mjcf FILE)", f"the MuJoCo model of {robot}")
     try:
         model = mujoco_menagerie.load(name, entry)
     except Exception as exc:  # noqa: BLE001 - download/cache errors of the package
@@ -162,7 +162,7 @@ def mujoco_qpos(motion: RobotMotion, model) -> tuple[np.ndarray, list[str], list
     joint a hinge or slide joint. Joints of the motion missing from the model raise
     ExportError; model joints the motion lacks keep ``model.qpos0``.
     """
-    mujoco = optional("mujoco", "pip install imesh[mujoco]", "the MuJoCo export")
+    mujoco = optional("mujoco", "pip install imesh-retarget[mujoco]", "the MuJoCo export")
     free, hinge, slide = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_HINGE),
                           int(mujoco.mjtJoint.mjJNT_SLIDE))
     if model.njnt == 0 or int(model.jnt_type[0]) != free or model.jnt_qposadr[0] != 0:
