@@ -104,8 +104,9 @@ def _add_format_options(p: argparse.ArgumentParser) -> None:
                    help="output format (imesh.io.formats): npz (imesh's), csv (one headerless row "
                         "per frame: base xyz, quaternion xyzw, joints), mujoco (qpos .npz, "
                         "quaternion wxyz, MJCF joint order); default: imesh's by the suffix")
-    p.add_argument("--mjcf", help="MuJoCo model (.xml) for --format mujoco (default: the "
-                   "robot's model in mujoco-menagerie; g1)")
+    p.add_argument("--mjcf", help="MuJoCo model for --format mujoco: an MJCF (.xml) whose joints "
+                   "are the robot's, or 'menagerie' (mujoco-menagerie's model: g1); default: "
+                   "compiled by MuJoCo from the robot's URDF, offline")
 
 
 def _add_arms_options(p: argparse.ArgumentParser) -> None:
@@ -219,6 +220,8 @@ def add_export(sub) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="file to write (.npz or .csv)")
     p.add_argument("--robot", help="the robot of a headerless CSV (its joint order); default: "
                    "the robot the motion file names")
+    p.add_argument("--urdf", help="model file of a robot whose model the user provides "
+                   "(hrp4c), for --format mujoco")
     p.add_argument("--fps", type=float, help="resample to this frame rate (slerp for the base)")
     p.add_argument("--source-fps", type=float,
                    help="frame rate of a headerless CSV given as input (default 30)")

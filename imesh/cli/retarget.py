@@ -61,7 +61,7 @@ def run(args) -> int:
         if args.format in (None, "npz"):
             save_robot_motion(args.output, robot_motion, markers=result.adapted)
         else:
-            write_export(robot_motion, args.output, args.format, mjcf=args.mjcf)
+            write_export(robot_motion, args.output, args.format, mjcf=args.mjcf, robot=robot)
         if args.markers:
             save_marker_motion(args.markers, result.adapted)
         if args.report:

@@ -215,7 +215,7 @@ def _retarget_clip(clip: Path, output: Path, settings: BatchSettings, record: di
     if settings.format == "npz":
         save_robot_motion(output, result.motion, markers=result.adapted)
     else:
-        write_export(result.motion, output, settings.format, mjcf=settings.mjcf)
+        write_export(result.motion, output, settings.format, mjcf=settings.mjcf, robot=robot)
     record.update(frames=result.motion.n_frames, fps=result.motion.fps,
                   robot=result.motion.robot)
     stamp = {"clip": str(clip), "input_sha256": input_sha,
