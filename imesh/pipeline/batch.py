@@ -233,7 +233,7 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
     ray = optional("ray", "pip install imesh-retarget[batch] (or --backend processes)",
                    "--backend ray")
     env = {"env_vars": {"PYTHONPATH": os.pathsep.join(
-        p for p in [str(Path(__file__).resolve().parents[1]), os.environ.get("PYTHONPATH")]
+        p for p in [str(Path(__file__).resolve().parents[2]), os.environ.get("PYTHONPATH")]
         if p)}}
     if address:
         ray.init(address=address, runtime_env=env, log_to_driver=False,
