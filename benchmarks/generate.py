@@ -37,7 +37,7 @@ def erd_file(suffix: str) -> Path:
     for f in metadata.files("example-robot-data") or []:
         if str(f).replace("\\", "/").endswith(suffix):
             return Path(f.locate())
-    raise SystemExit(f"example-robot-data has no {suffix}: pip install imesh[g1]")
+    raise SystemExit(f"example-robot-data has no {suffix}: pip install imesh-retarget[g1]")
 
 
 def generated(name: str, out: Path):

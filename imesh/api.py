@@ -143,7 +143,7 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
         if verify:
             verify_motion(robot, result.motion, adapted=result.adapted, seconds=result.seconds,
                           name=str(clip) if isinstance(clip, str | os.PathLike) else "clip",
-                          balanced=config.balance != "none")
+                          balanced=config.balance != "none", source=human)
         save_robot_motion(output, result.motion, markers=result.adapted)
     return result
 
@@ -190,14 +190,16 @@ def export_motion(motion: RobotMotion | PathLike, output: PathLike, fmt: str | N
             MJCF's order, base quaternion w, x, y, z); default from the suffix (.npz, .csv).
         fps: resample to this frame rate first [1/s] (linear, slerp for the base).
         robot: the robot, to read a headerless CSV given as ``motion``.
-        mjcf: the MuJoCo model (.xml) for ``"mujoco"`` (default: the robot's known MJCF).
+        mjcf: the MuJoCo model for ``"mujoco"``: None (default) compiles the robot's URDF
+            offline, ``"menagerie"`` its mujoco-menagerie model, or an MJCF file.
 
     Raises:
         OptionError: unknown format (lists the valid ones), a robot without an MJCF.
     """
     if isinstance(motion, str | os.PathLike):
         motion = load_robot_motion(motion, robot)
-    write_export(motion, Path(output), fmt, fps=fps, mjcf=mjcf)
+    write_export(motion, Path(output), fmt, fps=fps, mjcf=mjcf,
+                 robot=robot if isinstance(robot, Robot) else None)
 
 
 def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *,

@@ -180,15 +180,17 @@ class OutputPathError(ImeshError):
 
 
 class SourceMismatchError(ImeshError):
-    """Two motions that must describe the same take disagree (frame count or frame rate).
+    """Two motions that must describe the same take disagree (frame count, frame rate, or the
+    clip file's SHA-256 that a motion's provenance records).
 
     Attributes:
-        what: the quantity that differs ("frames" or "fps").
+        what: the quantity that differs ("frames", "fps" or "sha256").
         expected: the value of the reference motion.
         found: the value of the other motion.
     """
 
-    def __init__(self, message: str, *, what: str, expected: float, found: float):
+    def __init__(self, message: str, *, what: str, expected: float | str,
+                 found: float | str):
         super().__init__(message)
         self.what = what
         self.expected = expected

@@ -56,3 +56,19 @@ def load_test_robot(name: str):
 def mocap():
     """Function mocap(name) -> Path of a clip in IMESH_DATA/mocap (fails if absent)."""
     return mocap_path
+
+
+@pytest.fixture(scope="session")
+def g1_walk(tmp_path_factory):
+    """The demo walk retargeted to the G1 by ``imesh retarget`` (about 45 s, once per session):
+    (the motion file, the retarget's JSON report)."""
+    import json
+
+    from imesh.api import demo_clip
+    from imesh.cli import main
+
+    folder = tmp_path_factory.mktemp("g1_walk")
+    out, report = folder / "walk_g1.npz", folder / "walk_g1.json"
+    assert main(["-q", "retarget", str(demo_clip()), "--robot", "g1", "-o", str(out),
+                 "--json", str(report)]) == 0
+    return out, json.loads(report.read_text())

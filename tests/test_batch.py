@@ -111,3 +111,24 @@ def test_batch_interrupted_leaves_no_partial_file(clips, tmp_path):
     assert _leftovers(out) == []
     with np.load(out / "walk.npz") as f:
         assert f["joint_positions"].shape == (146, 32)
+
+
+def test_batch_from_the_folder_holding_the_checkout(clips, tmp_path):
+    """Run from the folder that holds a checkout named ``imesh`` (no PYTHONPATH): the Ray
+    workers import the package, not the checkout folder as an empty namespace package."""
+    parent = tmp_path / "parent"
+    parent.mkdir()
+    (parent / "imesh").symlink_to(ROOT, target_is_directory=True)
+    two = tmp_path / "two"
+    two.mkdir()
+    for name in ("walk.bvh", "wave.bvh"):
+        shutil.copy(clips / name, two / name)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    code = (f"import sys; sys.path.insert(0, {str(parent / 'imesh')!r}); "
+            "from imesh.cli import main; sys.exit(main())")
+    result = subprocess.run([sys.executable, "-c", code, "-q", "batch", str(two), "--robot",
+                             "jvrc1", "-o", str(tmp_path / "out"), "--workers", "2"],
+                            cwd=parent, env=env, capture_output=True, text=True, timeout=900)
+    assert result.returncode == 0, result.stdout + result.stderr
+    done = [r for r in _records(tmp_path / "out") if r.get("status") == "ok"]
+    assert sorted(Path(r["clip"]).name for r in done) == ["walk.bvh", "wave.bvh"]

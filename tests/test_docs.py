@@ -50,4 +50,23 @@ def test_mkdocs_build_strict(tmp_path):
                              str(tmp_path / "site")], cwd=ROOT, capture_output=True, text=True,
                             timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
-    assert (tmp_path / "site" / "api" / "index.html").is_file()
+    site = tmp_path / "site"
+    assert (site / "api" / "index.html").is_file()
+    # offline: no script, style or font from another host in any page or local stylesheet
+    external = re.compile(r"""<(?:script|link|img|iframe)\b[^>]*\b(?:src|href)\s*=\s*["']?"""
+                          r"""(?:https?:)?//""", re.I)
+    css_url = re.compile(r"""url\(\s*["']?(?:https?:)?//|@import\s+["']?(?:https?:)?//""", re.I)
+    pages = sorted(site.rglob("*.html"))
+    assert len(pages) > 25
+    found = [f"{p.relative_to(site)}: {m[0]}" for p in pages
+             for m in external.finditer(p.read_text())]
+    found += [f"{c.relative_to(site)}: {m[0]}" for c in site.rglob("*.css")
+              for m in css_url.finditer(c.read_text())]
+    inline = re.compile(r"<script\b[^>]*>(.*?)</script>", re.S | re.I)
+    found += [f"{p.relative_to(site)}: inline script loads {u}" for p in pages
+              for body in inline.findall(p.read_text())
+              for u in re.findall(r"https?://[^\s'\"]+", body)]
+    assert found == [], found[:10]
+    # the equations are MathML (no TeX left for a script to typeset)
+    method = (site / "method" / "index.html").read_text()
+    assert method.count("<math") >= 20 and 'class="arithmatex"' not in method

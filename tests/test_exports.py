@@ -23,11 +23,9 @@ from imesh.io.formats import (
 
 
 @pytest.fixture(scope="module")
-def g1_motion():
-    """The demo walk retargeted to the G1 (the whole pipeline, about 25 s)."""
-    import imesh
-
-    return imesh.retarget(imesh.demo_clip(), load_test_robot("g1")).motion
+def g1_motion(g1_walk):
+    """The demo walk retargeted to the G1 by ``imesh retarget`` (conftest's g1_walk)."""
+    return read_export(g1_walk[0])
 
 
 @pytest.fixture(scope="module")
@@ -118,14 +116,14 @@ def test_mujoco_menagerie_g1(g1_motion, tmp_path):
     """With the G1 of the mujoco-menagerie package (its assets are fetched on first use)."""
     pytest.importorskip("mujoco_menagerie")
     try:
-        model, source = mujoco_model("g1")
+        model, source, _ = mujoco_model("g1", "menagerie")
     except ExportError as exc:
         if "DownloadError" in str(exc):
             pytest.skip(f"mujoco-menagerie cannot download the G1 assets here: {exc}")
         raise
     import mujoco
 
-    path = write_export(g1_motion, tmp_path / "walk_mj.npz", "mujoco")
+    path = write_export(g1_motion, tmp_path / "walk_mj.npz", "mujoco", mjcf="menagerie")
     qpos = np.load(path)["qpos"]
     data = mujoco.MjData(model)
     data.qpos[:] = qpos[0]
@@ -140,8 +138,8 @@ def test_mujoco_refuses_robot_without_model(tmp_path):
     robot = load_test_robot("jvrc1")
     motion = imesh.RobotMotion(q=[robot.q_nominal] * 3, fps=30.0, robot="jvrc1",
                                joint_names=robot.joint_names)
-    with pytest.raises(ExportError, match="no known MuJoCo model.*g1.*--mjcf"):
-        write_export(motion, tmp_path / "x.npz", "mujoco")
+    with pytest.raises(ExportError, match="no MuJoCo model in mujoco-menagerie.*g1.*--mjcf"):
+        write_export(motion, tmp_path / "x.npz", "mujoco", mjcf="menagerie")
     assert not (tmp_path / "x.npz").exists()
     with pytest.raises(OptionError, match=r"--format.*npz.*csv.*mujoco"):
         write_export(motion, tmp_path / "x.npz", "bvh")
@@ -193,3 +191,67 @@ def test_cli_export_round_trip(g1_motion, g1_mjcf, tmp_path):
     assert main(["-q", "export", str(src), "--format", "csv", "-o",
                  str(tmp_path / "bad.npz")]) == 2
     assert not (tmp_path / "bad.npz").exists()
+
+
+@pytest.fixture(scope="module")
+def walks(g1_motion):
+    """The demo walk retargeted to G1 (conftest's), JVRC-1 and HRP-4C (a user URDF)."""
+    import imesh
+
+    out = {"g1": g1_motion}
+    for name in ("jvrc1", "hrp4c"):
+        out[name] = imesh.retarget(imesh.demo_clip(), load_test_robot(name)).motion
+    return out
+
+
+@pytest.mark.parametrize("name", ["g1", "jvrc1", "hrp4c"])
+def test_mujoco_export_offline_from_the_urdf(walks, name, tmp_path, monkeypatch):
+    """Acceptance 5: the default MuJoCo export compiles the robot's URDF (no menagerie, no
+    network: sockets refused); the qpos of the standing first frame puts both soles on the
+    floor in MuJoCo, and MuJoCo's feet are where pinocchio's are in every frame checked."""
+    mujoco = pytest.importorskip("mujoco")
+    import socket
+
+    def no_network(*args, **kwargs):
+        raise OSError("network off in this test")
+
+    monkeypatch.setattr(socket.socket, "connect", no_network)
+    motion, robot = walks[name], load_test_robot(name)
+    path = write_export(motion, tmp_path / "mj.npz", "mujoco", robot=robot)
+    with np.load(path) as f:
+        qpos, xml, source = f["qpos"], str(f["mjcf_xml"]), str(f["mjcf"])
+    assert source.startswith("compiled by MuJoCo from") and source.endswith(".urdf")
+    model = mujoco.MjModel.from_xml_string(xml)
+    assert qpos.shape == (motion.n_frames, model.nq)
+    data = mujoco.MjData(model)
+    lowest, worst = [], 0.0
+    for t in (0, motion.n_frames // 2, motion.n_frames - 1):
+        data.qpos[:] = qpos[t]
+        mujoco.mj_kinematics(model, data)
+        for side in ("left", "right"):
+            sole = robot.soles[side]
+            body = data.body(sole.frame)
+            corners = body.xpos + sole.corners() @ body.xmat.reshape(3, 3).T
+            if t == 0:
+                lowest.append(corners[:, 2])
+            pin = robot.frame_positions(motion.q[t], [robot.frame_id(sole.frame)])[0]
+            worst = max(worst, float(np.max(np.abs(pin - body.xpos))))
+    assert worst < 1e-6, worst
+    # standing (lead-in): every sole corner on the floor within 2 mm
+    assert np.max(np.abs(np.concatenate(lowest))) < 2e-3, lowest
+    back = read_export(path)  # columns in the MJCF's joint order
+    assert sorted(back.joint_names) == sorted(motion.joint_names)
+    order = [back.joint_names.index(n) for n in motion.joint_names]
+    assert np.max(np.abs(back.q[:, :7] - motion.q[:, :7])) <= 1e-9
+    assert np.max(np.abs(back.joint_positions[:, order] - motion.joint_positions)) <= 1e-12
+
+
+def test_cli_mujoco_export_of_a_user_robot_needs_no_robot_option(walks, tmp_path):
+    """HRP-4C from the file's provenance (the URDF it was made with), no --robot/--urdf."""
+    from imesh.io.robot_motion import save_robot_motion
+
+    src = tmp_path / "hrp4c.npz"
+    save_robot_motion(src, walks["hrp4c"])
+    out = tmp_path / "hrp4c_mj.npz"
+    assert main(["-q", "export", str(src), "--format", "mujoco", "-o", str(out)]) == 0
+    assert np.load(out)["qpos"].shape[0] == walks["hrp4c"].n_frames

@@ -202,3 +202,69 @@ def test_bad_paths_and_atomic_failure(tmp_path):
         save_robot_motion(path, bad)
     assert path.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.csv", "m.bvh"]
+
+
+# ----------------------------------------------------------------------------------------------
+# provenance (imesh.core.provenance): stored in both formats, optional, checked
+
+
+def _provenance(source: bool = True):
+    from imesh.core.provenance import Provenance, SourceClip
+
+    clip = SourceClip(path="/data/walk.bvh", sha256="ab" * 32, fps=120.0048, frames=343,
+                      load={"units": "cmu", "fps": 60.0}) if source else None
+    return Provenance(lead_in=30, lead_out=28, robot="toy", robot_sha256="cd" * 32,
+                      robot_toml="/robots/toy/robot.toml", urdf="/robots/toy.urdf",
+                      imesh_version="9.9.9", source=clip)
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".csv"])
+@pytest.mark.parametrize("source", [True, False])
+def test_provenance_round_trip(tmp_path, suffix, source):
+    import dataclasses
+
+    from imesh.io.robot_motion import read_provenance
+
+    prov = _provenance(source)
+    motion = dataclasses.replace(make_motion(100), provenance=prov)
+    path = tmp_path / f"m{suffix}"
+    save_robot_motion(path, motion)
+    back = load_robot_motion(path, robot=TOY)
+    assert back.provenance == prov == read_provenance(path)
+    assert back.provenance.clip_frames(back.n_frames) == (30, 72)
+    if source:
+        assert dict(back.provenance.source.load) == {"units": "cmu", "fps": 60.0}
+    assert back.frames(0, 50).provenance is None  # a slice is no longer the whole timeline
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".csv"])
+def test_files_without_provenance_still_load(tmp_path, suffix):
+    from imesh.io.robot_motion import read_provenance
+
+    path = tmp_path / f"old{suffix}"
+    save_robot_motion(path, make_motion())  # the layout of imesh before provenance
+    assert load_robot_motion(path).provenance is None and read_provenance(path) is None
+    if suffix == ".npz":
+        with np.load(path) as data:
+            assert sorted(data.files) == sorted(NPZ_KEYS)
+
+
+def test_bad_provenance_is_named(tmp_path):
+    import dataclasses
+
+    motion = make_motion(40)
+    path = tmp_path / "m.npz"
+    arrays = {"fps": 30.0, "robot": "toy", "joint_names": np.array(JOINTS),
+              "base_position": motion.base_position, "base_quat_xyzw": motion.base_quat_xyzw,
+              "joint_positions": motion.joint_positions}
+    np.savez(path, **arrays, provenance=np.str_("{not json"))
+    with pytest.raises(MotionFileError, match="m.npz: provenance is not JSON"):
+        load_robot_motion(path)
+    np.savez(path, **arrays, provenance=np.str_('{"format": 7}'))
+    with pytest.raises(MotionFileError, match="provenance format 7; valid: 1"):
+        load_robot_motion(path)
+    # lead-in + lead-out longer than the motion: no frame of the clip
+    save_robot_motion(path, dataclasses.replace(
+        make_motion(50), provenance=dataclasses.replace(_provenance(), lead_in=30, lead_out=20)))
+    with pytest.raises(MotionFileError, match="leave no clip frame of 50"):
+        load_robot_motion(path)

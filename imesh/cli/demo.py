@@ -43,8 +43,8 @@ def run(args) -> int:
         result = retarget(motion, robot, config=config, progress=bar)
 
         bar.stage("verify", result.motion.n_frames)
-        run_metrics = evaluate_motion(robot, result.motion, adapted=result.adapted,
-                                      seconds=result.seconds)
+        run_metrics = evaluate_motion(robot, result.motion, source=motion,
+                                      adapted=result.adapted, seconds=result.seconds)
         failed = failed_gates(run_metrics)
 
         bar.stage("write", result.motion.n_frames)

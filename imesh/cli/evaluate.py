@@ -7,14 +7,14 @@ from ..evaluate.motion_files import load_motion_file
 from ..evaluate.scoreboard import evaluate_motion
 from ..evaluate.table import format_table
 from ..io.atomic import write_json
+from ..io.formats import robot_for_motion_file
 from ..physics import ControlConfig, PhysicsConfig
-from ..robot import load_robot
 from ..viz.report import write_report
 
 
 def run(args) -> int:
     """Run ``imesh evaluate`` with parsed arguments; returns the exit status."""
-    robot = load_robot(args.robot, urdf=args.urdf)
+    robot = robot_for_motion_file(args.motion, args.robot, args.urdf)  # default: the file's
     motion = load_motion_file(args.motion, robot, fps=args.fps)
     config = None
     if args.physics:

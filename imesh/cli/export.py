@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..io.formats import read_export, write_export
+from ..io.formats import read_export, robot_for_motion_file, write_export
 
 
 def run(args) -> int:
@@ -15,7 +15,10 @@ def run(args) -> int:
     fmt = args.format
     if fmt is None and Path(args.output).suffix.lower() == ".csv":
         fmt = "csv"
-    write_export(motion, args.output, fmt, fps=args.fps, mjcf=args.mjcf)
+    robot = None
+    if fmt == "mujoco" and args.mjcf is None:  # the robot's URDF, compiled by MuJoCo
+        robot = robot_for_motion_file(args.motion, args.robot, args.urdf)
+    write_export(motion, args.output, fmt, fps=args.fps, mjcf=args.mjcf, robot=robot)
     print(f"exported {args.motion} -> {args.output} ({fmt or 'npz'}, "
           f"{args.fps or motion.fps:g} fps)")
     return 0

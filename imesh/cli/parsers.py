@@ -14,6 +14,9 @@ import argparse
 #: tests/test_cli.py checks that both agree.
 ARM_SOLVERS = ("gn", "slsqp")
 
+#: What ``imesh view|evaluate`` do without ``--robot``/``--urdf`` (the help says it).
+FILE_ROBOT = "the robot the motion file names"
+
 #: The built-in clip of ``imesh demo`` (:func:`imesh.api.demo_clip`), named in its help.
 DEMO_CLIP = "cmu_02_01_walk.bvh"
 
@@ -47,23 +50,25 @@ def _rank(text: str) -> int | None:
     return value
 
 
-def add_robot_arguments(p: argparse.ArgumentParser) -> None:
+def add_robot_arguments(p: argparse.ArgumentParser, default: str = "jvrc1") -> None:
     """``--robot`` (a folder of robots/ or a robot.toml) and ``--urdf`` (the model file of
-    robots whose model the user provides; alone, a configuration generated from it)."""
+    robots whose model the user provides; alone, a configuration generated from it);
+    ``default`` says in the help what happens without them."""
     p.add_argument("--robot", default=None,
-                   help="robot: a folder of robots/ (jvrc1, g1, hrp4c) or a robot.toml "
-                        "(default jvrc1; with --urdf alone, generated from the URDF)")
+                   help=f"robot: a folder of robots/ (jvrc1, g1, hrp4c) or a robot.toml "
+                        f"(default {default}; with --urdf alone, generated from the URDF)")
     p.add_argument("--urdf", help="model file for robots whose model the user provides "
                    "(hrp4c); alone: any humanoid URDF, configured automatically "
                    "(imesh robots init)")
 
 
 def _robot_command(sub, name: str, subject: str, subject_help: str | None = None, *,
-                   metavar: str | None = None, **kwargs) -> argparse.ArgumentParser:
+                   metavar: str | None = None, robot_default: str = "jvrc1",
+                   **kwargs) -> argparse.ArgumentParser:
     """A command on one file or folder (``subject``) for a robot (``--robot``, ``--urdf``)."""
     p = sub.add_parser(name, **kwargs)
     p.add_argument(subject, metavar=metavar, help=subject_help)
-    add_robot_arguments(p)
+    add_robot_arguments(p, robot_default)
     return p
 
 
@@ -99,8 +104,9 @@ def _add_format_options(p: argparse.ArgumentParser) -> None:
                    help="output format (imesh.io.formats): npz (imesh's), csv (one headerless row "
                         "per frame: base xyz, quaternion xyzw, joints), mujoco (qpos .npz, "
                         "quaternion wxyz, MJCF joint order); default: imesh's by the suffix")
-    p.add_argument("--mjcf", help="MuJoCo model (.xml) for --format mujoco (default: the "
-                   "robot's model in mujoco-menagerie; g1)")
+    p.add_argument("--mjcf", help="MuJoCo model for --format mujoco: an MJCF (.xml) whose joints "
+                   "are the robot's, or 'menagerie' (mujoco-menagerie's model: g1); default: "
+                   "compiled by MuJoCo from the robot's URDF, offline")
 
 
 def _add_arms_options(p: argparse.ArgumentParser) -> None:
@@ -212,7 +218,10 @@ def add_export(sub) -> argparse.ArgumentParser:
                        "retargeted-LAFAN1 layout, MuJoCo qpos, imesh .npz); docs/exports.md")
     p.add_argument("motion", help="robot motion (.npz or .csv, imesh's or an export)")
     p.add_argument("-o", "--output", required=True, help="file to write (.npz or .csv)")
-    p.add_argument("--robot", help="the robot of a headerless CSV (its joint order)")
+    p.add_argument("--robot", help="the robot of a headerless CSV (its joint order); default: "
+                   "the robot the motion file names")
+    p.add_argument("--urdf", help="model file of a robot whose model the user provides "
+                   "(hrp4c), for --format mujoco")
     p.add_argument("--fps", type=float, help="resample to this frame rate (slerp for the base)")
     p.add_argument("--source-fps", type=float,
                    help="frame rate of a headerless CSV given as input (default 30)")
@@ -250,7 +259,7 @@ def add_batch(sub) -> argparse.ArgumentParser:
 def add_evaluate(sub) -> argparse.ArgumentParser:
     """``imesh evaluate MOTION`` (the library is :mod:`imesh.evaluate`)."""
     p = _robot_command(
-        sub, "evaluate", "motion", "robot motion (.npz or .csv)",
+        sub, "evaluate", "motion", "robot motion (.npz or .csv)", robot_default=FILE_ROBOT,
         help="score a robot motion: every quality metric (and the DART check)",
         description="Compute the quality metrics of a robot motion (.npz/.csv: joint names, "
         "base position [m], base quaternion; see docs/checking.md), print a table and "
@@ -320,7 +329,7 @@ def add_reduce(sub) -> argparse.ArgumentParser:
 def add_view(sub) -> argparse.ArgumentParser:
     """``imesh view MOTION`` (the library is :mod:`imesh.viz`)."""
     p = _robot_command(
-        sub, "view", "motion", "robot motion (.npz or .csv)",
+        sub, "view", "motion", "robot motion (.npz or .csv)", robot_default=FILE_ROBOT,
         help="look at a robot motion: 3D viewer in the browser, one self-contained "
         "page (--html) or a video (--video)",
         description="Show a robot motion (.npz/.csv from 'imesh retarget') in 3D: the robot's "

@@ -51,7 +51,8 @@ def run(args) -> int:
         bar.stage("verify", robot_motion.n_frames)
         metrics, failed = verify_motion(robot, robot_motion, adapted=result.adapted,
                                         seconds=result.seconds, name=args.clip,
-                                        balanced=args.balance != "none", force=args.force)
+                                        balanced=args.balance != "none", force=args.force,
+                                        source=motion)
         report["metrics"] = metrics
         report["verification"] = {"passed": not failed,
                                   "failed": {k: {"value": v[0], "gate": v[1]}
@@ -60,7 +61,7 @@ def run(args) -> int:
         if args.format in (None, "npz"):
             save_robot_motion(args.output, robot_motion, markers=result.adapted)
         else:
-            write_export(robot_motion, args.output, args.format, mjcf=args.mjcf)
+            write_export(robot_motion, args.output, args.format, mjcf=args.mjcf, robot=robot)
         if args.markers:
             save_marker_motion(args.markers, result.adapted)
         if args.report:

@@ -8,7 +8,7 @@ import webbrowser
 from pathlib import Path
 
 from ..evaluate.motion_files import load_motion_file
-from ..robot import load_robot
+from ..io.formats import robot_for_motion_file
 from ..viz.html import write_viewer
 from ..viz.scene import build_scene
 from ..viz.server import ViewerServer
@@ -18,7 +18,7 @@ from ..viz.video import write_video
 def run(args) -> int:
     """Write the page or the video, or serve the viewer until Ctrl-C; returns the exit
     status."""
-    robot = load_robot(args.robot, urdf=args.urdf)
+    robot = robot_for_motion_file(args.motion, args.robot, args.urdf)  # default: the file's
     motion = load_motion_file(args.motion, robot, fps=args.fps)
     scene = build_scene(robot, motion, source=args.source,
                         title=f"{Path(args.motion).name} ({robot.name})")

@@ -23,7 +23,8 @@ def optional(module: str, pip: str, feature: str) -> ModuleType:
 
     Args:
         module: dotted module name (``"dartpy"``, ``"matplotlib.pyplot"``).
-        pip: the install command (``"pip install dartpy"``, ``"pip install 'imesh[viz]'"``).
+        pip: the install command (``"pip install dartpy"``,
+            ``"pip install 'imesh-retarget[viz]'"``).
         feature: what needs it, for the message (``"the physics check"``).
 
     Raises:

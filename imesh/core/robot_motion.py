@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import InvalidMotionError, OptionError
 from .motion import MarkerMotion
+from .provenance import Provenance
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +51,9 @@ class RobotMotion:
         adapted: the adapted human markers the motion was fitted to (T frames), when known:
             an imesh .npz stores them and the evaluator's ``marker_rms_mm`` measures against
             them; None otherwise.
+        provenance: where the motion came from (the clip and its hash, the lead-in/out
+            frames, the robot configuration, the imesh version; :mod:`imesh.core.provenance`),
+            when known: imesh's retarget sets it and its files store it; None otherwise.
     """
 
     q: np.ndarray
@@ -57,6 +61,7 @@ class RobotMotion:
     robot: str
     joint_names: tuple[str, ...]
     adapted: MarkerMotion | None = None
+    provenance: Provenance | None = None
 
     def __post_init__(self) -> None:
         where = f"robot motion ({self.robot or 'unnamed robot'})"
@@ -153,13 +158,14 @@ class RobotMotion:
         return a
 
     def frames(self, start: int, stop: int | None = None) -> RobotMotion:
-        """Frames ``start:stop`` (Python slice semantics)."""
+        """Frames ``start:stop`` (Python slice semantics), without the provenance (its
+        lead-in/out frames are those of the whole motion)."""
         q = self.q[slice(start, stop)]
         if q.shape[0] == 0:
             raise OptionError("frame range", (start, stop),
                               f"a non-empty range within 0..{self.n_frames}")
         adapted = None if self.adapted is None else self.adapted.frames(start, stop)
-        return dataclasses.replace(self, q=q, adapted=adapted)
+        return dataclasses.replace(self, q=q, adapted=adapted, provenance=None)
 
     @classmethod
     def from_parts(cls, base_position: np.ndarray, base_quat_xyzw: np.ndarray,

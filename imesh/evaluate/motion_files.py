@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.motion import MarkerMotion
+from ..core.provenance import Provenance, file_sha256
 from ..core.robot_motion import RobotMotion
 from ..errors import (
     ImeshError,
@@ -36,6 +37,7 @@ from ..errors import (
 )
 from ..human.arrange import arrange_for_robot
 from ..io import load_motion
+from ..io.clip import read_clip
 from ..io.npz import load_marker_motion, load_npz
 from ..io.robot_motion import NPZ_KEYS, load_robot_motion
 from ..morph.adapt import prepare_markers
@@ -143,7 +145,7 @@ def _load_plain_npz(path: Path, data: Mapping[str, np.ndarray], robot, fps: floa
         raise MotionFileError(str(path), str(exc)) from None
 
 
-def arranged_source(source, robot) -> MarkerMotion:
+def arranged_source(source, robot, provenance: Provenance | None = None) -> MarkerMotion:
     """The human source motion arranged for the robot (the pipeline's first stages:
     standard markers, gaps filled, arrangement per markers.toml, scaled to the robot).
 
@@ -152,16 +154,69 @@ def arranged_source(source, robot) -> MarkerMotion:
             a motion whose markers all are key points of the robot is used as is) or an
             :class:`imesh.human.arrange.Arrangement`.
         robot: the robot.
+        provenance: the provenance of the motion the source is compared with, when it has one:
+            a file must be the clip it names (same SHA-256) and is read with the options the
+            retarget read it with (``--units``, ``--fps``, ``--rig`` ...); a loaded clip must
+            have its frame count and frame rate.
+
+    Raises:
+        SourceMismatchError: another clip than the provenance's (``what`` is ``"sha256"``,
+            ``"frames"`` or ``"fps"``).
     """
+    clip = provenance.source if provenance is not None else None
     if isinstance(source, str | os.PathLike):
-        source = load_motion(source)
+        if clip is not None:
+            found = file_sha256(source) if Path(source).is_file() else "no such file"
+            if found != clip.sha256:
+                raise SourceMismatchError(
+                    f"{source} is not the clip the motion was made from: its SHA-256 is "
+                    f"{found[:16]}..., the motion's provenance names {clip.path} with SHA-256 "
+                    f"{clip.sha256[:16]}...; valid: that clip (or a copy of it)",
+                    what="sha256", expected=clip.sha256, found=found)
+            source = read_clip(source, clip.load)
+        else:
+            source = load_motion(source)
     elif not isinstance(source, MarkerMotion) and isinstance(getattr(source, "motion", None),
                                                              MarkerMotion):
         source = source.motion  # an imesh.human.arrange.Arrangement
+    if clip is not None:
+        fps_differs = abs(source.fps - clip.fps) > 1e-6 * clip.fps
+        if fps_differs or source.n_frames != clip.frames:
+            raise SourceMismatchError(
+                f"source {source.source or ''} has {source.n_frames} frames at "
+                f"{source.fps:g} fps, the clip the motion was made from ({clip.path}) "
+                f"{clip.frames} frames at {clip.fps:g} fps; valid: that clip, read as it was "
+                f"(options {dict(clip.load) or 'none'})",
+                what="fps" if fps_differs else "frames",
+                expected=clip.fps if fps_differs else clip.frames,
+                found=source.fps if fps_differs else source.n_frames)
     keypoints = robot.keypoint_arrays()[0]
     if all(n in keypoints for n in source.names):
         return source
     return arrange_for_robot(prepare_markers(source), robot).motion
+
+
+def clip_frames_of(source: MarkerMotion, motion: RobotMotion
+                   ) -> tuple[MarkerMotion, tuple[int, int], str]:
+    """The source markers and the frames of ``motion`` to compare them with.
+
+    A motion with a provenance holds the clip on its frames ``[lead_in, T - lead_out)`` at its
+    own frame rate: the source is resampled to that rate as the retarget did, and those frames
+    are compared. A motion without one: the source as it is and every frame.
+
+    Returns:
+        (source markers, (start, stop) frames of ``motion``, a note of what was done).
+    """
+    if motion.provenance is None:
+        return source, (0, motion.n_frames), ""
+    start, stop = motion.provenance.clip_frames(motion.n_frames)
+    note = ""
+    if abs(source.fps - motion.fps) > 1e-6 * motion.fps:
+        note = f"source resampled from {source.fps:g} fps as the retarget did; "
+        source = source.resample(motion.fps)
+    if (start, stop) != (0, motion.n_frames):
+        note += f"the clip's frames {start}..{stop - 1} (lead-in/out excluded); "
+    return source, (start, stop), note
 
 
 def read_markers(markers: MarkerMotion | str | os.PathLike) -> MarkerMotion:

@@ -43,7 +43,7 @@ from ..metrics.support import SupportDetection, detect_support, planted_feet
 from ..metrics.zmp import zmp_report, zmp_trajectory
 from ..physics import PhysicsConfig, simulate_motion
 from ..viz.physics import plot_physics
-from .motion_files import align_markers, arranged_source, read_markers
+from .motion_files import align_markers, arranged_source, clip_frames_of, read_markers
 
 #: The metric names of DESIGN.md, in report order (the keys of every report).
 METRIC_NAMES: tuple[str, ...] = (
@@ -226,40 +226,48 @@ def _marker_metrics(robot, motion: RobotMotion, source, adapted, resample: bool
                     ) -> dict[str, dict]:
     """``marker_rms_mm`` (against the adapted markers: given, stored in the motion file, or the
     arranged source without them) and ``close_pair_error`` (against the arranged source)."""
-    src = arranged_source(source, robot) if source is not None else None
+    src = arranged_source(source, robot, motion.provenance) if source is not None else None
     ref_markers, ref_kind = None, ""
     if adapted is None and motion.adapted is not None:
         adapted = motion.adapted  # stored in the motion file by retarget
+    kp_all = keypoint_motion(robot, motion.q, motion.fps)
+    kp_src, kp_ref, src_note = kp_all, kp_all, ""
+    if src is not None:  # the clip's own frames of the motion (its provenance says which)
+        src, (start, stop), src_note = clip_frames_of(src, motion)
+        kp_src = kp_all.frames(start, stop)
     if adapted is not None:
         ref_markers, ref_kind = read_markers(adapted), "adapted markers"
     elif src is not None:
         ref_markers, ref_kind = src, "arranged source markers (no adapted markers given)"
-    kp_all = keypoint_motion(robot, motion.q, motion.fps)
+        kp_ref = kp_src
     out: dict[str, dict] = {}
     if ref_markers is None:
         out["marker_rms_mm"] = _missing("marker_rms_mm", "needs the adapted markers (--adapted) "
                                         "or the source clip (--source)")
     else:
-        aligned, note = align_markers(ref_markers, motion.fps, motion.n_frames,
+        aligned, note = align_markers(ref_markers, kp_ref.fps, kp_ref.n_frames,
                                       ref_kind.split(" (")[0], resample)
-        n = min(aligned.n_frames, motion.n_frames)
-        common = [m for m in kp_all.names if m in aligned.names]
-        value = marker_rms_mm(kp_all.frames(0, n).subset(common), aligned.frames(0, n))
+        note = (src_note if kp_ref is kp_src else "") + note
+        n = min(aligned.n_frames, kp_ref.n_frames)
+        common = [m for m in kp_ref.names if m in aligned.names]
+        value = marker_rms_mm(kp_ref.frames(0, n).subset(common), aligned.frames(0, n))
         out["marker_rms_mm"] = _metric("marker_rms_mm", value, reference=ref_kind,
-                                       markers=len(common), frames=n, note=note or None)
+                                       markers=len(common), frames=n,
+                                       note=note.rstrip("; ") or None)
     if src is None:
         out["close_pair_error"] = _missing("close_pair_error", "needs the source clip "
                                            "(--source)")
     else:
-        aligned, note = align_markers(src, motion.fps, motion.n_frames, "source", resample)
-        n = min(aligned.n_frames, motion.n_frames)
-        names = [m for m in aligned.names if m in kp_all.names]
+        aligned, note = align_markers(src, kp_src.fps, kp_src.n_frames, "source", resample)
+        n = min(aligned.n_frames, kp_src.n_frames)
+        names = [m for m in aligned.names if m in kp_src.names]
         sub = aligned.frames(0, n).subset(names)
-        robot_pts = kp_all.frames(0, n).subset(names).replace(bones=sub.bones)
+        robot_pts = kp_src.frames(0, n).subset(names).replace(bones=sub.bones)
         value = close_pair_error(sub, robot_pts)
         out["close_pair_error"] = _metric("close_pair_error", value,
                                           compared="arranged source vs robot key points",
-                                          markers=len(names), frames=n, note=note or None)
+                                          markers=len(names), frames=n,
+                                          note=(src_note + note).rstrip("; ") or None)
     return out
 
 

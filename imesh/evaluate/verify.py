@@ -55,7 +55,8 @@ def failed_gates(report: dict, gates: Gates | None = None, balanced: bool = True
 
 
 def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
-                  balanced: bool = True, force: bool = False) -> tuple[dict, dict]:
+                  balanced: bool = True, force: bool = False, source=None
+                  ) -> tuple[dict, dict]:
     """Score a robot motion as it will be written and check it against the gates (what
     ``imesh retarget`` and ``imesh batch`` do before writing).
 
@@ -68,6 +69,9 @@ def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
         balanced: whether the balance gates apply (not with ``balance="none"``).
         force: return the failed gates instead of raising (``--force``: written anyway, the
             report says which gates failed).
+        source: the human clip (MarkerMotion or file) the motion was made from, for
+            ``close_pair_error`` on the clip's frames (the motion's provenance says which), or
+            None.
 
     Returns:
         (the evaluator's report (:func:`~imesh.evaluate.scoreboard.evaluate_motion`), the failed
@@ -76,7 +80,7 @@ def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
     Raises:
         VerificationError: a gate fails and not ``force`` (lists every failed gate).
     """
-    metrics = evaluate_motion(robot, motion, adapted=adapted, seconds=seconds)
+    metrics = evaluate_motion(robot, motion, source=source, adapted=adapted, seconds=seconds)
     failed = failed_gates(metrics, balanced=balanced)
     if failed and not force:
         raise VerificationError(f"retargeted motion of {name} for {robot.name}", failed)

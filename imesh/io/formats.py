@@ -19,9 +19,13 @@ Formats (:data:`FORMATS`):
     at its ``qposadr``), ``fps``, ``robot``, ``qpos_joint_names`` (joint of each column after
     the 7 base columns), ``filled_joints`` (MJCF joints the robot motion does not have, left at
     the model's ``qpos0``: e.g. hand joints), ``mjcf`` (where the model came from).
-    ``data.qpos[:] = f["qpos"][t]`` then poses the MuJoCo model. The MJCF is the robot's model in
-    the ``mujoco-menagerie`` package (G1: ``unitree_g1``; :data:`MENAGERIE`) or any MJCF given
-    with ``--mjcf`` whose joint names are the robot's.
+    ``data.qpos[:] = f["qpos"][t]`` then poses the MuJoCo model. By default the model is
+    compiled by MuJoCo from the robot's own URDF (:func:`mujoco_from_urdf`: offline, any
+    robot; its MJCF is stored in the file as ``mjcf_xml``, so
+    ``mujoco.MjModel.from_xml_string(str(f["mjcf_xml"]))`` is the model the columns belong to);
+    ``--mjcf menagerie`` takes the robot's model in the ``mujoco-menagerie`` package (G1:
+    ``unitree_g1``, :data:`MENAGERIE`; the package downloads its assets on first use), and
+    ``--mjcf FILE`` any MJCF whose joint names are the robot's.
 
 ``--fps`` resamples first (:func:`resample_robot_motion`): linear in the base position and the
 joints, spherical-linear (slerp) in the base quaternion.
@@ -43,7 +47,7 @@ from ..errors import ImeshError, MotionFileError, OptionError
 from ..robot import load_robot
 from .atomic import atomic_path
 from .npz import load_npz
-from .robot_motion import load_robot_motion, save_robot_motion
+from .robot_motion import load_robot_motion, read_provenance, save_robot_motion
 
 log = logging.getLogger(__name__)
 
@@ -51,8 +55,8 @@ log = logging.getLogger(__name__)
 FORMATS: dict[str, str] = {"npz": ".npz", "csv": ".csv", "mujoco": ".npz"}
 #: Frame rate assumed for a headerless CSV when none is given [1/s] (the LAFAN1 datasets').
 CSV_DEFAULT_FPS = 30.0
-#: Robots with a MuJoCo model in the ``mujoco-menagerie`` package: robot -> (menagerie name,
-#: entry point). JVRC-1 and HRP-4C have none there: pass ``--mjcf FILE``.
+#: Robots with a MuJoCo model in the ``mujoco-menagerie`` package (``--mjcf menagerie``): robot
+#: -> (menagerie name, entry point).
 MENAGERIE: dict[str, tuple[str, str]] = {"g1": ("unitree_g1", "g1")}
 #: Marker of a MuJoCo export (.npz key ``format``).
 MUJOCO_FORMAT = "imesh-mujoco-qpos-1"
@@ -122,37 +126,112 @@ def resample_robot_motion(motion: RobotMotion, fps: float) -> RobotMotion:
 
 
 # --------------------------------------------------------------------------------- MuJoCo
-def mujoco_model(robot: str, mjcf: str | os.PathLike | None = None):
-    """The MuJoCo model (``mujoco.MjModel``) of ``robot`` and where it came from.
+#: ``--mjcf`` value that asks for the robot's model in ``mujoco-menagerie``.
+MENAGERIE_MJCF = "menagerie"
 
-    Args:
-        robot: robot name (``RobotMotion.robot``).
-        mjcf: an MJCF file to use instead of the robot's known model.
+
+def mujoco_from_urdf(urdf: str | os.PathLike):
+    """A MuJoCo model compiled by MuJoCo from a URDF, with a free joint on the root link.
+
+    Visuals and mesh collision geometry are left out (their files may need the network or
+    formats MuJoCo does not read); primitive collision shapes (box, cylinder, sphere) and every
+    link's inertia are kept; inertia matrices that are not positive definite (rounded URDF
+    values) are made so by clipping their eigenvalues at 1e-9 kg m^2.
+
+    Returns:
+        (``mujoco.MjModel``, its MJCF text).
 
     Raises:
-        ExportError: no ``mujoco``/``mujoco-menagerie`` installed, a robot without a known MJCF
-            (names the robots that have one), or a model that cannot be loaded.
+        ExportError: mujoco not installed, or a URDF MuJoCo cannot compile (its message).
     """
-    mujoco = optional("mujoco", "pip install imesh[mujoco]", "the MuJoCo export")
-    if mjcf is not None:
+    import tempfile
+    import xml.etree.ElementTree as ET
+
+    mujoco = optional("mujoco", "pip install imesh-retarget[mujoco]", "the MuJoCo export")
+    try:
+        root = ET.parse(urdf).getroot()
+    except (OSError, ET.ParseError) as exc:
+        raise ExportError(f"{urdf}: cannot read the URDF ({exc})") from None
+    for link in root.iter("link"):
+        for el in link.findall("visual"):
+            link.remove(el)
+        for el in link.findall("collision"):
+            geometry = el.find("geometry")
+            if geometry is None or geometry.find("mesh") is not None:
+                link.remove(el)
+    for el in root.findall("transmission") + root.findall("gazebo"):
+        root.remove(el)
+    keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    at = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+    for inertia in root.iter("inertia"):
+        m = np.zeros((3, 3))
+        for k, (a, b) in zip(keys, at, strict=True):
+            m[a, b] = m[b, a] = float(inertia.get(k, 0.0))
+        w, v = np.linalg.eigh(m)
+        if w.min() <= 1e-12:
+            m = (v * np.maximum(w, 1e-9)) @ v.T
+            for k, (a, b) in zip(keys, at, strict=True):
+                inertia.set(k, repr(float(m[a, b])))
+    ET.SubElement(ET.SubElement(root, "mujoco"), "compiler", discardvisual="true",
+                  fusestatic="false", balanceinertia="true", boundmass="1e-6",
+                  boundinertia="1e-9")
+    try:
+        fixed = mujoco.MjModel.from_xml_string(ET.tostring(root, encoding="unicode"))
+        with tempfile.TemporaryDirectory() as folder:  # MuJoCo writes its MJCF to a file only
+            mujoco.mj_saveLastXML(str(Path(folder) / "model.xml"), fixed)
+            tree = ET.parse(Path(folder) / "model.xml")
+        world = tree.getroot().find("worldbody")
+        base = world.find("body") if world is not None else None
+        if base is None:
+            raise ValueError("the compiled model has no body")
+        base.insert(0, ET.Element("freejoint", name="floating_base_joint"))
+        xml = ET.tostring(tree.getroot(), encoding="unicode")
+        return mujoco.MjModel.from_xml_string(xml), xml
+    except (ValueError, AttributeError) as exc:
+        raise ExportError(f"{urdf}: MuJoCo cannot compile this URDF ({exc}); pass --mjcf FILE"
+                          ) from None
+
+
+def mujoco_model(robot, mjcf: str | os.PathLike | None = None):
+    """The MuJoCo model (``mujoco.MjModel``) of ``robot``, where it came from and its MJCF text.
+
+    Args:
+        robot: an :class:`imesh.robot.Robot` (or a robot name, loaded with ``load_robot``).
+        mjcf: None (default): compiled from the robot's URDF (:func:`mujoco_from_urdf`);
+            ``"menagerie"``: the robot's model in ``mujoco-menagerie`` (:data:`MENAGERIE`);
+            else an MJCF file.
+
+    Raises:
+        ExportError: no ``mujoco`` (or ``mujoco-menagerie`` when asked) installed, a robot
+            without a menagerie model (names the robots that have one), a model that cannot be
+            loaded.
+    """
+    mujoco = optional("mujoco", "pip install imesh-retarget[mujoco]", "the MuJoCo export")
+    name = robot if isinstance(robot, str) else robot.name
+    if mjcf is None:
+        robot = load_robot(robot) if isinstance(robot, str) else robot
+        model, xml = mujoco_from_urdf(robot.urdf)
+        return model, f"compiled by MuJoCo from {robot.urdf}", xml
+    if str(mjcf) != MENAGERIE_MJCF:
         try:
-            return mujoco.MjModel.from_xml_path(str(mjcf)), str(mjcf)
+            return (mujoco.MjModel.from_xml_path(str(mjcf)), str(mjcf),
+                    Path(mjcf).read_text(encoding="utf-8", errors="replace"))
         except (ValueError, OSError) as exc:
             raise ExportError(f"--mjcf {mjcf}: cannot load ({exc})") from None
-    if robot not in MENAGERIE:
-        raise ExportError(f"robot {robot!r} has no known MuJoCo model (robots with one: "
-                          f"{', '.join(sorted(MENAGERIE))}); pass --mjcf FILE with an MJCF "
-                          "whose joint names are the robot's")
-    name, entry = MENAGERIE[robot]
-    mujoco_menagerie = optional("mujoco_menagerie", "pip install imesh[mujoco] (or pass --mjcf "
-                                "FILE)", f"the MuJoCo model of {robot}")
+    if name not in MENAGERIE:
+        raise ExportError(f"robot {name!r} has no MuJoCo model in mujoco-menagerie (robots "
+                          f"with one: {', '.join(sorted(MENAGERIE))}); leave out --mjcf (the "
+                          "model compiled from the robot's URDF) or pass --mjcf FILE")
+    menagerie_name, entry = MENAGERIE[name]
+    mujoco_menagerie = optional("mujoco_menagerie", "pip install imesh-retarget[mujoco] (or "
+                                "leave out --mjcf)", f"the menagerie model of {name}")
     try:
-        model = mujoco_menagerie.load(name, entry)
+        model = mujoco_menagerie.load(menagerie_name, entry)
     except Exception as exc:  # noqa: BLE001 - download/cache errors of the package
-        raise ExportError(f"cannot load the MuJoCo model {name}/{entry} of {robot} from "
-                          f"mujoco-menagerie ({type(exc).__name__}: {exc}); pass --mjcf FILE"
-                          ) from None
-    return model, f"mujoco-menagerie {name}/{entry}"
+        raise ExportError(f"cannot load the MuJoCo model {menagerie_name}/{entry} of {name} "
+                          f"from mujoco-menagerie ({type(exc).__name__}: {exc}); leave out "
+                          "--mjcf (the model compiled from the robot's URDF, offline)") from None
+    return model, f"mujoco-menagerie {menagerie_name}/{entry}", ""
 
 
 def mujoco_qpos(motion: RobotMotion, model) -> tuple[np.ndarray, list[str], list[str]]:
@@ -162,7 +241,7 @@ def mujoco_qpos(motion: RobotMotion, model) -> tuple[np.ndarray, list[str], list
     joint a hinge or slide joint. Joints of the motion missing from the model raise
     ExportError; model joints the motion lacks keep ``model.qpos0``.
     """
-    mujoco = optional("mujoco", "pip install imesh[mujoco]", "the MuJoCo export")
+    mujoco = optional("mujoco", "pip install imesh-retarget[mujoco]", "the MuJoCo export")
     free, hinge, slide = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_HINGE),
                           int(mujoco.mjtJoint.mjJNT_SLIDE))
     if model.njnt == 0 or int(model.jnt_type[0]) != free or model.jnt_qposadr[0] != 0:
@@ -193,7 +272,8 @@ def mujoco_qpos(motion: RobotMotion, model) -> tuple[np.ndarray, list[str], list
 
 # ------------------------------------------------------------------------------- writing
 def write_export(motion: RobotMotion, path: str | os.PathLike, fmt: str | None = None, *,
-                 fps: float | None = None, mjcf: str | os.PathLike | None = None) -> Path:
+                 fps: float | None = None, mjcf: str | os.PathLike | None = None,
+                 robot=None) -> Path:
     """Write ``motion`` to ``path`` in format ``fmt`` (module docstring), atomically.
 
     Args:
@@ -201,7 +281,10 @@ def write_export(motion: RobotMotion, path: str | os.PathLike, fmt: str | None =
         path: output file (.npz for npz and mujoco, .csv for csv).
         fmt: a key of :data:`FORMATS`; None: from the suffix.
         fps: resample to this frame rate first [1/s].
-        mjcf: MuJoCo model file for ``mujoco`` (default the robot's, :data:`MENAGERIE`).
+        mjcf: MuJoCo model for ``mujoco`` (:func:`mujoco_model`: None compiles the robot's
+            URDF, ``"menagerie"``, or an MJCF file).
+        robot: the :class:`imesh.robot.Robot` of the motion, for its URDF (default
+            ``load_robot(motion.robot)``; a robot whose model the user provides must be given).
 
     Returns:
         The path written.
@@ -216,14 +299,14 @@ def write_export(motion: RobotMotion, path: str | os.PathLike, fmt: str | None =
         with atomic_path(path) as tmp:
             np.savetxt(tmp, motion.q, delimiter=",", fmt="%.17g")
     else:
-        model, source = mujoco_model(motion.robot, mjcf)
+        model, source, xml = mujoco_model(motion.robot if robot is None else robot, mjcf)
         qpos, names, filled = mujoco_qpos(motion, model)
         with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             np.savez_compressed(fh, format=np.str_(MUJOCO_FORMAT), qpos=qpos,
                                 fps=np.float64(motion.fps), robot=np.str_(motion.robot),
                                 qpos_joint_names=np.array(names, dtype=np.str_).reshape(-1),
                                 filled_joints=np.array(filled, dtype=np.str_).reshape(-1),
-                                mjcf=np.str_(source))
+                                mjcf=np.str_(source), mjcf_xml=np.str_(xml))
     log.info("exported %s (%s): %d frames of %s at %g fps", path, fmt, motion.n_frames,
              motion.robot, motion.fps)
     return path
@@ -275,6 +358,51 @@ def robot_named_in(path: str | os.PathLike) -> str | None:
 
     match = re.search(r"robot=(\S+)", _first_data_line(path))
     return match[1] if match else None
+
+
+def robot_for_motion_file(path: str | os.PathLike, robot: str | os.PathLike | None = None,
+                          urdf: str | os.PathLike | None = None):
+    """The robot of a motion file: ``robot``/``urdf`` when given (``load_robot(robot, urdf)``),
+    else the robot the file names (``imesh view|evaluate|export`` without ``--robot``).
+
+    A robot whose model the user provides (HRP-4C, a URDF alone) is found by the robot.toml
+    and URDF paths its provenance records, when they still exist. A robot configuration that
+    changed since the motion was made (another SHA-256 than its provenance's) is logged as a
+    warning.
+
+    Raises:
+        MotionFileError: the file names no robot (a headerless CSV, plain arrays without
+            ``robot``): pass ``--robot``.
+        RobotConfigError: the named robot cannot be loaded (unknown name, model missing).
+    """
+    from ..core.provenance import robot_sha256
+    from ..robot.errors import RobotConfigError
+
+    if robot is not None or urdf is not None:
+        return load_robot(None if robot is None else str(robot),
+                          urdf=None if urdf is None else str(urdf))
+    path = Path(path)
+    if not path.is_file():
+        raise MotionFileError(str(path), "no such file")
+    name = robot_named_in(path) if path.suffix.lower() in (".npz", ".csv") else None
+    if not name:
+        raise MotionFileError(str(path), "the file does not name its robot: pass --robot "
+                              "(robot=)")
+    provenance = read_provenance(path)
+    try:
+        loaded = load_robot(name)
+    except RobotConfigError:
+        if provenance is None or not Path(provenance.robot_toml).is_file():
+            raise
+        log.info("%s: robot %s from the files its provenance names (%s, %s)", path, name,
+                 provenance.robot_toml, provenance.urdf)
+        loaded = load_robot(provenance.robot_toml, urdf=provenance.urdf
+                            if Path(provenance.urdf).is_file() else None)
+    if provenance is not None and robot_sha256(loaded) != provenance.robot_sha256:
+        log.warning("%s: the configuration of robot %s (robot.toml, markers.toml, URDF) "
+                    "changed since the motion was made (imesh %s)", path, name,
+                    provenance.imesh_version)
+    return loaded
 
 
 def read_export(path: str | os.PathLike, robot=None, fps: float | None = None) -> RobotMotion:

@@ -4,22 +4,31 @@ Files always spell out the quaternion order and the joint names, so they can be 
 pinocchio. Formats written by :func:`save_robot_motion` (atomically) and read by
 :func:`load_robot_motion`:
 
-- ``.npz`` with exactly the keys ``fps`` (float), ``robot`` (str), ``joint_names`` (n,) str,
-  ``base_position`` (T, 3) [m], ``base_quat_xyzw`` (T, 4), ``joint_positions`` (T, n) [rad].
-- ``.csv``: a comment line ``# imesh robot motion: robot=<name> fps=<fps> ...``, then a header row
+- ``.npz`` with the keys ``fps`` (float), ``robot`` (str), ``joint_names`` (n,) str,
+  ``base_position`` (T, 3) [m], ``base_quat_xyzw`` (T, 4), ``joint_positions`` (T, n) [rad];
+  optionally ``provenance`` (str: one JSON object, :class:`imesh.core.provenance.Provenance`)
+  and the adapted markers ``adapted_positions_m`` (T, M, 3) [m], ``adapted_marker_names`` (M,).
+- ``.csv``: a comment line ``# imesh robot motion: robot=<name> fps=<fps> ...``, optionally a
+  comment line ``# imesh provenance: {...}`` (the same JSON), then a header row
   ``frame,time_s,base_x,base_y,base_z,base_qx,base_qy,base_qz,base_qw,<joint names...>`` and one
   row per frame (``pandas.read_csv(path, comment="#")`` reads it too).
+
+Files without provenance (written by imesh before it had one, or by other tools) load with
+``motion.provenance`` None.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..core.provenance import Provenance
 from ..core.robot_motion import CSV_BASE_COLUMNS, RobotLike, RobotMotion
 from ..errors import (
     InvalidMotionError,
@@ -56,12 +65,14 @@ def save_robot_motion(path: str | os.PathLike, motion: RobotMotion, markers=None
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".npz":
-        extra = {}
+        extra: dict[str, Any] = {}
+        if motion.provenance is not None:
+            extra["provenance"] = np.array(motion.provenance.to_json(), dtype=np.str_)
         if markers is not None:
             if markers.n_frames != motion.n_frames:
                 raise InvalidMotionError(f"{path}: {markers.n_frames} frames of adapted markers "
                                          f"for a motion of {motion.n_frames} frames")
-            extra = {"adapted_positions_m": markers.positions_m,
+            extra |= {"adapted_positions_m": markers.positions_m,
                      "adapted_marker_names": np.array(markers.names, dtype=np.str_)}
         with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             np.savez_compressed(
@@ -80,6 +91,8 @@ def save_robot_motion(path: str | os.PathLike, motion: RobotMotion, markers=None
         table = np.column_stack([t, t / motion.fps, motion.q])
         comment = (f"# imesh robot motion: robot={motion.robot} fps={motion.fps!r} "
                    "quaternion=xyzw units=m,rad")
+        if motion.provenance is not None:
+            comment += "\n" + _PROVENANCE_LINE + motion.provenance.to_json()
         with atomic_path(path) as tmp:
             np.savetxt(tmp, table, delimiter=",", header=comment + "\n" + ",".join(header),
                        comments="", fmt="%.17g")
@@ -113,9 +126,9 @@ def load_robot_motion(path: str | os.PathLike, robot: RobotLike | str | None = N
     if not path.is_file():
         raise MotionFileError(str(path), "no such file")
     if suffix == ".npz":
-        fps, name, joints, base_pos, quat, q_joints = _read_npz(path)
+        fps, name, joints, base_pos, quat, q_joints, provenance = _read_npz(path)
     elif suffix == ".csv":
-        fps, name, joints, base_pos, quat, q_joints = _read_csv(path, robot)
+        fps, name, joints, base_pos, quat, q_joints, provenance = _read_csv(path, robot)
     else:
         raise UnsupportedFormatError(str(path), f"unknown robot motion extension {suffix!r}; "
                                      "valid: .npz, .csv")
@@ -128,8 +141,52 @@ def load_robot_motion(path: str | os.PathLike, robot: RobotLike | str | None = N
         if not isinstance(robot, str):
             q_joints, joints = _match_joints(path, q_joints, joints, tuple(robot.joint_names))
     try:
-        return RobotMotion.from_parts(base_pos, quat, q_joints, fps=fps, robot=name,
-                                      joint_names=joints)
+        motion = RobotMotion.from_parts(base_pos, quat, q_joints, fps=fps, robot=name,
+                                        joint_names=joints)
+    except InvalidMotionError as exc:
+        raise MotionFileError(str(path), str(exc)) from None
+    if provenance is not None:
+        motion = dataclasses.replace(motion, provenance=_provenance(path, provenance,
+                                                                    motion.n_frames))
+    return motion
+
+
+def _provenance(path: Path, text: str, n_frames: int) -> Provenance:
+    """The provenance stored in a motion file, checked against its frame count."""
+    try:
+        provenance = Provenance.from_json(text)
+        provenance.clip_frames(n_frames)
+    except InvalidMotionError as exc:
+        raise MotionFileError(str(path), str(exc)) from None
+    return provenance
+
+
+def read_provenance(path: str | os.PathLike) -> Provenance | None:
+    """The provenance a robot-motion file (.npz or .csv of :func:`save_robot_motion`) stores,
+    without reading its frames; None for files without one (and for other files).
+
+    Raises:
+        MotionFileError: an unreadable file or a malformed provenance.
+    """
+    path = Path(path)
+    text = None
+    if path.suffix.lower() == ".npz" and path.is_file():
+        arrays = load_npz(path, "robot motion")
+        text = str(arrays["provenance"]) if "provenance" in arrays else None
+    elif path.suffix.lower() == ".csv" and path.is_file():
+        try:
+            with open(path, encoding="utf-8") as fh:
+                for line in fh:
+                    if not line.startswith("#"):
+                        break
+                    if line.startswith(_PROVENANCE_LINE):
+                        text = line[len(_PROVENANCE_LINE):].strip()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise MotionFileError(str(path), f"cannot read ({exc})") from None
+    if text is None:
+        return None
+    try:
+        return Provenance.from_json(text)
     except InvalidMotionError as exc:
         raise MotionFileError(str(path), str(exc)) from None
 
@@ -178,10 +235,13 @@ def _read_npz(path: Path):
     if q_joints.ndim == 2 and q_joints.shape[1] != len(joints):
         raise MotionFileError(str(path), f"joint_positions has {q_joints.shape[1]} columns but "
                               f"joint_names lists {len(joints)} joints")
-    return fps, name, joints, base_pos, quat, q_joints
+    provenance = str(arrays["provenance"]) if "provenance" in arrays else None
+    return fps, name, joints, base_pos, quat, q_joints, provenance
 
 
 _COMMENT = re.compile(r"^#\s*imesh robot motion:(?P<fields>.*)$")
+#: The start of the provenance comment line of a robot-motion .csv (JSON follows).
+_PROVENANCE_LINE = "# imesh provenance: "
 
 
 def _read_csv(path: Path, robot: RobotLike | str | None):
@@ -191,8 +251,11 @@ def _read_csv(path: Path, robot: RobotLike | str | None):
     except (OSError, UnicodeDecodeError) as exc:
         raise MotionFileError(str(path), f"cannot read ({exc})") from None
     meta: dict[str, str] = {}
+    provenance = None
     row = 0
     while row < len(lines) and lines[row].lstrip().startswith("#"):
+        if lines[row].startswith(_PROVENANCE_LINE):
+            provenance = lines[row][len(_PROVENANCE_LINE):]
         match = _COMMENT.match(lines[row].strip())
         if match:
             for kv in match["fields"].split():
@@ -242,7 +305,7 @@ def _read_csv(path: Path, robot: RobotLike | str | None):
     else:
         raise MotionFileError(str(path), "cannot tell fps: no 'fps=' comment and no time_s step")
     base = values[:, 2:9]
-    return fps, name, joints, base[:, :3], base[:, 3:7], values[:, 9:]
+    return fps, name, joints, base[:, :3], base[:, 3:7], values[:, 9:], provenance
 
 
 def _match_joints(path: Path, q_joints: np.ndarray, joints: tuple[str, ...],

@@ -44,6 +44,7 @@ from tqdm import tqdm
 
 from .. import __version__
 from ..core.lazy import optional
+from ..core.provenance import file_sha256
 from ..errors import ImeshError, OptionError
 from ..evaluate.verify import verify_motion
 from ..io import load_motion
@@ -93,15 +94,6 @@ class BatchSettings:
     @property
     def suffix(self) -> str:
         return FORMATS[self.format]
-
-
-def file_sha256(path: str | os.PathLike) -> str:
-    """SHA-256 of a file's bytes (hex)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def find_clips(pattern: str) -> list[Path]:
@@ -215,14 +207,15 @@ def _retarget_clip(clip: Path, output: Path, settings: BatchSettings, record: di
     config = RetargetConfig(balance=settings.balance)
     if settings.fps is not None:
         config = dataclasses.replace(config, fps=float(settings.fps))
-    result = retarget(load_motion(clip), robot, config=config)
+    human = load_motion(clip)
+    result = retarget(human, robot, config=config)
     if not settings.force:
         verify_motion(robot, result.motion, adapted=result.adapted, seconds=result.seconds,
-                      name=str(clip), balanced=settings.balance != "none")
+                      name=str(clip), balanced=settings.balance != "none", source=human)
     if settings.format == "npz":
         save_robot_motion(output, result.motion, markers=result.adapted)
     else:
-        write_export(result.motion, output, settings.format, mjcf=settings.mjcf)
+        write_export(result.motion, output, settings.format, mjcf=settings.mjcf, robot=robot)
     record.update(frames=result.motion.n_frames, fps=result.motion.fps,
                   robot=result.motion.robot)
     stamp = {"clip": str(clip), "input_sha256": input_sha,
@@ -237,9 +230,10 @@ def _retarget_clip(clip: Path, output: Path, settings: BatchSettings, record: di
 def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, workers: int,
                  address: str | None) -> Iterator[dict]:
     """Run the jobs as Ray tasks, at most ``workers`` at a time; yield records as they end."""
-    ray = optional("ray", "pip install imesh[batch] (or --backend processes)", "--backend ray")
+    ray = optional("ray", "pip install imesh-retarget[batch] (or --backend processes)",
+                   "--backend ray")
     env = {"env_vars": {"PYTHONPATH": os.pathsep.join(
-        p for p in [str(Path(__file__).resolve().parents[1]), os.environ.get("PYTHONPATH")]
+        p for p in [str(Path(__file__).resolve().parents[2]), os.environ.get("PYTHONPATH")]
         if p)}}
     if address:
         ray.init(address=address, runtime_env=env, log_to_driver=False,

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import __version__
 from ..arms.config import ArmsConfig
 from ..arms.solve import refine_arms
 from ..balance import BalanceConfig, balance_loop, check_flight
@@ -27,6 +28,7 @@ from ..contacts.phases import FOOT_MARKERS, SIDES, ContactConfig, Contacts, dete
 from ..contacts.support import SupportConfig, flat_support, support_blend, support_foot_targets
 from ..core.motion import MarkerMotion
 from ..core.progress import ProgressCallback, notify
+from ..core.provenance import make_provenance
 from ..core.robot_motion import RobotMotion
 from ..errors import OptionError
 from ..fit import FitConfig, FitResult, fit_motion
@@ -284,7 +286,9 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
             line draws its bar from these (:class:`imesh.core.progress.JobBar`).
 
     Returns:
-        RetargetResult; ``result.motion`` is the RobotMotion.
+        RetargetResult; ``result.motion`` is the RobotMotion, with its provenance (the clip
+        file and its hash when ``motion`` was read from one, the lead-in/out frames, the robot
+        configuration's hash, the imesh version).
 
     Raises:
         FlightPhaseError: the clip has flight phases and ``allow_flight`` is off (before any
@@ -432,7 +436,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         adapted = adapted.with_positions(
             ext.markers[:, :adapted.n_markers], source=adapted.source)
         support_out = Contacts(support=ext.support, fps=source.fps)
-    motion_out = dataclasses.replace(fit.motion, q=q_out)
+    motion_out = dataclasses.replace(fit.motion, q=q_out,
+                                     provenance=make_provenance(motion, robot, lead, __version__))
     seconds["total"] = time.perf_counter() - t0
     log.info("retargeted %s to %s: %d frames in %.2f s", motion.source, robot.name,
              motion_out.n_frames, seconds["total"])

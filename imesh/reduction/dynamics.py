@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..robot.config import ROBOTS_DIR
 from ..robot.planar import (
     ChainError,
     RootedChain,
@@ -53,8 +54,7 @@ from .chain import BASE_ORDER, JOINT_LINKS, JOINTS, LINKS, PlanarChain, rot
 log = logging.getLogger(__name__)
 
 #: The project's planar biped (robots/planar_biped).
-PLANAR_BIPED_URDF = Path(__file__).resolve().parents[2] / "robots" / "planar_biped" / \
-    "planar_biped.urdf"
+PLANAR_BIPED_URDF = ROBOTS_DIR / "planar_biped" / "planar_biped.urdf"
 
 #: The link each joint (JOINTS order) carries: the child of its (parent, child) in JOINT_LINKS.
 CHILD_LINKS: tuple[int, ...] = tuple(child for _, child in JOINT_LINKS)

@@ -2,8 +2,9 @@
 proxies and soles.
 
 Robots live in ``robots/<name>/`` (``robot.toml`` + ``markers.toml``); models come from installed
-packages (JVRC-1: jvrc-description; Unitree G1: example-robot-data, ``pip install imesh[g1]``) or
-from a URDF the user passes (HRP-4C). Only this subpackage imports pinocchio, lazily.
+packages (JVRC-1: jvrc-description; Unitree G1: example-robot-data,
+``pip install imesh-retarget[g1]``) or from a URDF the user passes (HRP-4C). Only this
+subpackage imports pinocchio, lazily.
 
 Example:
     >>> robot = load_robot("jvrc1")

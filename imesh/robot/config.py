@@ -23,8 +23,12 @@ import numpy as np
 from . import toml_fields as toml
 from .errors import RobotConfigError
 
-#: The robot folders shipped with imesh (``<repo>/robots``; each holds robot.toml, markers.toml).
-ROBOTS_DIR: Path = Path(__file__).resolve().parents[2] / "robots"
+#: The robot folders shipped with imesh (each holds robot.toml, markers.toml): ``imesh/robots``
+#: in an installed wheel (the build copies ``<repo>/robots`` there, setup.py), else
+#: ``<repo>/robots`` of a checkout (editable install).
+ROBOTS_DIR: Path = next((d for d in (Path(__file__).resolve().parents[1] / "robots",
+                                     Path(__file__).resolve().parents[2] / "robots")
+                         if d.is_dir()), Path(__file__).resolve().parents[2] / "robots")
 
 #: Default acceleration limit [rad/s^2] when robot.toml gives none (see docs/robots.md).
 DEFAULT_ACCELERATION = 20.0

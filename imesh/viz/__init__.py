@@ -6,7 +6,7 @@
 - :func:`~imesh.viz.html.write_viewer`: one HTML file with three.js and the scene inlined (no
   server, no network); :class:`~imesh.viz.server.ViewerServer` serves the same page.
 - :func:`~imesh.viz.video.write_video`: an mp4 rendered in headless Chromium
-  (``pip install 'imesh[viz]'`` and Debian's ``chromium``).
+  (``pip install 'imesh-retarget[viz]'`` and Debian's ``chromium``).
 - :func:`~imesh.viz.report.write_report`: the HTML report of a written motion file.
 
 Solvers never import this package (tested); its heavy parts import lazily.

@@ -49,7 +49,7 @@ def chromium_page(width: int = 1000, height: int = 700) -> Iterator[tuple[Page, 
     Raises:
         ImeshError: Playwright or Chromium missing (with the commands that install them).
     """
-    sync_playwright = optional("playwright.sync_api", "pip install 'imesh[viz]'",
+    sync_playwright = optional("playwright.sync_api", "pip install 'imesh-retarget[viz]'",
                                "a screenshot or video of the viewer").sync_playwright
     exe = find_chromium()
     if exe is None:

@@ -37,7 +37,7 @@ def video_frames(n_motion: int, motion_fps: float, video_fps: float) -> np.ndarr
 
 
 def _ffmpeg_writer(path: Path, size: tuple[int, int], fps: float):
-    imageio_ffmpeg = optional("imageio_ffmpeg", "pip install 'imesh[viz]'", "a video")
+    imageio_ffmpeg = optional("imageio_ffmpeg", "pip install 'imesh-retarget[viz]'", "a video")
     writer = imageio_ffmpeg.write_frames(str(path), size, fps=fps, codec="libx264",
                                          pix_fmt_in="rgb24", pix_fmt_out="yuv420p",
                                          macro_block_size=2, quality=7,
@@ -63,7 +63,7 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
     Raises:
         ImeshError: Chromium, Playwright or imageio-ffmpeg missing (with how to install them).
     """
-    image = optional("PIL.Image", "pip install 'imesh[viz]'", "a video")
+    image = optional("PIL.Image", "pip install 'imesh-retarget[viz]'", "a video")
     fps = float(fps or scene["fps"])
     frames = video_frames(int(scene["frames"]), float(scene["fps"]), fps)
     bar = None
