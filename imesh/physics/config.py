@@ -28,6 +28,8 @@ class WbcGains(NonNegative):
         sole_kp: swing sole pose stiffness [1/s^2]; ``sole_kd`` [1/s].
         joint_kp: joint posture stiffness [1/s^2]; ``joint_kd`` [1/s].
         contact_kd: damping of a contact sole's residual velocity [1/s].
+        contact_kp: stiffness driving a contact sole back flat on the ground (height, roll,
+            pitch) [1/s^2].
     """
 
     dcm: float = 8.0
@@ -40,6 +42,7 @@ class WbcGains(NonNegative):
     joint_kp: float = 200.0
     joint_kd: float = 28.0
     contact_kd: float = 10.0
+    contact_kp: float = 100.0
 
 
 @dataclass(frozen=True)

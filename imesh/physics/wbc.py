@@ -161,6 +161,20 @@ class WholeBodyController:
         return (poses[:, 2, 3] - np.abs(R[:, 2, 0]) * self.half_extents[:, 0]
                 - np.abs(R[:, 2, 1]) * self.half_extents[:, 1])
 
+    def _flat_error(self, pose: np.ndarray, s: int) -> np.ndarray:
+        """(6,) how far a contact sole is from lying flat on the ground: its centre's height
+        (to z = 0) and its tilt (roll and pitch, to the same yaw level), world axes. A sole
+        tipped onto an edge in the simulator is driven back flat through the contact rows."""
+        R = pose[:3, :3] @ self.contact_R[s]
+        yaw = np.arctan2(R[1, 0], R[0, 0])
+        c, si = np.cos(yaw), np.sin(yaw)
+        level = np.array([[c, -si, 0.0], [si, c, 0.0], [0.0, 0.0, 1.0]])
+        err = np.zeros(6)
+        err[2] = -pose[2, 3]
+        err[3:] = log_so3(level @ R.T)
+        err[5] = 0.0
+        return err
+
     def step(self, t: float, q: np.ndarray, v: np.ndarray) -> ControlStep:
         """Torques for the state (q, v) at reference time ``t``.
 
@@ -247,7 +261,8 @@ class WholeBodyController:
         for j, s in enumerate(active):
             Jt[:, 6 * j:6 * j + 6] = dyn.jacobians[s].T
             E[6 + 6 * j:12 + 6 * j, :nv] = dyn.jacobians[s]
-            e[6 + 6 * j:12 + 6 * j] = -dyn.drifts[s] - cfg.gains.contact_kd * dyn.twists[s]
+            e[6 + 6 * j:12 + 6 * j] = (-dyn.drifts[s] - cfg.gains.contact_kd * dyn.twists[s]
+                                       + cfg.gains.contact_kp * self._flat_error(dyn.poses[s], s))
         E[:6, nv:] = -Jt[:6]
 
         # --- inequalities: wrench cones, torque limits ----------------------------------------
