@@ -137,3 +137,25 @@ def test_kinematic_mode_stands_with_exact_joints(jvrc1):
     assert not result.fell, result.fall_reason
     assert result.tracking_rms_rad < 1e-3
     assert result.base_drift_m < 0.01
+
+
+def test_a_fall_in_the_dart_check_fails_verification(jvrc1):
+    """``imesh retarget --physics``: a motion the controller cannot keep up is a failed gate
+    (VerificationError, exit 3); a standing motion passes it."""
+    pytest.importorskip("dartpy")
+    from imesh.errors import VerificationError
+    from imesh.evaluate.verify import verify_motion
+    from imesh.physics import PhysicsConfig, TimingConfig
+
+    robot = jvrc1
+    physics = PhysicsConfig(timing=TimingConfig(settle_s=0.2))
+    q = _standing(robot, 2.0).q.copy()
+    q[15:45, 2] += 0.3
+    flying = RobotMotion(q=q, fps=30.0, robot=robot.name, joint_names=robot.joint_names)
+    with pytest.raises(VerificationError, match="physics_fell"):
+        verify_motion(robot, flying, name="flying", physics=physics)
+    report, failed = verify_motion(robot, flying, name="flying", physics=physics, force=True)
+    assert failed["physics_fell"][0] is True and report["physics_fell"]["value"] is True
+    report, failed = verify_motion(robot, _standing(robot, 1.0), name="standing",
+                                   physics=physics)
+    assert not failed and report["physics_fell"]["value"] is False

@@ -184,6 +184,11 @@ def add_retarget(sub) -> argparse.ArgumentParser:
                         "the report marks the failed gates)")
     p.add_argument("--no-lead", action="store_true",
                    help="no standing lead-in/out (1 s of settled double support each)")
+    p.add_argument("--physics", action="store_true",
+                   help="also run the DART check before writing and gate on it: a fall is a "
+                        "failed gate (exit 3, nothing written without --force)")
+    p.add_argument("--controller", choices=("wbc", "kinematic", "spd", "pid"), default="wbc",
+                   help="controller of the DART check (--physics; default wbc, docs/checking.md)")
     _add_load_options(p)
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
     p.add_argument("--window-frames", type=int, default=2000,

@@ -15,6 +15,7 @@ from ..io.atomic import write_json
 from ..io.formats import write_export
 from ..io.npz import save_marker_motion
 from ..io.robot_motion import save_robot_motion
+from ..physics import ControlConfig, PhysicsConfig
 from ..pipeline.retarget import RetargetConfig, retarget
 from ..robot import load_robot
 from ..viz.balance import plot_balance
@@ -52,7 +53,10 @@ def run(args) -> int:
         metrics, failed = verify_motion(robot, robot_motion, adapted=result.adapted,
                                         seconds=result.seconds, name=args.clip,
                                         balanced=args.balance != "none", force=args.force,
-                                        source=motion)
+                                        source=motion,
+                                        physics=PhysicsConfig(control=ControlConfig(
+                                            controller=args.controller))
+                                        if args.physics else None)
         report["metrics"] = metrics
         report["verification"] = {"passed": not failed,
                                   "failed": {k: {"value": v[0], "gate": v[1]}

@@ -25,6 +25,9 @@ class Gates:
         marker_rms_mm: largest RMS distance of the key points from the adapted markers [mm].
         zmp_inside_fraction: smallest fraction of support frames with the multibody ZMP inside
             the support polygon (balanced motions only).
+
+    ``physics_fell`` is a gate whenever the DART check ran (``--physics``): the motion passes
+    only if the robot did not fall.
     """
 
     limit_violation_frames: int = 0
@@ -44,6 +47,8 @@ def failed_gates(report: dict, gates: Gates | None = None, balanced: bool = True
               ("marker_rms_mm", "<=", gates.marker_rms_mm)]
     if balanced:
         checks.append(("zmp_inside_fraction", ">=", gates.zmp_inside_fraction))
+    if m.get("physics_fell") is True:
+        out["physics_fell"] = (True, "== False (the robot fell in the DART check)")
     for name, op, limit in checks:
         value = m.get(name)
         if value is None:
@@ -55,8 +60,8 @@ def failed_gates(report: dict, gates: Gates | None = None, balanced: bool = True
 
 
 def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
-                  balanced: bool = True, force: bool = False, source=None
-                  ) -> tuple[dict, dict]:
+                  balanced: bool = True, force: bool = False, source=None,
+                  physics=None) -> tuple[dict, dict]:
     """Score a robot motion as it will be written and check it against the gates (what
     ``imesh retarget`` and ``imesh batch`` do before writing).
 
@@ -72,6 +77,8 @@ def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
         source: the human clip (MarkerMotion or file) the motion was made from, for
             ``close_pair_error`` on the clip's frames (the motion's provenance says which), or
             None.
+        physics: a :class:`imesh.physics.PhysicsConfig` to run the DART check with and gate
+            on (``physics_fell``), or None (no physics check).
 
     Returns:
         (the evaluator's report (:func:`~imesh.evaluate.scoreboard.evaluate_motion`), the failed
@@ -80,7 +87,8 @@ def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
     Raises:
         VerificationError: a gate fails and not ``force`` (lists every failed gate).
     """
-    metrics = evaluate_motion(robot, motion, source=source, adapted=adapted, seconds=seconds)
+    metrics = evaluate_motion(robot, motion, source=source, adapted=adapted, seconds=seconds,
+                              physics=physics is not None, physics_config=physics)
     failed = failed_gates(metrics, balanced=balanced)
     if failed and not force:
         raise VerificationError(f"retargeted motion of {name} for {robot.name}", failed)

@@ -299,9 +299,9 @@ class WholeBodyController:
                 sol = self._solve(H, c, E[:6], e[:6], G[:0], lo[:0], up[:0])
         x = sol if sol is not None else np.zeros(n)
         a, w = x[:nv], x[nv:]
-        tau = M[6:] @ a + h[6:] - Jt[6:] @ w
-        if relaxed:
-            tau = np.clip(tau, -self.tau_max, self.tau_max)
+        # within the limits by the QP's constraints, to its tolerance (1e-6): the clip removes
+        # that round-off (and clamps the torques of a relaxed step, which are counted)
+        tau = np.clip(M[6:] @ a + h[6:] - Jt[6:] @ w, -self.tau_max, self.tau_max)
         wrenches = np.zeros((2, 6))
         for j, s in enumerate(active):
             wrenches[s] = w[6 * j:6 * j + 6]
