@@ -80,9 +80,11 @@ class RetargetConfig:
         wholebody: WholeBodyConfig of the whole-body solve.
         nishiwaki: BalanceConfig of the Nishiwaki loop (``balance="nishiwaki"``).
         lead_s: standing lead-in and lead-out of the whole-body solve [s] (0: none).
-        allow_flight: accept flight phases (both feet up): those frames get no support and no
-            ZMP constraint, and the result lists them. False: refuse them with FlightPhaseError
-            before any work.
+        allow_flight: ``balance="nishiwaki"`` only: accept flight phases (both feet up):
+            those frames get no support and no ZMP constraint, and the result lists them.
+            False: refuse them with FlightPhaseError before any work. The whole-body solve
+            plans flight as physics has it (ballistic CoM, :mod:`imesh.solve.forces`) and
+            ignores this.
         pelvis_weight: priority of the pelvis triangle (pelvis, hip_l, hip_r) and the base's
             lateral direction: the paper fits the waist 6-DOF from these first; a high weight
             keeps the feet from swinging the base when other targets disagree.
@@ -287,8 +289,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         RetargetResult; ``result.motion`` is the RobotMotion.
 
     Raises:
-        FlightPhaseError: the clip has flight phases and ``allow_flight`` is off (before any
-            solve).
+        FlightPhaseError: ``balance="nishiwaki"``, the clip has flight phases and
+            ``allow_flight`` is off (before any solve).
         SolverError: the whole-body solve failed.
     """
     config = config or RetargetConfig()
@@ -304,7 +306,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     contacts = detect_contacts(source, config.contacts)
     nishiwaki = config.nishiwaki or BalanceConfig(error_lowpass_hz=1.5,
                                                   allow_flight=config.allow_flight)
-    if config.balance != "none":  # fail before the morph, not after it
+    if config.balance == "nishiwaki":  # fail before the morph, not after it (the whole-body
+        # solve plans flight: ballistic, imesh.solve.forces)
         check_flight(motion.source or "motion", contacts.support, source.fps,
                      BalanceConfig(allow_flight=config.allow_flight))
     hard = soft = soft_w = None
@@ -404,9 +407,12 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")
         limits = joint_limits(robot, fit_config.limits)
+        sliding = np.zeros_like(ext.support)
+        sliding[n_lead:n_lead + n_work] = flat.moving
         plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
                                            source.fps, limits, config.wholebody,
-                                           rest_frames=3 if n_lead >= 3 else 0)
+                                           rest_frames=3 if n_lead >= 3 else 0,
+                                           sliding=sliding)
         seconds["plan"] = time.perf_counter() - t3
         n_out = len(ext.q)
         notify(progress, "plan", 1, 1, n_out)
@@ -431,7 +437,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         unconstrained = [(a + n_lead, b + n_lead) for a, b in contacts.flight_phases()]
         adapted = adapted.with_positions(
             ext.markers[:, :adapted.n_markers], source=adapted.source)
-        support_out = Contacts(support=ext.support, fps=source.fps)
+        support_out = Contacts(support=ext.support, fps=source.fps, sliding=sliding)
     motion_out = dataclasses.replace(fit.motion, q=q_out)
     seconds["total"] = time.perf_counter() - t0
     log.info("retargeted %s to %s: %d frames in %.2f s", motion.source, robot.name,

@@ -5,11 +5,17 @@ operator, linearized in the CoM auxiliaries: :class:`~imesh.solve.zmp.ZmpLineari
 
 * normal force: ``min_normal g <= g + c_z'' <= max_normal g`` in support frames: the ground
   only pushes (which also keeps the ZMP's denominator away from 0, where its linearization
-  means nothing), and the support joints carry at most ``max_normal`` times the weight; in
-  flight frames there is no ground: the CoM falls, ``c_z'' = -g``;
+  means nothing), and the support joints carry at most ``max_normal`` times the weight
+  (``impact_normal`` around take-offs and landings, ``Plan.normal_max``);
 * friction: ``|c_a''| <= (mu / sqrt 2) (g + c_z'')`` for a = x, y in support frames, the total
   force in the pyramid inside the friction cone (exact for the total force, so for the sole's
-  force in single support).
+  force in single support);
+* kinetic friction: where the only support slides, ``c_xy'' = mu_k (g + c_z'') u`` with ``u``
+  the unit direction against the slide (``Plan.kinetic``): the sole's force on the friction
+  cone's boundary;
+* flight: there is no ground, only gravity acts: the CoM is ballistic, ``c'' = (0, 0, -g)``,
+  and the angular momentum about the CoM is conserved, ``Ld_x = Ld_y = 0`` (the rows hold the
+  horizontal components the ZMP's linearization carries; ``Ld = grad k``).
 
 All rows are elastic on the frame's ZMP slack.
 """
@@ -17,36 +23,66 @@ All rows are elastic on the frame's ZMP slack.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from .config import WholeBodyConfig
 from .operators import Layout, Rows
-from .plan import GRAVITY, Linearization
+from .plan import GRAVITY, Linearization, Plan
 from .zmp import ZmpLinearization
 
 
-def force_rows(out: Rows, lin: Linearization, zl: ZmpLinearization, config: WholeBodyConfig,
-               lay: Layout) -> None:
-    """Normal-force rows of the support frames, friction rows (``config.forces.friction > 0``), then
-    the free fall of the flight frames (see the module docstring)."""
+def normal_bounds(plan: Plan, config: WholeBodyConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(T,) lower and upper bounds of ``c_z''`` [m/s^2] in the support frames (from
+    ``ForceOptions.min_normal`` and ``Plan.normal_max`` or ``ForceOptions.max_normal``)."""
+    T = len(plan.support)
+    top = (np.full(T, config.forces.max_normal) if plan.normal_max is None
+           else plan.normal_max)
+    return (np.full(T, (config.forces.min_normal - 1.0) * GRAVITY), (top - 1.0) * GRAVITY)
+
+
+def force_rows(out: Rows, lin: Linearization, plan: Plan, zl: ZmpLinearization,
+               config: WholeBodyConfig, lay: Layout) -> None:
+    """Normal-force rows of the support frames, friction rows (``config.forces.friction > 0``),
+    kinetic friction of the slides, then the ballistic flight frames (see the module
+    docstring)."""
     acc, acc_z, sup = lin.com_acceleration, zl.acc_z, zl.support
     slack = lay.pick(lay.offset["zmp_slack"])
     vert = (acc_z + slack).tocsr()
     flight = ~sup
     n_sup = int(sup.sum())
-    out.add(vert[sup], ((config.forces.min_normal - 1.0) * GRAVITY - acc[:, 2])[sup],
-            np.full(n_sup, np.inf))
-    out.add((acc_z - slack).tocsr()[sup], np.full(n_sup, -np.inf),
-            ((config.forces.max_normal - 1.0) * GRAVITY - acc[:, 2])[sup])
+    low, high = normal_bounds(plan, config)
+    out.add(vert[sup], (low - acc[:, 2])[sup], np.full(n_sup, np.inf))
+    out.add((acc_z - slack).tocsr()[sup], np.full(n_sup, -np.inf), (high - acc[:, 2])[sup])
+    acc_xy = [(zl.Dacc @ aux).tocsr() for aux in (zl.cx, zl.cy)]
     if config.forces.friction > 0 and sup.any():
         mu = config.forces.friction / np.sqrt(2.0)
-        for axis, aux in ((0, zl.cx), (1, zl.cy)):
-            acc_a = zl.Dacc @ aux
+        for axis, acc_a in enumerate(acc_xy):
             for sign in (1.0, -1.0):
                 out.add((sign * acc_a - mu * acc_z - slack).tocsr()[sup],
                         np.full(n_sup, -np.inf),
                         (mu * (GRAVITY + acc[:, 2]) - sign * acc[:, axis])[sup])
+    kin = (np.zeros(len(sup), dtype=bool) if plan.kinetic is None
+           else np.isfinite(plan.kinetic).all(axis=1) & sup)
+    if config.forces.kinetic_friction > 0 and kin.any():
+        mu_k = config.forces.kinetic_friction
+        n_kin = int(kin.sum())
+        for axis, acc_a in enumerate(acc_xy):
+            u = np.where(kin, plan.kinetic[:, axis], 0.0)
+            # c_a'' - mu_k u_a (g + c_z'') = 0, elastic on both sides
+            row = (acc_a - sp.diags(mu_k * u) @ acc_z).tocsr()[kin]
+            r = (mu_k * u * (GRAVITY + acc[:, 2]) - acc[:, axis])[kin]
+            out.add(row + slack.tocsr()[kin], r, np.full(n_kin, np.inf))
+            out.add(row - slack.tocsr()[kin], np.full(n_kin, -np.inf), r)
     if flight.any():
         n_flight = int(flight.sum())
         out.add(vert[flight], (-GRAVITY - acc[:, 2])[flight], np.full(n_flight, np.inf))
         out.add((acc_z - slack).tocsr()[flight], np.full(n_flight, -np.inf),
                 (-GRAVITY - acc[:, 2])[flight])
+        # ballistic horizontally, angular momentum conserved (per unit mass: m^2/s^2)
+        ld = lin.angular_momentum_rate / lin.mass
+        K0 = lay.offset["momentum"]
+        grad_k = [(zl.grad @ lay.pick(K0 + i) / lin.mass).tocsr() for i in range(2)]
+        for rows, now in ((acc_xy[0], acc[:, 0]), (acc_xy[1], acc[:, 1]),
+                          (grad_k[0], ld[:, 0]), (grad_k[1], ld[:, 1])):
+            out.add((rows + slack).tocsr()[flight], -now[flight], np.full(n_flight, np.inf))
+            out.add((rows - slack).tocsr()[flight], np.full(n_flight, -np.inf), -now[flight])
