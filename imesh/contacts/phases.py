@@ -12,10 +12,10 @@ Low and slow is a *planted* foot. Where no foot is planted, the clip is not yet 
   moves: a moving contact is a **slide**, or a **pivot** when the foot turns faster than
   ``pivot_rad_s`` about its vertical (a spin on the ball of the foot);
 - frames with no foot at ground height are **flight** only where the body falls as physics has
-  it: a parabola fitted to the markers' centroid height over the phase (one frame either side)
-  bends down by at least ``ballistic_fraction`` of g. Otherwise a foot carries the body whose
-  markers read high (a dancer on the ball of the foot, a marker set off the skin): the lower
-  foot is in contact.
+  it: a parabola fitted to the height of the trunk's centroid (pelvis, hips, spine, chest,
+  neck) over the phase bends down by at least ``ballistic_fraction`` of g. Otherwise a foot
+  carries the body whose markers read high (a dancer on the ball of the foot, a marker set off
+  the skin): the lower foot is in contact.
 
 Within a planted phase a foot whose toe travels more than ``slide_m`` at more than
 ``slide_speed_fraction`` body heights per second (for at least ``PhaseFilter.min_phase_s``) also
@@ -288,13 +288,22 @@ def _foot_tracks(motion: MarkerMotion) -> tuple[np.ndarray, ...]:
     return lift, speed, vel, yaw_rate
 
 
+#: The trunk's markers: the body's heaviest part, whose centroid stands in for the CoM when
+#: telling a flight by its fall (the feet and hands of a leap move on their own).
+TRUNK_MARKERS = ("pelvis", "hip_l", "hip_r", "spine", "chest", "neck")
+
+
 def _falls_freely(motion: MarkerMotion, start: int, stop: int, fraction: float) -> bool:
-    """Whether the markers' centroid falls with at least ``fraction`` of g over the frames
-    [start - 1, stop + 1): the curvature of a least-squares parabola through its height."""
-    a, b = max(start - 1, 0), min(stop + 1, motion.n_frames)
+    """Whether the trunk's centroid falls with at least ``fraction`` of g over the frames
+    [start, stop) (one more frame either side for a phase shorter than 4 frames): the
+    curvature of a least-squares parabola through its height."""
+    a, b = start, stop
+    if b - a < 4:
+        a, b = max(start - 1, 0), min(stop + 1, motion.n_frames)
     if b - a < 3:
         return False  # one or two frames: nothing to tell a fall by
-    z = motion.positions_m[a:b].mean(axis=1)[:, 2]
+    trunk = [i for i, n in enumerate(motion.names) if n in TRUNK_MARKERS]
+    z = motion.positions_m[a:b, trunk or slice(None)].mean(axis=1)[:, 2]
     t = np.arange(b - a) / motion.fps
     accel = 2.0 * np.polyfit(t, z, 2)[0]
     return bool(accel <= -fraction * GRAVITY)
@@ -335,11 +344,12 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
             k = int(np.argmin(lift[a:b].mean(axis=0)))  # the lower foot carries the body
             support[a:b, k] = True
     support = np.stack([drop_short(support[:, k], 1) for k in range(2)], axis=1)
-    # moving contacts: off the planted frames, and within planted phases where the toe travels
-    moving = support & ~planted
-    min_frames = max(1, int(round(fc.slide_s * fps)))
+    # moving contacts: off the planted frames where the foot moves or turns, and within
+    # planted phases where the toe travels
     vel_xy = vel[..., :2]
     fast = support & (np.linalg.norm(vel_xy, axis=2) > fc.slide_speed_fraction * height)
+    moving = support & ~planted & (fast | (np.abs(yaw_rate) > fc.pivot_rad_s))
+    min_frames = max(1, int(round(fc.slide_s * fps)))
     for k in range(2):
         for a, b in runs(fast[:, k]):
             travel = np.linalg.norm(vel_xy[a:b, k].sum(axis=0)) / fps
