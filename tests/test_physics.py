@@ -128,7 +128,8 @@ def test_fixed_joints_are_welded_at_pinocchio_angles(jvrc1):
 def test_nominal_pose_stands_for_5_s(robot):
     """Every robot standing in its nominal pose for 5 s: no fall, base height drift <= 1 cm,
     the contact forces carry the weight with their centre of pressure at the planned ZMP."""
-    result = simulate_motion(robot, standing(robot, 5.0))
+    result = simulate_motion(robot, standing(robot, 5.0),
+                             config=PhysicsConfig(control=ControlConfig(controller="spd")))
     assert not result.fell, result.fall_reason
     assert result.survived_s == pytest.approx(5.0)
     assert result.base_height_drift_m <= 0.01
@@ -147,7 +148,7 @@ def test_nominal_pose_stands_for_5_s(robot):
 
 def test_weak_motors_fall_and_the_result_says_when(jvrc1):
     """With 2 % of the torque the robot collapses: fell, survived < duration, NaN after."""
-    config = PhysicsConfig(control=ControlConfig(torque_limit_scale=0.02),
+    config = PhysicsConfig(control=ControlConfig(controller="spd", torque_limit_scale=0.02),
                            timing=TimingConfig(settle_s=0.05))
     result = simulate_motion(jvrc1, standing(jvrc1, 1.5), config=config)
     assert result.fell
@@ -201,7 +202,9 @@ def test_result_metrics_and_plot(jvrc1, tmp_path):
     assert result.zmp_contact_m.shape == result.zmp_planned_m.shape == (T, 2)
     assert result.torques_nm.shape == (T, jvrc1.dof)
     summary = result.summary()
-    assert summary["real_time_factor"] > 0 and summary["controller"] == "spd"
+    assert summary["real_time_factor"] > 0 and summary["controller"] == "wbc"
+    assert summary["keypoint_rms_mm"] < 5.0 and summary["slip_mm"] < 1.0
+    assert summary["cop_margin_mm"] > 0.0 and 0.0 <= summary["friction_ratio"] < 0.7
     plot_physics(result, tmp_path / "run.png")
     assert (tmp_path / "run.png").stat().st_size > 10_000
 
@@ -251,7 +254,8 @@ def test_feasible_squat_is_tracked_without_falling(jvrc1):
     for i in range(n):
         q[i, 2] -= jvrc1.sole_center(q[i], "left")[2]
     motion = RobotMotion(q=q, fps=fps, robot=jvrc1.name, joint_names=jvrc1.joint_names)
-    result = simulate_motion(jvrc1, motion, config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
+    result = simulate_motion(jvrc1, motion, config=PhysicsConfig(
+        control=ControlConfig(controller="spd"), timing=TimingConfig(settle_s=0.2)))
     assert not result.fell, result.fall_reason
     assert result.tracking_rms_rad < 0.005
     assert result.base_drift_m < 0.01

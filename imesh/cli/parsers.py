@@ -264,8 +264,10 @@ def add_evaluate(sub) -> argparse.ArgumentParser:
                    "mismatch is refused")
     p.add_argument("--fps", type=float, help="frame rate of motion files that store none")
     p.add_argument("--physics", action="store_true", help="run the DART dynamics check")
-    p.add_argument("--controller", choices=("spd", "pid"), default="spd",
-                   help="DART tracking controller (default spd)")
+    p.add_argument("--controller", choices=("wbc", "kinematic", "spd", "pid"), default="wbc",
+                   help="controller of the DART check: wbc (whole-body QP with balance "
+                        "feedback, default), kinematic (joints follow exactly, base free: the "
+                        "paper's check), spd/pid (open-loop joint tracking)")
     p.add_argument("--fixed-base", action="store_true",
                    help="weld the base at its first pose in DART (arm-only tracking)")
     p.add_argument("--plot", help="write the DART run's figure here (.png)")

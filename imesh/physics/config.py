@@ -9,16 +9,100 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.checks import require_count, require_finite
+from ..core.checks import NonNegative, require_count, require_finite
 from ..errors import OptionError
 
-CONTROLLERS = ("spd", "pid")
+CONTROLLERS = ("wbc", "kinematic", "spd", "pid")
 COLLISION_DETECTORS = ("ode", "bullet", "dart", "fcl")
 
 
 @dataclass(frozen=True)
+class WbcGains(NonNegative):
+    """Feedback gains of the whole-body controller's tasks (accelerations per unit error).
+
+    Attributes:
+        dcm: capture-point gain ``k_xi`` [1/s] of the horizontal CoM (the divergent component
+            of motion converges at ``k_xi``).
+        com_z_kp: vertical CoM stiffness [1/s^2]; ``com_z_kd`` its damping [1/s].
+        base_kp: base orientation stiffness [1/s^2]; ``base_kd`` [1/s].
+        sole_kp: swing sole pose stiffness [1/s^2]; ``sole_kd`` [1/s].
+        joint_kp: joint posture stiffness [1/s^2]; ``joint_kd`` [1/s].
+        contact_kd: damping of a contact sole's residual velocity [1/s].
+    """
+
+    dcm: float = 8.0
+    com_z_kp: float = 100.0
+    com_z_kd: float = 20.0
+    base_kp: float = 200.0
+    base_kd: float = 28.0
+    sole_kp: float = 400.0
+    sole_kd: float = 40.0
+    joint_kp: float = 200.0
+    joint_kd: float = 28.0
+    contact_kd: float = 10.0
+
+
+@dataclass(frozen=True)
+class WbcWeights(NonNegative):
+    """Weights of the whole-body controller's tasks in its QP cost (per squared m/s^2 or
+    rad/s^2), and the regularization of the unknowns.
+
+    Attributes:
+        com: centre of mass.
+        base: base orientation.
+        swing: swing soles (6 rows each).
+        joints: joint posture.
+        acceleration: every generalized acceleration (regularization).
+        wrench: every contact wrench component, per N^2 (spreads the load).
+    """
+
+    com: float = 100.0
+    base: float = 10.0
+    swing: float = 30.0
+    joints: float = 1.0
+    acceleration: float = 1e-4
+    wrench: float = 1e-6
+
+
+@dataclass(frozen=True)
+class WbcConfig:
+    """The whole-body QP controller (``ControlConfig(controller="wbc")``,
+    :mod:`imesh.physics.wbc`).
+
+    Attributes:
+        gains: task feedback gains.
+        weights: task weights.
+        rate_hz: control rate [Hz] (the torques are held between control steps; at most the
+            simulation rate).
+        cop_margin: fraction of each sole's half sizes kept free of the centre of pressure.
+        friction_fraction: the controller assumes this fraction of the ground's friction.
+        torque_fraction: torques are constrained to this fraction of the effort limits.
+        min_normal_force_n: smallest normal force of a sole in contact [N].
+        contact_height_m: a sole planned in support is treated as in contact once its lowest
+            corner is this close to the ground [m].
+    """
+
+    gains: WbcGains = field(default_factory=WbcGains)
+    weights: WbcWeights = field(default_factory=WbcWeights)
+    rate_hz: float = 1000.0
+    cop_margin: float = 0.1
+    friction_fraction: float = 0.7
+    torque_fraction: float = 1.0
+    min_normal_force_n: float = 1.0
+    contact_height_m: float = 0.005
+
+    def __post_init__(self) -> None:
+        require_finite(self, ("rate_hz", "friction_fraction", "torque_fraction"), positive=True)
+        require_finite(self, ("min_normal_force_n", "contact_height_m"), positive=False)
+        if not 0.0 <= self.cop_margin < 1.0:
+            raise OptionError("cop_margin", self.cop_margin, "a fraction in [0, 1)")
+        if self.torque_fraction > 1.0:
+            raise OptionError("torque_fraction", self.torque_fraction, "at most 1")
+
+
+@dataclass(frozen=True)
 class ControlConfig:
-    """The joint controller and its gains.
+    """The controller of the check and its gains.
 
     Gains are set per joint from its torque limit, so one setting suits robots with 5 Nm wrists
     and 140 Nm knees: ``kp = kp_per_effort * effort_max`` [Nm/rad] (a joint saturates at
@@ -26,8 +110,10 @@ class ControlConfig:
     ``ki = ki_ratio * kp`` [Nm/(rad s)] (PID only). ``gains`` overrides single joints.
 
     Attributes:
-        controller: ``"spd"`` (stable PD, Tan et al. 2011: implicit in the joint damping, stable
-            at high gains) or ``"pid"`` (explicit PID).
+        controller: ``"wbc"`` (the whole-body QP controller with balance feedback, the
+            default), ``"kinematic"`` (joints follow the reference exactly, base free: the
+            paper's check), ``"spd"`` (open-loop stable PD, Tan et al. 2011: implicit in the
+            joint damping, stable at high gains) or ``"pid"`` (open-loop explicit PID).
         kp_per_effort: proportional gain per Nm of torque limit [1/rad].
         kd_ratio: derivative gain relative to the proportional gain [s].
         ki_ratio: integral gain relative to the proportional gain [1/s] (``"pid"`` only).
@@ -37,9 +123,10 @@ class ControlConfig:
         torque_limit_scale: torques are clamped to ``effort_max * torque_limit_scale``.
         mass_matrix_every: the SPD controller refreshes the mass matrix every this many steps
             (DART's mass matrix costs about as much as a physics step; it changes slowly).
+        wbc: the whole-body controller's settings (``"wbc"`` only).
     """
 
-    controller: str = "spd"
+    controller: str = "wbc"
     kp_per_effort: float = 20.0
     kd_ratio: float = 0.05
     ki_ratio: float = 2.0
@@ -47,6 +134,7 @@ class ControlConfig:
     feedforward: bool = True
     torque_limit_scale: float = 1.0
     mass_matrix_every: int = 8
+    wbc: WbcConfig = field(default_factory=WbcConfig)
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:

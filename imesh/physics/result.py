@@ -37,6 +37,16 @@ class PhysicsResult:
             last survived frame [m].
         base_height_drift_m: largest |simulated - reference| base height over the survived
             frames [m].
+        keypoint_rms_mm: RMS distance between the robot's key points (markers.toml) in the
+            simulated and the reference motion over the survived frames [mm] (NaN without key
+            points); ``keypoint_max_mm`` the largest.
+        slip_mm: largest horizontal displacement of a sole centre within one planned support
+            phase [mm].
+        friction_ratio: largest tangential / (mu x normal) ground force ratio of a loaded sole.
+        cop_margin_mm: smallest distance of a loaded sole's centre of pressure to its edge [mm]
+            (negative: outside, the sole tips).
+        relaxed_fraction: fraction of the whole-body controller's QPs that were infeasible
+            within the torque limits and solved without them (0 for other controllers).
         real_time_factor: simulated time / wall time, settling included.
         wall_s: wall time of the simulation loop [s].
         controller_us_per_step: wall time of the Python controller per control step [us].
@@ -51,6 +61,10 @@ class PhysicsResult:
             averaged over each frame period (NaN without contact).
         zmp_planned_m: (T, 2) float [m] multibody ZMP of the reference.
         contact_force_n: (T,) float total vertical ground force, averaged per frame [N].
+        sole_forces_n: (T, 2, 3) float [left, right] ground force on each sole, averaged per
+            frame [N].
+        sole_cop_m: (T, 2, 2) float [left, right] centre of pressure of each sole [m] (NaN
+            below 1 N).
         support: (T, 2) bool reference support phases used for the feed-forward.
         ground_offset_m: base height added to place the motion's first frame on the ground [m].
         config: the settings used.
@@ -68,6 +82,12 @@ class PhysicsResult:
     saturation_fraction: float
     base_drift_m: float
     base_height_drift_m: float
+    keypoint_rms_mm: float
+    keypoint_max_mm: float
+    slip_mm: float
+    friction_ratio: float
+    cop_margin_mm: float
+    relaxed_fraction: float
     real_time_factor: float
     wall_s: float
     controller_us_per_step: float
@@ -81,6 +101,8 @@ class PhysicsResult:
     zmp_contact_m: np.ndarray
     zmp_planned_m: np.ndarray
     contact_force_n: np.ndarray
+    sole_forces_n: np.ndarray
+    sole_cop_m: np.ndarray
     support: np.ndarray
     ground_offset_m: float
     config: PhysicsConfig = field(default_factory=PhysicsConfig)
@@ -114,6 +136,12 @@ class PhysicsResult:
             "saturation_fraction": self.saturation_fraction,
             "base_drift_m": self.base_drift_m,
             "base_height_drift_m": self.base_height_drift_m,
+            "keypoint_rms_mm": self.keypoint_rms_mm,
+            "keypoint_max_mm": self.keypoint_max_mm,
+            "slip_mm": self.slip_mm,
+            "friction_ratio": self.friction_ratio,
+            "cop_margin_mm": self.cop_margin_mm,
+            "relaxed_fraction": self.relaxed_fraction,
             "zmp_contact_error_mm": self.zmp_contact_error_mm,
             "real_time_factor": self.real_time_factor,
             "wall_s": self.wall_s,

@@ -1,25 +1,14 @@
-"""Track a RobotMotion in DART: stable PD (or PID) plus inverse-dynamics feed-forward at 1 kHz,
-torques clamped to the motors' limits, falls detected, contact forces turned into a ZMP.
+"""Track a RobotMotion in DART and judge it: one of the controllers of
+:mod:`imesh.physics.controllers` at 1 kHz (the whole-body QP controller by default), falls
+detected, the ground contact forces of each sole read back (centre of pressure, friction ratio),
+and the simulated motion compared with the reference (joints, key points, base, sole slip).
 
-The loop, per control step (all vectors in DART's DOF order, the base rows of the gains zero):
-
-- SPD (Tan, Liu & Turk 2011): ``tau = -Kp (q + dt qdot - qref') - Kd (qdot + dt qddot - dqref')
-  + tau_ff`` (``'`` = the next step's reference) with ``qddot`` predicted from
-  ``(M + dt Kd) qddot = -C + p + d + tau_ff + f_c``, ``f_c`` the generalized constraint (contact)
-  forces of the previous step (as in DART's biped example). Without ``f_c`` a floating base
-  predicts that an ankle torque spins the light foot; the implicit damping then cancels the
-  ankles' stiffness and a standing robot tips over (JVRC-1) or chatters (G1, HRP-4C). The mass
-  matrix (about as costly as a physics step) is refreshed and Cholesky-factored every
-  ``ControlConfig.mass_matrix_every`` steps; ``C`` (Coriolis and gravity) and ``f_c`` every step.
-- PID: ``tau = tau_ff + Kp e + Kd de + Ki int(e)``.
-- ``tau`` clamped to ``effort_max * ControlConfig.torque_limit_scale``.
-
-The feed-forward is precomputed once per motion frame with pinocchio's inverse dynamics of the
-reference (recursive Newton-Euler on the model the motion was fitted with; the DART model is
-built from the same reduced URDF and checked against it): the base wrench it needs is
-distributed over the support feet (wrenches at the sole centres, weighted least norm), the joint
-torques follow, and they are interpolated linearly between frames. Joint targets are a cubic
-spline of the frames.
+The SPD and PID trackers add the feed-forward of :func:`feedforward`, precomputed once per
+motion frame with pinocchio's inverse dynamics of the reference (recursive Newton-Euler on the
+model the motion was fitted with; the DART model is built from the same reduced URDF and
+checked against it): the base wrench it needs is distributed over the support feet (wrenches
+at the sole centres, weighted least norm), the joint torques follow, and they are interpolated
+linearly between frames.
 """
 
 from __future__ import annotations
@@ -28,50 +17,23 @@ import logging
 import time
 
 import numpy as np
-from scipy.linalg import lapack
 from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES
 from ..errors import ImeshError
 from .config import PhysicsConfig
-from .reference import Reference, build_reference, joint_splines, sample_frames
+from .controllers import JointTracker, KinematicTracker, WbcTracker
+from .reference import Reference, build_reference
 from .result import PhysicsResult
-from .world import DartRobot, PhysicsError
+from .world import DartRobot
 
 log = logging.getLogger(__name__)
 
-#: Control steps of the reference sampled at once (bounds the memory for long motions).
-CHUNK_STEPS = 4000
 #: A base faster than this [m/s or rad/s] or this far from the origin [m] has diverged.
 DIVERGED_SPEED = 200.0
 DIVERGED_M = 1000.0
 #: Moment arm [m] that weighs the torques against the forces in the contact-wrench distribution.
 WRENCH_ARM_M = 0.05
-
-
-def _gains(robot, config: PhysicsConfig) -> tuple[np.ndarray, np.ndarray]:
-    kp = config.control.kp_per_effort * robot.effort_max
-    kd = config.control.kd_ratio * kp
-    for name, (p, d) in config.control.gains.items():
-        i = robot.joint_index(name)
-        kp[i], kd[i] = p, d
-    return kp, kd
-
-
-def _explicit_gains(sim: DartRobot, kp: np.ndarray, kd: np.ndarray, dt: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Gains an explicit PD(-I) can integrate at ``dt``: capped per joint by its smallest
-    effective inertia ``1 / (M^-1)_ii`` (every other DOF free): ``kp <= 0.2 I / dt^2``,
-    ``kd <= 0.5 I / dt``."""
-    M = np.asarray(sim.skeleton.getMassMatrix())
-    inertia = 1.0 / np.diag(np.linalg.inv(M))[sim.joint_dofs]
-    kp_cap, kd_cap = 0.2 * inertia / dt ** 2, 0.5 * inertia / dt
-    capped = (kp > kp_cap) | (kd > kd_cap)
-    if capped.any():
-        log.info("PID: gains of %d joints capped for explicit stability at dt = %g s "
-                 "(lightest: %s)", int(capped.sum()), dt,
-                 sim.robot.joint_names[int(np.argmin(inertia))])
-    return np.minimum(kp, kp_cap), np.minimum(kd, kd_cap)
 
 
 def feedforward(sim: DartRobot, ref: Reference) -> tuple[np.ndarray, np.ndarray]:
@@ -129,6 +91,95 @@ def _tilt(rotvec_sim: np.ndarray, quat_ref: np.ndarray) -> float:
     return float(np.arccos(np.clip(z_sim @ z_ref, -1.0, 1.0)))
 
 
+def _contact_sides(sim: DartRobot) -> dict[str, int]:
+    """Shape-node name -> sole index (0 left, 1 right) of the sole boxes."""
+    return {f"{side}_sole": k for k, side in enumerate(SIDES)}
+
+
+def _joint_tracking(config: PhysicsConfig) -> PhysicsConfig:
+    """``config`` with the SPD joint tracker (a welded base has no balance to keep)."""
+    import dataclasses
+
+    return dataclasses.replace(config, control=dataclasses.replace(config.control,
+                                                                   controller="spd"))
+
+
+def _keypoint_errors(robot, q_ref: np.ndarray, q_sim: np.ndarray, ok: np.ndarray
+                     ) -> tuple[float, float]:
+    """(RMS, max) [mm] distance between the robot's key points (markers.toml) in the simulated
+    and the reference motion over the survived frames (NaN without key points)."""
+    if robot.markers is None or not ok.any():
+        return float("nan"), float("nan")
+    _, ids, offsets, _ = robot.keypoint_arrays()
+    frames = sorted(set(ids.tolist()))
+    col = np.searchsorted(frames, ids)
+
+    def points(q: np.ndarray) -> np.ndarray:
+        pl = robot.trajectory_kinematics(q, frames).placements[:, col]  # (T, K, 4, 4)
+        return np.einsum("tkij,kj->tki", pl[..., :3, :3], offsets) + pl[..., :3, 3]
+
+    d = np.linalg.norm(points(q_sim[ok]) - points(q_ref[ok]), axis=-1)
+    return float(1e3 * np.sqrt(np.mean(d ** 2))), float(1e3 * d.max())
+
+
+def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
+                     sole_force: np.ndarray, sole_moment: np.ndarray, samples: np.ndarray,
+                     friction: float) -> dict:
+    """What the ground contact did, per frame and sole (forces summed over the contact samples
+    of each frame period):
+
+    - ``zmp`` (T, 2): centre of pressure of all ground contacts [m] (NaN below 1 N);
+      ``force`` (T,): mean vertical ground force [N];
+    - ``sole_forces`` (T, 2, 3): mean force on each sole [N]; ``sole_cop`` (T, 2, 2) its centre
+      of pressure [m] (NaN below 1 N);
+    - ``friction_ratio``: largest tangential / (mu x normal) ratio of a sole carrying more
+      than 5 % of the robot's weight;
+    - ``cop_margin_mm``: smallest distance of a loaded sole's centre of pressure to the edge of
+      its rectangle (negative outside) [mm];
+    - ``slip_mm``: largest horizontal displacement of a sole centre within one planned support
+      phase, over the survived frames [mm].
+    """
+    T = len(ok)
+    n = np.maximum(samples, 1)[:, None, None]
+    forces = sole_force / n
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sole_cop = sole_moment / sole_force[..., 2:3]
+        sole_cop[sole_force[..., 2] * (1 / n[..., 0]) < 1.0] = np.nan
+        total = sole_force.sum(axis=1)
+        zmp = sole_moment.sum(axis=1) / total[:, 2:3]
+        zmp[(total[:, 2] / n[:, 0, 0] < 1.0) | ~ok] = np.nan
+        force = np.where(samples > 0, total[:, 2] / n[:, 0, 0], np.nan)
+    force[~ok] = np.nan
+    sole_cop[~ok] = np.nan
+    loaded = (forces[..., 2] > 0.05 * robot.mass * 9.81) & ok[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fr = np.linalg.norm(forces[..., :2], axis=-1) / (friction * forces[..., 2])
+    friction_ratio = float(fr[loaded].max()) if loaded.any() else float("nan")
+    margin = float("nan")
+    slip = 0.0
+    if ok.any():
+        frames = [robot.soles[s].frame for s in SIDES]
+        centres = np.array([robot.soles[s].center for s in SIDES])
+        q_ok = np.where(ok[:, None], q_sim, ref.q)
+        pl = robot.trajectory_kinematics(q_ok, frames).placements  # (T, 2, 4, 4)
+        centre_w = pl[:, :, :3, 3] + np.einsum("tfij,fj->tfi", pl[:, :, :3, :3], centres)
+        rel = np.concatenate([sole_cop - centre_w[..., :2], np.zeros((T, 2, 1))], axis=-1)
+        local = np.einsum("tfji,tfj->tfi", pl[:, :, :3, :3], rel)[..., :2]  # in the foot frame
+        half = np.array([robot.soles[s].half_extents for s in SIDES])
+        edge = np.min(half[None] - np.abs(local), axis=-1)  # (T, 2), > 0 inside
+        use = loaded & np.isfinite(edge)
+        if use.any():
+            margin = float(1e3 * edge[use].min())
+        for k in range(2):
+            sup = ref.support[:, k] & ok
+            edges = np.flatnonzero(np.diff(np.r_[0, sup.astype(np.int8), 0]))
+            for a, b in zip(edges[::2], edges[1::2], strict=True):
+                xy = centre_w[a:b, k, :2]
+                slip = max(slip, float(np.linalg.norm(xy - xy[0], axis=1).max()))
+    return {"zmp": zmp, "force": force, "sole_forces": forces, "sole_cop": sole_cop,
+            "friction_ratio": friction_ratio, "cop_margin_mm": margin, "slip_mm": 1e3 * slip}
+
+
 def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> PhysicsResult:
     """Track a robot motion in DART and judge it.
 
@@ -142,8 +193,8 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         config: PhysicsConfig.
 
     Returns:
-        PhysicsResult (``.metrics()`` gives the DESIGN.md physics metrics, ``.plot(path)`` a
-        figure).
+        PhysicsResult (``.metrics()`` gives the DESIGN.md physics metrics, ``.summary()`` the
+        rest).
 
     Raises:
         ImeshError: the motion is of another robot or has other joints.
@@ -165,45 +216,22 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     skel, world = sim.skeleton, sim.world
     n, nb, dt = sim.n_dofs, sim.base_dofs, config.timing.dt
     fps = ref.fps
-
-    # --- reference at the control rate ---------------------------------------------------------
     settle = int(round(config.timing.settle_s / dt))
     track = int(round((ref.duration_s + config.timing.extra_time_s) / dt))
-    spline = joint_splines(ref.q, fps)
-    jd = sim.joint_dofs
-    if config.control.feedforward:
-        tau_ff_frames = feedforward(sim, ref)[0]
-    else:
-        tau_ff_frames = np.zeros((ref.n_frames, n))
 
-    def reference_chunk(start: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Targets, target rates and feed-forward of tracking steps start .. start + CHUNK
-        (inclusive, so step i + 1 is there for every step i of the chunk)."""
-        times = np.arange(start, min(start + CHUNK_STEPS, track) + 2) * dt
-        qb, dqb = np.zeros((len(times), n)), np.zeros((len(times), n))
-        tc = np.minimum(times, ref.duration_s)
-        if spline is not None:
-            qb[:, jd] = spline(tc)
-            dqb[:, jd] = spline(tc, 1)
-            dqb[times > ref.duration_s] = 0.0
-        else:
-            qb[:, jd] = ref.q[0, 7:]
-        return qb, dqb, sample_frames(tau_ff_frames, times, fps)
-
+    kind = config.control.controller
+    controller: WbcTracker | KinematicTracker | JointTracker
+    if kind == "wbc" and nb:
+        controller = WbcTracker(sim, ref, config)
+    elif kind == "kinematic":
+        controller = KinematicTracker(sim, ref, config)
+    else:  # spd, pid (and a welded base, which has no balance to keep: joint tracking)
+        tau_ff = (feedforward(sim, ref)[0] if config.control.feedforward
+                  else np.zeros((ref.n_frames, n)))
+        if kind == "wbc":
+            config = _joint_tracking(config)
+        controller = JointTracker(sim, ref, config, tau_ff, track)
     sim.set_state(ref.q[0])  # the first frame, at rest
-    kp_j, kd_j = _gains(robot, config)
-    if config.control.controller == "pid":
-        kp_j, kd_j = _explicit_gains(sim, kp_j, kd_j, dt)
-    kp, kd = np.zeros(n), np.zeros(n)
-    kp[jd], kd[jd] = kp_j, kd_j
-    ki = config.control.ki_ratio * kp
-    limit = np.full(n, np.inf)
-    limit[jd] = robot.effort_max * config.control.torque_limit_scale
-    inv_limit = np.zeros(n)
-    inv_limit[jd] = 1.0 / limit[jd]
-    kd_dt = kd * dt
-    spd = config.control.controller == "spd"
-
     setup_s = time.perf_counter() - t_setup
 
     # --- recording -----------------------------------------------------------------------------
@@ -213,18 +241,15 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     pos_rec = np.full((T, n), np.nan)
     tau_rec = np.full((T, n), np.nan)
     ratio_rec = np.full(T, np.nan)
-    cop = np.zeros((T, 3))  # sum fz*x, fz*y, fz over contact samples
+    sole_force = np.zeros((T, 2, 3))  # per sole: sum of contact force vectors
+    sole_moment = np.zeros((T, 2, 2))  # per sole: sum of fz * (x, y)
     samples = np.zeros(T)
     sample_every = config.ground.contact_sample_every
+    sides = _contact_sides(sim)
 
     get_pos, get_vel = skel.getPositions, skel.getVelocities
-    get_mass, get_cg = skel.getMassMatrix, skel.getCoriolisAndGravityForces
-    set_forces, step = skel.setForces, world.step
+    step = world.step
     collision_result = world.getLastCollisionResult
-    diag = np.diag_indices(n)
-    chol = None
-    get_constraint = skel.getConstraintForces
-    integral = np.zeros(n)
     fell, reason = False, ""
     fall_step = None
     saturated = 0
@@ -234,42 +259,14 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     t0 = time.perf_counter()
 
     total = settle + track + 1
-    buf = np.empty(n)
     next_frame = 0  # the next motion frame to record
-    c0_step = 0
-    qbar, dqbar, tau_ff = reference_chunk(0)
     for k in range(total):
         tracking = k >= settle
         i = k - settle if tracking else 0  # tracking step index
         c0 = time.perf_counter()
         pos = get_pos()
         vel = get_vel()
-        nxt = i + 1 if tracking else 0
-        if nxt >= c0_step + len(qbar):  # next chunk of the reference (bounded memory)
-            c0_step = i
-            qbar, dqbar, tau_ff = reference_chunk(i)
-        if spd:
-            if chol is None or k % config.control.mass_matrix_every == 0:
-                M = get_mass()
-                M[diag] += kd_dt
-                chol, info = lapack.dpotrf(M)
-                if info != 0:
-                    raise PhysicsError(f"mass matrix not positive definite at step {k}")
-            p = -kp * (pos + dt * vel - qbar[nxt - c0_step])
-            d = -kd * (vel - dqbar[nxt - c0_step])
-            ff = tau_ff[i - c0_step]
-            rhs = p + d + ff - get_cg() + get_constraint()
-            qdd = lapack.dpotrs(chol, rhs)[0]
-            tau = p + d - kd_dt * qdd + ff
-        else:
-            e = qbar[i - c0_step] - pos
-            integral += e * dt
-            tau = (tau_ff[i - c0_step] + kp * e + kd * (dqbar[i - c0_step] - vel)
-                   + ki * integral)
-        np.abs(tau, out=buf)
-        buf *= inv_limit
-        ratio = float(buf.max())
-        if ratio != ratio:  # NaN: a non-finite state propagates into every torque
+        if not np.all(np.isfinite(pos)) or not np.all(np.isfinite(vel)):
             fell, reason, fall_step = True, "simulation diverged (non-finite state)", i
             break
         if nb and (abs(vel[:6]).max() > DIVERGED_SPEED or abs(pos[3:6]).max() > DIVERGED_M):
@@ -279,16 +276,15 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
             reason = (f"simulation diverged (base speed {abs(vel[:6]).max():.0f}) at "
                       f"t = {i * dt:.2f} s")
             break
-        if ratio > 1.0:
-            np.clip(tau, -limit, limit, out=tau)
-            if tracking:
-                saturated += 1
-        if nb:
-            tau[:nb] = 0.0
-        set_forces(tau)
+        tau, ratio = controller(k, i, tracking, pos, vel)
+        if ratio != ratio:  # NaN: a non-finite state propagates into every torque
+            fell, reason, fall_step = True, "simulation diverged (non-finite torque)", i
+            break
         ctrl_s += time.perf_counter() - c0
 
         if tracking:
+            if ratio > 1.0:
+                saturated += 1
             f = frame_of_step[i]
             if ratio > ratio_max:
                 ratio_max = ratio
@@ -320,11 +316,17 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         if tracking and nb and i % sample_every == 0:
             f = frame_of_step[i]
             for c in collision_result().getContacts():
-                fz = abs(c.force[2])
-                pt = c.point
-                cop[f, 0] += fz * pt[0]
-                cop[f, 1] += fz * pt[1]
-                cop[f, 2] += fz
+                s = sides.get(c.collisionObject1.getShapeFrame().getName(),
+                              sides.get(c.collisionObject2.getShapeFrame().getName()))
+                if s is None:
+                    continue
+                # the force on the sole, whichever object DART lists first (fz > 0)
+                force = np.asarray(c.force)
+                if force[2] < 0:
+                    force = -force
+                fz = force[2]
+                sole_force[f, s] += force
+                sole_moment[f, s] += fz * np.asarray(c.point)[:2]
             samples[f] += 1
     wall = time.perf_counter() - t0
     steps_done = k + 1
@@ -341,12 +343,9 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     err = q_sim[:, 7:] - ref.q[:, 7:]
     tracking_rms = float(np.sqrt(np.nanmean(err[ok] ** 2))) if ok.any() else float("nan")
     torques = np.full((T, robot.dof), np.nan)
-    torques[ok] = tau_rec[ok][:, jd]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        zmp_contact = cop[:, :2] / cop[:, 2:3]
-        zmp_contact[(cop[:, 2] < 1.0) | ~ok] = np.nan
-        force = np.where(samples > 0, cop[:, 2] / np.maximum(samples, 1), np.nan)
-    force[~ok] = np.nan
+    torques[ok] = tau_rec[ok][:, sim.joint_dofs]
+    contact = _contact_figures(robot, ref, q_sim, ok, sole_force, sole_moment, samples,
+                               config.ground.friction)
     if ok.any():
         lastok = int(np.flatnonzero(ok)[-1])
         drift = float(np.linalg.norm(q_sim[lastok, :3] - ref.q[lastok, :3]))
@@ -355,23 +354,31 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         drift = height_drift = float("nan")
     if config.fixed_base:
         drift = height_drift = 0.0
+    kp_rms, kp_max = _keypoint_errors(robot, ref.q, q_sim, ok)
     tracked_steps = max(0, steps_done - settle)
     sim_time = steps_done * dt
+    relaxed = (controller.controller.relaxed_steps / max(tracked_steps // controller.every, 1)
+               if isinstance(controller, WbcTracker) else 0.0)
     result = PhysicsResult(
         robot=robot.name, joint_names=tuple(robot.joint_names), fps=fps, fell=fell,
         fall_reason=reason, survived_s=float(survived),
         duration_s=float(ref.duration_s + config.timing.extra_time_s),
         tracking_rms_rad=tracking_rms, torque_ratio_max=float(ratio_max),
         saturation_fraction=saturated / max(tracked_steps, 1), base_drift_m=drift,
-        base_height_drift_m=height_drift, real_time_factor=sim_time / max(wall, 1e-9),
+        base_height_drift_m=height_drift, keypoint_rms_mm=kp_rms, keypoint_max_mm=kp_max,
+        slip_mm=contact["slip_mm"], friction_ratio=contact["friction_ratio"],
+        cop_margin_mm=contact["cop_margin_mm"], relaxed_fraction=float(relaxed),
+        real_time_factor=sim_time / max(wall, 1e-9),
         wall_s=wall, controller_us_per_step=1e6 * ctrl_s / max(steps_done, 1),
         physics_us_per_step=1e6 * (wall - ctrl_s) / max(steps_done, 1),
         times_s=np.arange(T) / fps, q=q_sim, q_reference=ref.q, joint_error_rad=err,
-        torques_nm=torques, torque_ratio=ratio_rec, zmp_contact_m=zmp_contact,
-        zmp_planned_m=ref.zmp_m, contact_force_n=force, support=ref.support,
-        ground_offset_m=ref.ground_offset_m, config=config)
+        torques_nm=torques, torque_ratio=ratio_rec, zmp_contact_m=contact["zmp"],
+        zmp_planned_m=ref.zmp_m, contact_force_n=contact["force"],
+        sole_forces_n=contact["sole_forces"], sole_cop_m=contact["sole_cop"],
+        support=ref.support, ground_offset_m=ref.ground_offset_m, config=config)
     log.info("DART %s (%s, %d frames at %g fps): %s, survived %.2f of %.2f s, tracking RMS "
-             "%.4f rad, torque ratio %.2f, real-time factor %.2f (setup %.2f s)", robot.name,
-             config.control.controller, T, fps, f"FELL ({reason})" if fell else "did not fall",
-             survived, ref.duration_s, tracking_rms, ratio_max, result.real_time_factor, setup_s)
+             "%.4f rad, key points %.1f mm RMS, torque ratio %.2f, real-time factor %.2f "
+             "(setup %.2f s)", robot.name, kind, T, fps,
+             f"FELL ({reason})" if fell else "did not fall", survived, ref.duration_s,
+             tracking_rms, kp_rms, ratio_max, result.real_time_factor, setup_s)
     return result

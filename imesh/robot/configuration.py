@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ImeshError
+from .dynamics import Dynamics
 from .pin import _pinocchio
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
@@ -242,3 +243,63 @@ class Configuration:
                                       np.asarray(a, float)))
         self._placements_after_pass(q)
         return tau
+
+    def dynamics(self, q, v, ids: list[int], offsets: np.ndarray) -> Dynamics:
+        """Equation-of-motion terms and task kinematics at the state (q, v), one pinocchio pass.
+
+        ``computeAllTerms`` gives ``M``, ``h = C v + g``, the joint Jacobians, the CoM and its
+        Jacobian; a forward pass with ``a = 0`` gives the drifts ``Jdot v`` (classical
+        accelerations of the points: ``a_o + alpha x r + omega x (omega x r)`` with ``r`` the
+        point's offset from the frame origin in world axes).
+
+        Args:
+            q: (nq,) float configuration; v: (nv,) float velocity (pinocchio convention).
+            ids: F frame indices.
+            offsets: (F, 3) float [m] points fixed in those frames.
+
+        Returns:
+            :class:`imesh.robot.dynamics.Dynamics`; afterwards ``data`` holds the placements
+            and joint Jacobians at ``q`` (``self.q``).
+        """
+        pin = self._pin
+        q = self.check(q)
+        v = np.asarray(v, dtype=float)
+        model, data = self.model, self.data
+        pin.computeAllTerms(model, data, q, v)
+        M = np.array(data.M)
+        M = np.triu(M) + np.triu(M, 1).T  # pinocchio fills the upper triangle
+        bias = np.array(data.nle)
+        com = np.array(data.com[0])
+        com_vel = np.array(data.vcom[0])
+        Jcom = np.array(data.Jcom)
+        pin.updateFramePlacements(model, data)
+        F = len(ids)
+        poses = np.empty((F, 4, 4))
+        jac = np.empty((F, 6, self.nv))
+        for k, i in enumerate(ids):
+            oMf = data.oMf[i]
+            R = oMf.rotation
+            r = R @ offsets[k]
+            poses[k] = np.eye(4)
+            poses[k, :3, :3] = R
+            poses[k, :3, 3] = oMf.translation + r
+            J = pin.getFrameJacobian(model, data, i, pin.LOCAL_WORLD_ALIGNED)
+            jac[k, :3] = J[:3] - skew(r) @ J[3:]
+            jac[k, 3:] = J[3:]
+        twists = jac @ v
+        # a = 0: the drifts (this pass also writes data.acom[0])
+        pin.centerOfMass(model, data, q, v, np.zeros(self.nv))
+        com_drift = np.array(data.acom[0])
+        drifts = np.empty((F, 6))
+        for k, i in enumerate(ids):
+            acc = pin.getFrameClassicalAcceleration(model, data, i, pin.LOCAL_WORLD_ALIGNED)
+            r = poses[k, :3, 3] - data.oMf[i].translation
+            w = twists[k, 3:]
+            # omega x (omega x r) = omega (omega . r) - r |omega|^2
+            drifts[k, :3] = (acc.linear + skew(acc.angular) @ r + w * (w @ r) - r * (w @ w))
+            drifts[k, 3:] = acc.angular
+        self.q = q.copy()
+        self.has_jacobians = True
+        return Dynamics(mass_matrix=M, bias=bias, com_m=com, com_velocity=com_vel,
+                        com_jacobian=Jcom, com_drift=com_drift, poses=poses, jacobians=jac,
+                        drifts=drifts, twists=twists)

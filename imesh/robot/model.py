@@ -33,6 +33,7 @@ from .capsules.robot import build_capsule_model
 from .collision import CollisionShape, FramePairDistances, adjacent_frame_pairs, pair_key
 from .config import RobotConfig, SoleRectangle, load_robot_config
 from .configuration import Configuration
+from .dynamics import Dynamics
 from .errors import RobotConfigError, closest_first
 from .generate_files import generate_for_urdf
 from .markers_config import MarkerConfig, load_markers_config
@@ -354,6 +355,18 @@ class Robot:
         pinocchio convention: the first 6 rows are the wrench the free-flyer needs, in the base
         frame, the rest joint torques [Nm])."""
         return self.configuration.inverse_dynamics(q, v, a)
+
+    def dynamics(self, q, v, frames: FrameRefs, offsets: np.ndarray) -> Dynamics:
+        """Equation-of-motion terms (``M``, ``h``) and the Jacobians and drifts of the CoM and of
+        points fixed in frames, at the state (q, v), in one pinocchio pass
+        (:meth:`imesh.robot.configuration.Configuration.dynamics`).
+
+        Args:
+            q: (nq,) configuration; v: (nv,) velocity (pinocchio convention).
+            frames: F frame indices (or names).
+            offsets: (F, 3) float [m] points in those frames.
+        """
+        return self.configuration.dynamics(q, v, self._ids(frames), offsets)
 
     def integrate(self, q, dv) -> np.ndarray:
         """(nq,) ``q (+) dv``: move the configuration by the tangent vector ``dv`` (nv,)."""

@@ -47,12 +47,20 @@ class ZmpOptions(NonNegative):
             desired ZMP (per axis) [1/m^2].
         band_m: a dead band around the desired ZMP [m]: a ZMP already within it costs nothing,
             so a balanced motion is left as it is.
-        margin_m: the support polygon is shrunk by this much [m].
+        margin: the fraction of each sole's half length and half width kept free of the ZMP:
+            the plan's support polygon is the hull of the soles shrunk about their centres by
+            it, so the closed-loop controller of the physics check has room for feedback (the
+            DART check's centre of pressure needs it, docs/checking.md).
     """
 
     weight: float = 10.0
     band_m: float = 0.015
-    margin_m: float = 0.01
+    margin: float = 0.4
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.margin >= 1.0:
+            raise OptionError("zmp margin", self.margin, "a fraction in [0, 1)")
 
 
 @dataclass(frozen=True)
@@ -146,7 +154,7 @@ class LimitMargins(NonNegative):
 
     velocity: float = 1e-3
     acceleration: float = 1e-3
-    torque: float = 0.05
+    torque: float = 0.15
 
     def __post_init__(self) -> None:
         super().__post_init__()

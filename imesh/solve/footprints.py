@@ -114,7 +114,8 @@ def ankle_reach(robot, side: str, load: float = 1.0) -> float:
 
 
 def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray,
-                    load: float = 1.0, sliding: np.ndarray | None = None) -> list[Footprint]:
+                    load: float = 1.0, margin: float = 0.0,
+                    sliding: np.ndarray | None = None) -> list[Footprint]:
     """One level footprint on z = 0 per support phase of each foot, and one per frame of a
     slide.
 
@@ -125,6 +126,8 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         support: (T, 2) bool [left, right] planned support.
         load: the largest normal force on one foot, times the weight (the polygon is clipped
             to :func:`ankle_reach` at this load).
+        margin: fraction of the sole's half sizes kept free of the ZMP (the polygon is the
+            sole rectangle shrunk about its centre by it, then clipped to the ankle's reach).
         sliding: (T, 2) bool support frames in which the sole slides or pivots (None: none).
 
     Returns:
@@ -140,7 +143,8 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         rot_level = level[k]
         poses = sole_poses[side]
         reach = ankle_reach(robot, side, load)
-        local = sole.corners().copy()  # in the sole frame; the ankle is its origin
+        # in the sole frame (the ankle is its origin): the rectangle shrunk about its centre
+        local = sole.center + (1.0 - margin) * (sole.corners() - sole.center)
         local[:, :2] = np.clip(local[:, :2], -reach, reach)
         # a planted phase: its middle half's placement; a slide: every frame's own
         spans = [(start, stop, *middle_half(start, stop), False)

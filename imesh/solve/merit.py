@@ -41,7 +41,7 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     penalty = 0.0
     hp_frame, hp_n, hp_b = plan.halfplanes
     if len(hp_frame):
-        out = hp_b + config.zmp.margin_m - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1)
+        out = hp_b - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1)
         worst = np.zeros(T)
         np.maximum.at(worst, hp_frame, out)
         penalty += config.slack.balance * np.sum(np.maximum(worst, 0.0))

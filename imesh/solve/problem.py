@@ -48,7 +48,7 @@ Constraints:
   the evaluator's ``torque_ratio_ref``; :mod:`.torque`);
 * ZMP (cart-table with the evaluator's difference operator ``D`` = gradient of gradient):
   ``p_t = c_xy,t - (c_z,t / g) (D c)_xy,t + delta_t`` inside the support polygon shrunk by
-  ``zmp_margin_m``, where ``delta_t`` is the multibody ZMP minus the cart-table ZMP at the
+  ``ZmpOptions.margin``, where ``delta_t`` is the multibody ZMP minus the cart-table ZMP at the
   current iterate (Nishiwaki's correction idea in joint space: at convergence the constraint
   holds for the multibody ZMP the evaluator computes).
 """

@@ -349,7 +349,7 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     # planted runs that pivot or slide in the fit become re-steps; detected slides stay slides
     support = split_pivots(robot, poses, support & ~sliding, fps) | sliding
     footprints = plan_footprints(robot, poses, support, load=config.forces.max_normal,
-                                 sliding=sliding)
+                                 margin=config.zmp.margin, sliding=sliding)
     flight = ~support.any(axis=1)
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
@@ -381,7 +381,7 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
 
 
 def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_seconds: float,
-            qp_iterations: int, margin: float) -> IterationReport:
+            qp_iterations: int) -> IterationReport:
     sup = plan.support
     _, _, err = sole_errors(lin, plan)
     pos_err = np.linalg.norm(err[:, :3], axis=1).max(initial=0.0)
@@ -389,7 +389,7 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
     sw_t, sw_k = np.nonzero(~sup)
     lowest = lin.corners[sw_t, sw_k, :, 2].min(initial=np.inf)
     hp_frame, hp_n, hp_b = plan.halfplanes
-    outside = (hp_b + margin - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1))
+    outside = (hp_b - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1))
     # a window's first two (fixed) frames have one-sided differences: their ZMP is the
     # previous window's business (and a join window's last two the next chain's)
     outside = outside[(hp_frame >= min(plan.fixed_frames, 2))
@@ -429,7 +429,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     support = plan.support if config.margins.torque < 1 else None
     lin = linearize(robot, q, frames, plan.fps, support, 1.0 - config.margins.torque)
     seconds["linearize"] += time.perf_counter() - t0
-    history = [_report(lin, plan, q, 0.0, 0.0, 0, config.zmp.margin_m)]
+    history = [_report(lin, plan, q, 0.0, 0.0, 0)]
     converged = False
     T, nv = len(q), robot.nv
     phi = merit(lin, plan, q, config)
@@ -488,8 +488,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             trust = min(2.0 * trust, config.sqp.trust_region)
         gain = phi - phi_new
         q, lin, phi = q_new, lin_new, phi_new
-        history.append(_report(lin, plan, q, step, sol.seconds, sol.iterations,
-                               config.zmp.margin_m))
+        history.append(_report(lin, plan, q, step, sol.seconds, sol.iterations))
         r = history[-1]
         log.info("whole-body iteration %d: step %.2e (alpha %.3g), merit %.6g, soles %.2f mm / "
                  "%.3f deg, swing low %.1f mm, ZMP outside %.1f mm, v %.3f a %.3f of limits, "

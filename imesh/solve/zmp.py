@@ -12,7 +12,7 @@ with ``a = D c`` (``D``, the evaluator's operator: gradient of gradient), ``Ld =
 from the multibody ZMP, so at convergence they hold for the ZMP the evaluator computes
 (Nishiwaki's correction idea in joint space).
 
-Rows: ``p_t`` inside the support polygon shrunk by ``zmp_margin_m`` (elastic,
+Rows: ``p_t`` inside the support polygon of the soles shrunk by ``ZmpOptions.margin`` (elastic,
 :func:`polygon_rows`) and a cost ``w_z |b_t|^2`` on the excess over a dead band around the
 desired ZMP, ``|p_t - p*_t| <= band + b_t`` per axis (:func:`band_cost`).
 """
@@ -119,7 +119,7 @@ def polygon_rows(out: Rows, lin: Linearization, plan: Plan, zl: ZmpLinearization
     slack = sp.csr_matrix((np.ones(R), (np.arange(R), hp_frame * lay.nx + lay.offset["zmp_slack"])),
                           shape=(R, lay.n))
     out.add(Nmat @ zl.Z + slack,
-            hp_b + config.zmp.margin_m - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1),
+            hp_b - np.sum(hp_n * lin.zmp_multibody[hp_frame], axis=1),
             np.full(R, np.inf))
 
 

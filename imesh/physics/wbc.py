@@ -1,0 +1,287 @@
+"""A whole-body QP controller: what a humanoid runs to track a reference while keeping balance.
+
+Per control step, at the measured state ``(q, v)`` (pinocchio's model of the robot, not the
+simulator's), one dense QP chooses the generalized accelerations ``a`` (nv) and a contact wrench
+``w_c = (f_c, m_c)`` (world axes, at the sole centre) for every sole in contact:
+
+    min_x  sum_i W_i ||A_i x - b_i||^2 + eps ||w||^2          x = (a, w_1, ..., w_k)
+    s.t.   M_b a + h_b = sum_c J_{c,b}^T w_c                  (floating-base rows of the
+                                                               equation of motion)
+           J_c a + Jdot_c v = -K_c J_c v                      (contact soles do not move)
+           C_c R_c^T w_c <= 0                                  (contact wrench cone, below)
+           |M_j a + h_j - sum_c J_{c,j}^T w_c| <= tau_max     (joint torques within the limits)
+
+The torques ``tau = M_j a + h_j - sum_c J_{c,j}^T w_c`` are applied as they are (never clamped
+afterwards: the limits are constraints). Tasks (``A_i x = b_i``, PD feedback on the reference of
+:class:`imesh.physics.track.ReferenceTrack`):
+
+- centre of mass, horizontal: divergent component of motion (capture point) feedback
+  (Englsberger et al. 2015): with ``omega = sqrt(g / z_c)`` and ``xi = c + cdot / omega``,
+  the commanded ZMP ``p = p_ref + (1 + k_xi / omega) (xi - xi_ref)`` and
+  ``cddot = omega^2 (c - p)``, i.e. ``cddot_ref - k_xi omega e_c - (omega + k_xi) e_cdot``;
+  the wrench cone then keeps the realised ZMP inside the soles. Vertical: PD.
+- base orientation (angular acceleration with PD on ``log(R_ref R^T)``);
+- swing soles: 6-D pose (PD on position and orientation, the reference's acceleration as
+  feed-forward);
+- joints: ``qdd_ref + kp (q_ref - q) + kd (qd_ref - qd)`` (posture, weakest).
+
+The contact wrench cone of a rectangular sole of half sizes X, Y with friction coefficient mu
+(Caron, Pham & Nakamura 2015, eq. 11-15), in the sole frame (``f = (fx, fy, fz)``,
+``m = (mx, my, mz)`` about the sole centre): ``fz >= f_min``, ``|fx|, |fy| <= mu fz``,
+``|mx| <= Y fz``, ``|my| <= X fz`` (centre of pressure inside the rectangle), and
+``-mu (X + Y) fz + |Y fx - mu mx| + |X fy - mu my| <= mz
+<= mu (X + Y) fz - |Y fx + mu mx| - |X fy + mu my|`` (yaw). X and Y are shrunk by
+``WbcConfig.cop_margin`` so that the centre of pressure stays off the edge.
+
+A sole is in contact when the reference plans it in support and the simulated sole is within
+``WbcConfig.contact_height_m`` of the ground; a planned support whose sole is still in the air
+is tracked as a swing sole (it lands), and a sole that leaves its support early is too.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contacts.phases import SIDES
+from .config import WbcConfig
+from .so3 import log_so3, quat_xyzw_to_matrix
+from .track import ReferenceTrack, TrackPoint
+
+log = logging.getLogger(__name__)
+
+GRAVITY = 9.81
+
+
+def _rotation_error(R_ref: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """(3,) world-axis rotation vector taking ``R`` to ``R_ref`` (``log(R_ref R^T)``)."""
+    return log_so3(R_ref @ R.T)
+
+
+def contact_frame_rotation(normal: np.ndarray) -> np.ndarray:
+    """(3, 3) rotation of a sole's contact frame in its foot frame: z the sole normal, x the foot
+    frame's x made orthogonal to it."""
+    n = np.asarray(normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    x = np.array([1.0, 0.0, 0.0]) - n[0] * n
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(n, x), n])
+
+
+def wrench_cone(half_x: float, half_y: float, mu: float) -> np.ndarray:
+    """(16, 6) float ``C`` with ``C w <= 0`` for a wrench ``w = (f, m)`` in the sole frame at
+    the sole centre inside the contact wrench cone (Caron et al. 2015), ``fz >= 0`` included.
+
+    Rows: friction (4), centre of pressure (4), yaw moment (8); ``-fz <= 0`` is the last row.
+    """
+    X, Y = half_x, half_y
+    rows = [
+        [1, 0, -mu, 0, 0, 0], [-1, 0, -mu, 0, 0, 0],
+        [0, 1, -mu, 0, 0, 0], [0, -1, -mu, 0, 0, 0],
+        [0, 0, -Y, 1, 0, 0], [0, 0, -Y, -1, 0, 0],
+        [0, 0, -X, 0, 1, 0], [0, 0, -X, 0, -1, 0],
+    ]
+    # mz <= mu (X+Y) fz - |Y fx + mu mx| - |X fy + mu my|
+    # mz >= -mu (X+Y) fz + |Y fx - mu mx| + |X fy - mu my|
+    for s1 in (1, -1):
+        for s2 in (1, -1):
+            rows.append([s1 * Y, s2 * X, -mu * (X + Y), s1 * mu, s2 * mu, 1])
+            rows.append([s1 * Y, s2 * X, -mu * (X + Y), -s1 * mu, -s2 * mu, -1])
+    rows.append([0, 0, -1, 0, 0, 0])
+    return np.array(rows, dtype=float)
+
+
+@dataclass(frozen=True)
+class ControlStep:
+    """What one control step decided.
+
+    Attributes:
+        tau: (n,) float joint torques in ``robot.joint_names`` order [Nm].
+        contacts: (2,) bool [left, right] soles treated as in contact.
+        wrenches: (2, 6) float [left, right] contact wrenches the QP chose (world axes, at the
+            sole centres; 0 off contact) [N, Nm].
+        relaxed: the QP with torque limits was infeasible and was solved without them (the
+            torques are then clamped, and the step counted).
+    """
+
+    tau: np.ndarray
+    contacts: np.ndarray
+    wrenches: np.ndarray
+    relaxed: bool
+
+
+class WholeBodyController:
+    """The whole-body QP controller of the DART check (see the module docstring).
+
+    Args:
+        robot: the robot (pinocchio model, soles, torque limits).
+        track: the reference as functions of time.
+        config: gains, weights, margins.
+        friction: the ground's friction coefficient (the controller assumes
+            ``config.friction_fraction`` of it).
+    """
+
+    def __init__(self, robot, track: ReferenceTrack, config: WbcConfig, friction: float):
+        from .qp import dense_qp  # noqa: PLC0415  (the solver's import is lazy)
+
+        self._solve = dense_qp
+        self.robot = robot
+        self.track = track
+        self.config = config
+        self.nv = robot.nv
+        self.n_joints = robot.nv - 6
+        self.frames = [robot.soles[s].frame for s in SIDES]
+        self.centres = np.array([robot.soles[s].center for s in SIDES])
+        self.contact_R = np.array([contact_frame_rotation(robot.soles[s].normal)
+                                   for s in SIDES])
+        mu = config.friction_fraction * friction
+        keep = 1.0 - config.cop_margin
+        self.cones = [wrench_cone(keep * robot.soles[s].half_extents[0],
+                                  keep * robot.soles[s].half_extents[1], mu) for s in SIDES]
+        self.half_extents = np.array([robot.soles[s].half_extents for s in SIDES])
+        self.tau_max = robot.effort_max * config.torque_fraction
+        self.omega = np.sqrt(GRAVITY / max(track.com_height_m, 0.1))
+        self.relaxed_steps = 0
+
+    # ------------------------------------------------------------------------------------------
+
+    def contacts(self, point: TrackPoint, sole_heights: np.ndarray) -> np.ndarray:
+        """(2,) bool soles in contact: planned in support and within reach of the ground."""
+        return point.support & (sole_heights <= self.config.contact_height_m)
+
+    def sole_heights(self, poses: np.ndarray) -> np.ndarray:
+        """(2,) float [left, right] lowest sole corner above the ground [m], from the sole
+        centres' poses (2, 4, 4)."""
+        R = poses[:, :3, :3] @ self.contact_R  # contact frames in the world
+        return (poses[:, 2, 3] - np.abs(R[:, 2, 0]) * self.half_extents[:, 0]
+                - np.abs(R[:, 2, 1]) * self.half_extents[:, 1])
+
+    def step(self, t: float, q: np.ndarray, v: np.ndarray) -> ControlStep:
+        """Torques for the state (q, v) at reference time ``t``.
+
+        Args:
+            t: reference time [s] (before 0: hold the first frame; after the end: the last).
+            q: (nq,) float measured configuration; v: (nv,) float velocity (pinocchio).
+        """
+        cfg = self.config
+        nv, nj = self.nv, self.n_joints
+        ref = self.track.at(t)
+        dyn = self.robot.dynamics(q, v, self.frames, self.centres)
+        contact = self.contacts(ref, self.sole_heights(dyn.poses))
+        active = np.flatnonzero(contact)
+        k = len(active)
+        n = nv + 6 * k
+
+        # --- tasks: rows A x = b with weights --------------------------------------------------
+        A_rows, b_rows, w_rows = [], [], []
+
+        def task(J: np.ndarray, b: np.ndarray, weight: float) -> None:
+            A = np.zeros((len(b), n))
+            A[:, :nv] = J
+            A_rows.append(A)
+            b_rows.append(b)
+            w_rows.append(np.full(len(b), weight))
+
+        g = cfg.gains
+        # CoM: capture-point feedback horizontally, PD vertically
+        e_c = ref.com - dyn.com_m
+        e_cd = ref.com_vel - dyn.com_velocity
+        om, k_xi = self.omega, g.dcm
+        cdd = ref.com_acc.copy()
+        cdd[:2] += k_xi * om * e_c[:2] + (om + k_xi) * e_cd[:2]
+        cdd[2] += g.com_z_kp * e_c[2] + g.com_z_kd * e_cd[2]
+        task(dyn.com_jacobian, cdd - dyn.com_drift, cfg.weights.com)
+
+        # base orientation (the free flyer's angular velocity in the world: R v[3:6])
+        R = quat_xyzw_to_matrix(q[3:7])
+        J_base = np.zeros((3, nv))
+        J_base[:, 3:6] = R
+        w_base = R @ v[3:6]
+        alpha = (ref.base_alpha + g.base_kp * _rotation_error(ref.base_rotation, R)
+                 + g.base_kd * (ref.base_omega - w_base))
+        task(J_base, alpha, cfg.weights.base)
+
+        # swing soles
+        for s in np.flatnonzero(~contact):
+            pose = dyn.poses[s]
+            lin = (ref.sole_acc[s] + g.sole_kp * (ref.sole_positions[s] - pose[:3, 3])
+                   + g.sole_kd * (ref.sole_vel[s] - dyn.twists[s, :3]))
+            ang = (ref.sole_alpha[s]
+                   + g.sole_kp * _rotation_error(ref.sole_rotations[s], pose[:3, :3])
+                   + g.sole_kd * (ref.sole_omega[s] - dyn.twists[s, 3:]))
+            task(dyn.jacobians[s], np.r_[lin, ang] - dyn.drifts[s], cfg.weights.swing)
+
+        # joints
+        J_post = np.zeros((nj, nv))
+        J_post[:, 6:] = np.eye(nj)
+        qdd = (ref.qdd_joints + g.joint_kp * (ref.q_joints - q[7:])
+               + g.joint_kd * (ref.qd_joints - v[6:]))
+        task(J_post, qdd, cfg.weights.joints)
+
+        A = np.vstack(A_rows)
+        b = np.concatenate(b_rows)
+        W = np.concatenate(w_rows)
+        H = (A.T * W) @ A
+        c = -(A.T * W) @ b
+        H[np.diag_indices(nv)] += cfg.weights.acceleration
+        if k:
+            idx = np.arange(nv, n)
+            H[idx, idx] += cfg.weights.wrench
+
+        # --- equalities: floating-base dynamics, contacts -------------------------------------
+        M, h = dyn.mass_matrix, dyn.bias
+        E = np.zeros((6 + 6 * k, n))
+        e = np.zeros(6 + 6 * k)
+        E[:6, :nv] = M[:6]
+        e[:6] = -h[:6]
+        # generalized torque rows of the contact wrenches: J_c^T w_c
+        Jt = np.zeros((nv, 6 * k))
+        for j, s in enumerate(active):
+            Jt[:, 6 * j:6 * j + 6] = dyn.jacobians[s].T
+            E[6 + 6 * j:12 + 6 * j, :nv] = dyn.jacobians[s]
+            e[6 + 6 * j:12 + 6 * j] = -dyn.drifts[s] - cfg.gains.contact_kd * dyn.twists[s]
+        E[:6, nv:] = -Jt[:6]
+
+        # --- inequalities: wrench cones, torque limits ----------------------------------------
+        G_rows, l_rows, u_rows = [], [], []
+        for j, s in enumerate(active):
+            Rc = dyn.poses[s, :3, :3] @ self.contact_R[s]
+            block = np.zeros((6, 6))
+            block[:3, :3] = Rc.T
+            block[3:, 3:] = Rc.T
+            C = self.cones[s] @ block
+            G = np.zeros((len(C), n))
+            G[:, nv + 6 * j:nv + 6 * j + 6] = C
+            upper = np.zeros(len(C))
+            upper[-1] = -cfg.min_normal_force_n
+            G_rows.append(G)
+            l_rows.append(np.full(len(C), -np.inf))
+            u_rows.append(upper)
+        Gt = np.zeros((nj, n))
+        Gt[:, :nv] = M[6:]
+        Gt[:, nv:] = -Jt[6:]
+        G_rows.append(Gt)
+        l_rows.append(-self.tau_max - h[6:])
+        u_rows.append(self.tau_max - h[6:])
+        G = np.vstack(G_rows)
+        lo = np.concatenate(l_rows)
+        up = np.concatenate(u_rows)
+
+        sol = self._solve(H, c, E, e, G, lo, up)
+        relaxed = sol is None
+        if relaxed:  # torque limits unreachable at this state: solve without, clamp after
+            self.relaxed_steps += 1
+            sol = self._solve(H, c, E, e, G[:-nj], lo[:-nj], up[:-nj])
+            if sol is None:  # nor the contacts: dynamics alone
+                sol = self._solve(H, c, E[:6], e[:6], G[:0], lo[:0], up[:0])
+        x = sol if sol is not None else np.zeros(n)
+        a, w = x[:nv], x[nv:]
+        tau = M[6:] @ a + h[6:] - Jt[6:] @ w
+        if relaxed:
+            tau = np.clip(tau, -self.tau_max, self.tau_max)
+        wrenches = np.zeros((2, 6))
+        for j, s in enumerate(active):
+            wrenches[s] = w[6 * j:6 * j + 6]
+        return ControlStep(tau=tau, contacts=contact, wrenches=wrenches, relaxed=relaxed)

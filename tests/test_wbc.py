@@ -1,0 +1,139 @@
+"""The whole-body controller of the DART check: its dynamics terms against finite differences
+and inverse dynamics, its contact wrench cone against the centre-of-pressure and friction
+definitions, and closed-loop runs that must stand and runs that must fall."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import load_test_robot
+
+from imesh.contacts.phases import SIDES
+from imesh.core.robot_motion import RobotMotion
+from imesh.errors import OptionError
+from imesh.physics.config import WbcConfig
+from imesh.physics.wbc import wrench_cone
+
+
+@pytest.fixture(scope="module")
+def g1():
+    pytest.importorskip("example_robot_data")
+    return load_test_robot("g1")
+
+
+@pytest.fixture(scope="module")
+def jvrc1():
+    return load_test_robot("jvrc1")
+
+
+def test_dynamics_terms_match_inverse_dynamics_and_finite_differences(jvrc1):
+    """``M a + h`` equals RNEA; ``J a + Jdot v`` equals the finite-difference rate of ``J v``
+    for the sole centres and the CoM (the QP's acceleration rows are exact)."""
+    robot = jvrc1
+    rng = np.random.default_rng(3)
+    q = robot.random_configuration(rng, 0.3)
+    v, a = rng.normal(size=robot.nv) * 0.5, rng.normal(size=robot.nv)
+    frames = [robot.soles[s].frame for s in SIDES]
+    centres = np.array([robot.soles[s].center for s in SIDES])
+    d = robot.dynamics(q, v, frames, centres)
+    np.testing.assert_allclose(d.mass_matrix, d.mass_matrix.T)
+    np.testing.assert_allclose(d.mass_matrix @ a + d.bias, robot.inverse_dynamics(q, v, a),
+                               atol=1e-9)
+    eps = 1e-6
+    d2 = robot.dynamics(robot.integrate(q, eps * v), v + eps * a, frames, centres)
+    acc = np.einsum("fij,j->fi", d.jacobians, a) + d.drifts
+    np.testing.assert_allclose((d2.twists - d.twists) / eps, acc, atol=1e-4)
+    np.testing.assert_allclose((d2.poses[:, :3, 3] - d.poses[:, :3, 3]) / eps, d.twists[:, :3],
+                               atol=1e-4)
+    np.testing.assert_allclose((d2.com_velocity - d.com_velocity) / eps,
+                               d.com_jacobian @ a + d.com_drift, atol=1e-4)
+    np.testing.assert_allclose(d.poses[:, :3, 3],
+                               robot.frame_positions(q, frames, centres), atol=1e-12)
+
+
+@pytest.mark.parametrize(("force", "moment", "inside"), [
+    ((0, 0, 100), (0, 0, 0), True),            # centre of pressure at the centre
+    ((0, 0, 100), (2.9, 0, 0), True),          # CoP y = -29 mm on a 30 mm half width
+    ((0, 0, 100), (3.1, 0, 0), False),         # CoP y = -31 mm: outside
+    ((0, 0, 100), (0, -8.4, 0), True),         # CoP x = +84 mm on an 85 mm half length
+    ((0, 0, 100), (0, -8.6, 0), False),
+    ((69, 0, 100), (0, 0, 0), True),           # friction 0.69 < mu = 0.7
+    ((0, 71, 100), (0, 0, 0), False),          # friction 0.71 > mu
+    ((0, 0, -1), (0, 0, 0), False),            # pulling on the ground
+    ((0, 0, 100), (0, 0, 7.0), True),          # yaw moment below mu (X + Y) fz = 8.05 Nm
+    ((0, 0, 100), (0, 0, 8.2), False),
+])
+def test_wrench_cone_is_the_contact_conditions(force, moment, inside):
+    """Caron et al. 2015's cone of a 170 x 60 mm sole, mu = 0.7: a wrench is inside exactly
+    when its centre of pressure is on the sole, its tangential force within the friction cone,
+    its normal force pushing and its yaw moment within what friction can hold."""
+    C = wrench_cone(0.085, 0.03, 0.7)
+    w = np.r_[force, moment].astype(float)
+    assert bool(np.all(C @ w <= 1e-12)) is inside
+
+
+def test_wbc_config_checks():
+    with pytest.raises(OptionError, match="cop_margin"):
+        WbcConfig(cop_margin=1.0)
+    with pytest.raises(OptionError, match="torque_fraction"):
+        WbcConfig(torque_fraction=1.5)
+
+
+def _standing(robot, seconds: float, fps: float = 30.0) -> RobotMotion:
+    n = int(round(seconds * fps)) + 1
+    return RobotMotion(q=np.repeat(robot.q_nominal[None], n, axis=0), fps=fps, robot=robot.name,
+                       joint_names=robot.joint_names)
+
+
+@pytest.mark.parametrize("name", ["jvrc1", "g1"])
+def test_wbc_stands_and_tracks(name):
+    """Closed loop on the nominal pose: no fall, key points within 5 mm of the reference, every
+    torque within the effort limits (constraints of the QP, never clamped), the weight carried
+    by the soles with their centres of pressure inside."""
+    pytest.importorskip("dartpy")
+    if name == "g1":
+        pytest.importorskip("example_robot_data")
+    from imesh.physics import PhysicsConfig, TimingConfig, simulate_motion
+
+    robot = load_test_robot(name)
+    result = simulate_motion(robot, _standing(robot, 1.5),
+                             config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
+    assert result.config.control.controller == "wbc"
+    assert not result.fell, result.fall_reason
+    assert result.keypoint_rms_mm < 5.0 and result.keypoint_max_mm < 10.0
+    assert result.torque_ratio_max <= 1.0 + 1e-9 and result.saturation_fraction == 0.0
+    assert result.relaxed_fraction == 0.0
+    assert result.base_drift_m < 0.01
+    assert result.slip_mm < 1.0
+    assert result.cop_margin_mm > 5.0
+    assert np.nanmean(result.contact_force_n) == pytest.approx(robot.mass * 9.81, rel=0.03)
+
+
+def test_wbc_falls_when_the_motion_cannot_be_performed(jvrc1):
+    """The check can fail: a reference with both feet 0.3 m in the air for 1 s (no support:
+    nothing can hold the robot up there) is judged a fall."""
+    pytest.importorskip("dartpy")
+    from imesh.physics import PhysicsConfig, TimingConfig, simulate_motion
+
+    robot = jvrc1
+    q = _standing(robot, 2.0).q.copy()
+    q[15:45, 2] += 0.3
+    motion = RobotMotion(q=q, fps=30.0, robot=robot.name, joint_names=robot.joint_names)
+    result = simulate_motion(robot, motion,
+                             config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
+    assert result.fell
+    assert "below the reference" in result.fall_reason
+    assert 0.5 <= result.survived_s < 1.5
+
+
+def test_kinematic_mode_stands_with_exact_joints(jvrc1):
+    """The paper's check: joints as velocity actuators follow the reference exactly (error
+    < 1e-3 rad), the base is free, the nominal pose stands."""
+    pytest.importorskip("dartpy")
+    from imesh.physics import ControlConfig, PhysicsConfig, TimingConfig, simulate_motion
+
+    result = simulate_motion(jvrc1, _standing(jvrc1, 1.5), config=PhysicsConfig(
+        control=ControlConfig(controller="kinematic"), timing=TimingConfig(settle_s=0.2)))
+    assert not result.fell, result.fall_reason
+    assert result.tracking_rms_rad < 1e-3
+    assert result.base_drift_m < 0.01
