@@ -336,10 +336,10 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
                                                fc.ground_fraction * height,
                                                fc.rise_fraction * height, fps)
                          for k in range(2)], axis=1)
-    unplanted = ~planted.any(axis=1)
+    unplanted = np.logical_not(planted.any(axis=1))
     support = planted | (grounded & unplanted[:, None])
     # frames with no foot on the ground: flight only where the body falls freely
-    for a, b in runs(~support.any(axis=1)):
+    for a, b in runs(np.logical_not(support.any(axis=1))):
         if not _falls_freely(motion, a, b, fc.ballistic_fraction):
             k = int(np.argmin(lift[a:b].mean(axis=0)))  # the lower foot carries the body
             support[a:b, k] = True

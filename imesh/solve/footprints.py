@@ -147,9 +147,11 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         local = sole.center + (1.0 - margin) * (sole.corners() - sole.center)
         local[:, :2] = np.clip(local[:, :2], -reach, reach)
         # a planted phase: its middle half's placement; a slide: every frame's own
-        spans = [(start, stop, *middle_half(start, stop), False)
-                 for start, stop in runs(support[:, k] & ~sliding[:, k])]
-        spans += [(t, t + 1, t, t + 1, True) for t in np.flatnonzero(sliding[:, k])]
+        spans: list[tuple[int, int, int, int, bool]] = [
+            (start, stop, *middle_half(start, stop), False)
+            for start, stop in runs(support[:, k] & ~sliding[:, k])]
+        spans += [(int(t), int(t) + 1, int(t), int(t) + 1, True)
+                  for t in np.flatnonzero(sliding[:, k])]
         for start, stop, a, b, slide in sorted(spans):
             sel = poses[a:b]
             centers = sel[:, :3, :3] @ sole.center + sel[:, :3, 3]

@@ -61,13 +61,14 @@ def force_rows(out: Rows, lin: Linearization, plan: Plan, zl: ZmpLinearization,
                 out.add((sign * acc_a - mu * acc_z - slack).tocsr()[sup],
                         np.full(n_sup, -np.inf),
                         (mu * (GRAVITY + acc[:, 2]) - sign * acc[:, axis])[sup])
-    kin = (np.zeros(len(sup), dtype=bool) if plan.kinetic is None
-           else np.isfinite(plan.kinetic).all(axis=1) & sup)
-    if config.forces.kinetic_friction > 0 and kin.any():
+    kinetic = plan.kinetic
+    kin = (np.zeros(len(sup), dtype=bool) if kinetic is None
+           else np.isfinite(kinetic).all(axis=1) & sup)
+    if kinetic is not None and config.forces.kinetic_friction > 0 and kin.any():
         mu_k = config.forces.kinetic_friction
         n_kin = int(kin.sum())
         for axis, acc_a in enumerate(acc_xy):
-            u = np.where(kin, plan.kinetic[:, axis], 0.0)
+            u = np.where(kin, kinetic[:, axis], 0.0)
             # c_a'' - mu_k u_a (g + c_z'') = 0, elastic on both sides
             row = (acc_a - sp.diags(mu_k * u) @ acc_z).tocsr()[kin]
             r = (mu_k * u * (GRAVITY + acc[:, 2]) - acc[:, axis])[kin]

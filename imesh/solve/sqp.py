@@ -350,7 +350,7 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     support = split_pivots(robot, poses, support & ~sliding, fps) | sliding
     footprints = plan_footprints(robot, poses, support, load=config.forces.max_normal,
                                  margin=config.zmp.margin, sliding=sliding)
-    flight = ~support.any(axis=1)
+    flight = np.logical_not(support.any(axis=1))
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
         sole_targets[f.start:f.stop, SIDES.index(f.side)] = f.frame_pose
