@@ -95,6 +95,10 @@ class FlightConfig:
         ballistic_fraction: frames with no foot on the ground are flight only when the markers'
             centroid falls with at least this fraction of g over them (the clip's scale makes
             a real flight fall at its scale times g: 0.6-0.8 g at robot size).
+        push_fraction: the first and last frames of such a phase in which the trunk's centroid
+            still accelerates upward by more than this fraction of g are carried by the ground
+            (the push of a take-off, the catch of a landing: a low-passed foot leaves its
+            floor a frame early, and only the ground can push the trunk up).
         pivot_rad_s: a moving contact whose foot turns faster than this about the vertical is
             a pivot, otherwise a slide [rad/s].
         slide_speed_fraction: a planted foot whose toe moves faster than this many body heights
@@ -107,6 +111,7 @@ class FlightConfig:
     ground_fraction: float = 0.04
     rise_fraction: float = 0.25
     ballistic_fraction: float = 0.5
+    push_fraction: float = 0.25
     pivot_rad_s: float = 1.5
     slide_speed_fraction: float = 0.1
     slide_s: float = 0.2
@@ -114,7 +119,8 @@ class FlightConfig:
 
     def __post_init__(self) -> None:
         require_finite(self, ("ground_fraction", "rise_fraction", "ballistic_fraction",
-                              "pivot_rad_s", "slide_speed_fraction", "slide_s", "slide_m"),
+                              "push_fraction", "pivot_rad_s", "slide_speed_fraction",
+                              "slide_s", "slide_m"),
                        positive=True)
 
 
@@ -293,19 +299,35 @@ def _foot_tracks(motion: MarkerMotion) -> tuple[np.ndarray, ...]:
 TRUNK_MARKERS = ("pelvis", "hip_l", "hip_r", "spine", "chest", "neck")
 
 
-def _falls_freely(motion: MarkerMotion, start: int, stop: int, fraction: float) -> bool:
-    """Whether the trunk's centroid falls with at least ``fraction`` of g over the frames
-    [start, stop) (one more frame either side for a phase shorter than 4 frames): the
-    curvature of a least-squares parabola through its height."""
+def _trunk_height(motion: MarkerMotion) -> np.ndarray:
+    """(T,) height of the trunk's centroid [m] (all markers' if the motion names no trunk)."""
+    trunk = [i for i, n in enumerate(motion.names) if n in TRUNK_MARKERS]
+    return motion.positions_m[:, trunk or slice(None)].mean(axis=1)[:, 2]
+
+
+def _pushed_ends(accel_z: np.ndarray, start: int, stop: int, push: float) -> tuple[int, int]:
+    """The frames [start, stop) less their leading and trailing runs in which the trunk
+    accelerates upward by more than ``push`` [m/s^2] (``accel_z``: (T,) its vertical
+    acceleration): the ground still pushes there."""
+    a, b = start, stop
+    while a < b and accel_z[a] > push:
+        a += 1
+    while b > a and accel_z[b - 1] > push:
+        b -= 1
+    return a, b
+
+
+def _falls_freely(z: np.ndarray, fps: float, start: int, stop: int, fraction: float) -> bool:
+    """Whether the trunk's centroid height ``z`` (T,) [m] falls with at least ``fraction`` of g
+    over the frames [start, stop) (one more frame either side for a phase shorter than 4
+    frames): the curvature of a least-squares parabola through it."""
     a, b = start, stop
     if b - a < 4:
-        a, b = max(start - 1, 0), min(stop + 1, motion.n_frames)
+        a, b = max(start - 1, 0), min(stop + 1, len(z))
     if b - a < 3:
         return False  # one or two frames: nothing to tell a fall by
-    trunk = [i for i, n in enumerate(motion.names) if n in TRUNK_MARKERS]
-    z = motion.positions_m[a:b, trunk or slice(None)].mean(axis=1)[:, 2]
-    t = np.arange(b - a) / motion.fps
-    accel = 2.0 * np.polyfit(t, z, 2)[0]
+    t = np.arange(b - a) / fps
+    accel = 2.0 * np.polyfit(t, z[a:b], 2)[0]
     return bool(accel <= -fraction * GRAVITY)
 
 
@@ -338,11 +360,22 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
                          for k in range(2)], axis=1)
     unplanted = np.logical_not(planted.any(axis=1))
     support = planted | (grounded & unplanted[:, None])
-    # frames with no foot on the ground: flight only where the body falls freely
-    for a, b in runs(np.logical_not(support.any(axis=1))):
-        if not _falls_freely(motion, a, b, fc.ballistic_fraction):
-            k = int(np.argmin(lift[a:b].mean(axis=0)))  # the lower foot carries the body
-            support[a:b, k] = True
+    # frames with no foot on the ground: flight only where the body falls freely, and not in
+    # the frames at its ends where the ground still pushes the trunk up (those keep the feet
+    # on the ground next to them)
+    z = _trunk_height(motion)
+    accel_z = np.gradient(np.gradient(z, 1.0 / fps), 1.0 / fps)
+    for start, stop in runs(np.logical_not(support.any(axis=1))):
+        a, b = _pushed_ends(accel_z, start, stop, fc.push_fraction * GRAVITY)
+        before = support[start - 1] if start > 0 else None
+        after = support[stop] if stop < len(support) else None
+        if b > a and _falls_freely(z, fps, a, b, fc.ballistic_fraction) and (
+                before is not None or after is not None or (a, b) == (start, stop)):
+            support[start:a] = before if before is not None else after
+            support[b:stop] = after if after is not None else before
+        else:
+            k = int(np.argmin(lift[start:stop].mean(axis=0)))  # the lower foot carries it
+            support[start:stop, k] = True
     support = np.stack([drop_short(support[:, k], 1) for k in range(2)], axis=1)
     # moving contacts: off the planted frames where the foot moves or turns, and within
     # planted phases where the toe travels
