@@ -23,7 +23,14 @@ from ..arms.config import ArmsConfig
 from ..arms.solve import refine_arms
 from ..balance import BalanceConfig, balance_loop, check_flight
 from ..balance.loop import BalanceResult
-from ..contacts.phases import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_contacts
+from ..contacts.phases import (
+    FOOT_MARKERS,
+    SIDES,
+    ContactConfig,
+    Contacts,
+    detect_contacts,
+    runs,
+)
 from ..contacts.support import SupportConfig, flat_support, support_blend, support_foot_targets
 from ..core.motion import MarkerMotion
 from ..core.progress import ProgressCallback, notify
@@ -142,8 +149,12 @@ class RetargetResult:
         wholebody: the whole-body solve (:class:`imesh.solve.WholeBodySolution`), or None.
         balance: the Nishiwaki loop's result (``balance="nishiwaki"``), or None.
         lead_frames: (lead-in, lead-out) frames added before and after the clip.
-        unconstrained_frames: flight frames left without support or ZMP constraint
-            (``allow_flight``), as [start, stop) ranges of ``motion``'s frames.
+        unconstrained_frames: flight frames left without support or ZMP constraint and
+            without a model of the flight, as [start, stop) ranges of ``motion``'s frames
+            (none: the whole-body solve plans every flight frame, ``flight_frames``).
+        flight_frames: the planned flight phases of the whole-body solve (no support, the CoM
+            ballistic: :mod:`imesh.solve.forces`), as [start, stop) ranges of ``motion``'s
+            frames.
         seconds: wall time per stage [s].
         arms: the report of the arms' SQP in the initial fit (``config.arms``), or None.
     """
@@ -161,6 +172,7 @@ class RetargetResult:
     unconstrained_frames: list
     seconds: dict
     arms: dict | None = None
+    flight_frames: list = field(default_factory=list)
 
     def report(self) -> dict:
         fit_report = self.fit.report() if hasattr(self.fit, "report") else {}
@@ -170,6 +182,7 @@ class RetargetResult:
             "fps": self.adapted.fps,
             "lead_frames": list(self.lead_frames),
             "unconstrained_frames": self.unconstrained_frames,
+            "flight_frames": self.flight_frames,
             "markers": list(self.adapted.names),
             "human_scale": self.arrangement.scale,
             "bone_residual_m": self.morph.bone_residual_m,
@@ -373,6 +386,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     balance = solution = None
     lead = (0, 0)
     unconstrained: list = []
+    flight: list = []
     support_out = flat
     if config.balance == "nishiwaki":
         t3 = time.perf_counter()
@@ -434,7 +448,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         seconds["wholebody"] = time.perf_counter() - t4
         q_out = solution.q
         lead = (n_lead, n_lead)
-        unconstrained = [(a + n_lead, b + n_lead) for a, b in contacts.flight_phases()]
+        flight = runs(np.logical_not(plan.support.any(axis=1)))
         adapted = adapted.with_positions(
             ext.markers[:, :adapted.n_markers], source=adapted.source)
         support_out = Contacts(support=ext.support, fps=source.fps, sliding=sliding)
@@ -446,4 +460,4 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                           contacts=contacts, support=support_out, morph=morph, fit=fit,
                           wholebody=solution, balance=balance, lead_frames=lead,
                           unconstrained_frames=unconstrained, seconds=seconds,
-                          arms=arms_report)
+                          arms=arms_report, flight_frames=flight)
