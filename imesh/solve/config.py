@@ -117,9 +117,9 @@ class ForceOptions(NonNegative):
             landing: a 0.5 s leap leaves and meets the ground at 2.5 m/s, which 1.3 g cannot
             give or take in the support frames a clip has around it).
         impact_s: [s] before a take-off and after a landing.
-        kinetic_friction: mu of a sliding sole: where the only support slides, the ground's
-            horizontal force is ``kinetic_friction`` times the normal force, against the slide
-            (on the friction cone's boundary); 0: no kinetic rows.
+        kinetic_friction: the largest mu of a sliding sole: where the only support slides, the
+            ground's horizontal force is against the slide and at most ``kinetic_friction``
+            times the normal force (a floor at most this rough); 0: no kinetic rows.
     """
 
     min_normal: float = 0.7

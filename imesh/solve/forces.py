@@ -10,9 +10,11 @@ operator, linearized in the CoM auxiliaries: :class:`~imesh.solve.zmp.ZmpLineari
 * friction: ``|c_a''| <= (mu / sqrt 2) (g + c_z'')`` for a = x, y in support frames, the total
   force in the pyramid inside the friction cone (exact for the total force, so for the sole's
   force in single support);
-* kinetic friction: where the only support slides, ``c_xy'' = mu_k (g + c_z'') u`` with ``u``
-  the unit direction against the slide (``Plan.kinetic``): the sole's force on the friction
-  cone's boundary;
+* kinetic friction: where the only support slides, ``c_xy'' = s u`` with ``u`` the unit
+  direction against the slide (``Plan.kinetic``) and ``0 <= s <= mu_k (g + c_z'')``: Coulomb's
+  force of a floor whose kinetic mu is at most ``mu_k`` (a human slide carries ~0: the zombie
+  walk's single-support slides need -0.2..0.14 of the normal force), never pushing along the
+  slide nor across it;
 * flight: there is no ground, only gravity acts: the CoM is ballistic, ``c'' = (0, 0, -g)``,
   and the angular momentum about the CoM is conserved, ``Ld_x = Ld_y = 0`` (the rows hold the
   horizontal components the ZMP's linearization carries; ``Ld = grad k``).
@@ -67,13 +69,18 @@ def force_rows(out: Rows, lin: Linearization, plan: Plan, zl: ZmpLinearization,
     if kinetic is not None and config.forces.kinetic_friction > 0 and kin.any():
         mu_k = config.forces.kinetic_friction
         n_kin = int(kin.sum())
-        for axis, acc_a in enumerate(acc_xy):
-            u = np.where(kin, kinetic[:, axis], 0.0)
-            # c_a'' - mu_k u_a (g + c_z'') = 0, elastic on both sides
-            row = (acc_a - sp.diags(mu_k * u) @ acc_z).tocsr()[kin]
-            r = (mu_k * u * (GRAVITY + acc[:, 2]) - acc[:, axis])[kin]
-            out.add(row + slack.tocsr()[kin], r, np.full(n_kin, np.inf))
-            out.add(row - slack.tocsr()[kin], np.full(n_kin, -np.inf), r)
+        ux, uy = (np.where(kin, kinetic[:, a], 0.0) for a in (0, 1))
+        # along u (against the slide): 0 <= c'' . u <= mu_k (g + c_z''); across it: 0
+        along = (sp.diags(ux) @ acc_xy[0] + sp.diags(uy) @ acc_xy[1]).tocsr()
+        across = (sp.diags(-uy) @ acc_xy[0] + sp.diags(ux) @ acc_xy[1]).tocsr()
+        along_now = ux * acc[:, 0] + uy * acc[:, 1]
+        across_now = -uy * acc[:, 0] + ux * acc[:, 1]
+        sl = slack.tocsr()[kin]
+        out.add(along[kin] + sl, -along_now[kin], np.full(n_kin, np.inf))
+        out.add((along - mu_k * acc_z).tocsr()[kin] - sl, np.full(n_kin, -np.inf),
+                (mu_k * (GRAVITY + acc[:, 2]) - along_now)[kin])
+        out.add(across[kin] + sl, -across_now[kin], np.full(n_kin, np.inf))
+        out.add(across[kin] - sl, np.full(n_kin, -np.inf), -across_now[kin])
     if flight.any():
         n_flight = int(flight.sum())
         out.add(vert[flight], (-GRAVITY - acc[:, 2])[flight], np.full(n_flight, np.inf))

@@ -69,9 +69,13 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
         + np.sum(np.abs(lin.angular_momentum_rate[fl, :2] / lin.mass).max(axis=1, initial=0.0)))
     if plan.kinetic is not None and config.forces.kinetic_friction > 0:
         kin = np.isfinite(plan.kinetic).all(axis=1) & sup
-        want = config.forces.kinetic_friction * plan.kinetic[kin] * (GRAVITY + az[kin, None])
-        penalty += config.slack.balance * np.sum(
-            np.abs(lin.com_acceleration[kin, :2] - want).max(axis=1, initial=0.0))
+        u = plan.kinetic[kin]
+        a_xy = lin.com_acceleration[kin, :2]
+        along = np.sum(a_xy * u, axis=1)
+        across = a_xy[:, 1] * u[:, 0] - a_xy[:, 0] * u[:, 1]
+        cap = config.forces.kinetic_friction * (GRAVITY + az[kin])
+        penalty += config.slack.balance * np.sum(np.maximum.reduce(
+            [np.maximum(-along, 0.0), np.maximum(along - cap, 0.0), np.abs(across)]))
     if lin.torques is not None:
         penalty += config.slack.balance * np.sum(lin.torques.excess(1.0 - config.margins.torque))
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
