@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import logging
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import hrp4c_urdf, load_test_robot
@@ -86,30 +90,54 @@ def _bvh_excerpt(src, dst, frames: int) -> None:
                    + "\n".join(body) + "\n")
 
 
-def test_flight_option_lists_unconstrained_frames_and_is_verified(mocap, tmp_path):
-    """The leap of the pirouette/jete dance with --allow-flight: the run finishes, the report
-    lists the flight frames left without support and ZMP constraints, and the written file is
-    judged by the gates: without --force a failed verification exits 3 and writes nothing."""
+def _hop_bvh(src: Path, dst: Path, flight_s: float = 0.3, start_s: float = 0.8,
+             seconds: float = 2.0) -> Path:
+    """A hop as a BVH file: the first frame of ``src`` (a CMU cc3rig clip, centimetres, Y up)
+    held for ``seconds``, its root raised along a ballistic arc for ``flight_s`` from
+    ``start_s`` (apex ``g flight_s^2 / 8``: 11 cm for 0.3 s)."""
+    head, rest = src.read_text().split("Frame Time:")
+    lines = rest.splitlines()
+    dt = float(lines[0])
+    first = next(ln for ln in lines[1:] if ln.strip()).split()
+    t = np.arange(int(round(seconds / dt))) * dt - start_s
+    arc_cm = 100.0 * np.where((t >= 0) & (t < flight_s), 0.5 * 9.81 * t * (flight_s - t), 0.0)
+    rows = [" ".join([first[0], f"{float(first[1]) + a:.6f}", *first[2:]]) for a in arc_cm]
+    head = re.sub(r"Frames:\s*\d+", f"Frames: {len(rows)}", head)
+    dst.write_text(head + f"Frame Time: {lines[0].strip()}\n" + "\n".join(rows) + "\n")
+    return dst
+
+
+def test_flight_is_planned_by_default_and_allow_flight_is_retired(mocap, tmp_path, caplog):
+    """A 0.3 s hop (the whole body on a ballistic arc) with default settings: the report lists
+    the planned flight frames (none left unconstrained), and the written file is judged by the
+    gates (without --force a failed verification exits 3 and writes nothing). --allow-flight
+    only says it is deprecated: the same motion."""
     import json
 
     from imesh.evaluate.verify import failed_gates
 
-    clip = tmp_path / "leap.bvh"
-    _bvh_excerpt(mocap("cmu_05_06_dance_pirouettes_jete.bvh"), clip, 240)  # 2 s, one leap
-    out, rep = tmp_path / "leap.npz", tmp_path / "leap.json"
-    code = main(["-q", "retarget", str(clip), "--robot", "jvrc1", "--allow-flight", "--force",
+    clip = _hop_bvh(mocap("cmu_02_10_wash_self_cc3rig.bvh"), tmp_path / "hop.bvh")
+    out, rep = tmp_path / "hop.npz", tmp_path / "hop.json"
+    code = main(["-q", "retarget", str(clip), "--robot", "jvrc1", "--force",
                  "-o", str(out), "--json", str(rep)])
     assert code == 0 and out.is_file()
     report = json.loads(rep.read_text())
-    flights = report["unconstrained_frames"]
-    assert flights and all(30 <= a < b <= report["frames"] - 30 for a, b in flights)
+    assert report["unconstrained_frames"] == []
+    (a, b), = report["flight_frames"]  # the hop's frames [24, 33) after the 30-frame lead-in
+    lead = report["lead_frames"][0]
+    assert 24 <= a - lead and b - lead <= 33 and b - a >= 4
     failed = failed_gates(report["metrics"])
     assert report["verification"]["passed"] == (not failed)
     out2 = tmp_path / "again.npz"
-    code = main(["-q", "retarget", str(clip), "--robot", "jvrc1", "--allow-flight",
-                 "-o", str(out2)])
+    with caplog.at_level(logging.WARNING):
+        code = main(["-q", "retarget", str(clip), "--robot", "jvrc1", "--allow-flight",
+                     "-o", str(out2)])
+    assert "--allow-flight is deprecated" in caplog.text
     assert code == (3 if failed else 0)
     assert out2.is_file() == (not failed)
+    if not failed:
+        for key in ("base_position", "joint_positions"):
+            np.testing.assert_array_equal(np.load(out)[key], np.load(out2)[key])
 
 
 def test_evaluate_reads_the_adapted_markers_from_the_motion_file(mocap, tmp_path, capsys):

@@ -205,15 +205,17 @@ def test_balanced_sway_is_left_unchanged(robot):
     assert last.sole_error_m < 1e-6
 
 
-def test_flight_is_refused_before_the_work(robot, mocap):
-    """The pirouette/jete dance has flight phases: refused naming the frames."""
+def test_flight_is_refused_before_the_work_by_the_nishiwaki_loop(robot, mocap):
+    """The pirouette/jete dance has flight phases: the paper's Nishiwaki loop (which has no
+    flight model) refuses it naming the frames; the whole-body solve plans flight
+    (tests/test_flight_slide.py)."""
     from imesh.balance import FlightPhaseError
     from imesh.io import load_motion
-    from imesh.pipeline.retarget import retarget
+    from imesh.pipeline.retarget import RetargetConfig, retarget
 
     motion = load_motion(mocap("cmu_05_06_dance_pirouettes_jete.bvh"))
     with pytest.raises(FlightPhaseError, match=r"flight phase\(s\).*frames \d+-\d+") as err:
-        retarget(motion, robot)
+        retarget(motion, robot, config=RetargetConfig(balance="nishiwaki"))
     assert err.value.phases
 
 

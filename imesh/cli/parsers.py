@@ -177,8 +177,9 @@ def add_retarget(sub) -> argparse.ArgumentParser:
                    help="wholebody: the whole-body spacetime solve (default; docs/wholebody.md); "
                         "nishiwaki: the paper's waist-correction loop; none: the initial fit")
     p.add_argument("--allow-flight", action="store_true",
-                   help="accept flight phases (both feet up): those frames are left without "
-                        "support and ZMP constraints and listed in the report")
+                   help="deprecated: flight phases are planned by default (ballistic); only "
+                        "--balance nishiwaki, which has no flight model, needs it to accept "
+                        "them (those frames are left without support and ZMP constraints)")
     p.add_argument("--force", action="store_true",
                    help="write the motion even when it fails verification (exit 3 otherwise; "
                         "the report marks the failed gates)")

@@ -4,6 +4,7 @@ verified by the evaluator before the motion is written; ``--mode arms`` is :mod:
 from __future__ import annotations
 
 import dataclasses
+import logging
 from pathlib import Path
 
 from ..arms.solve import REFINE_CONFIG
@@ -23,6 +24,8 @@ from ..viz.report import write_report
 from .arms import run_arms
 from .loading import load_clip
 
+log = logging.getLogger(__name__)
+
 
 def run(args) -> int:
     """Retarget, verify and write (motion, markers, reports, plots), print the summary and the
@@ -35,6 +38,11 @@ def run(args) -> int:
             write_report(args.report_html, robot, args.output, source=motion, balanced=False,
                          facts={"source clip": args.clip, "mode": "arms (Kim 2005)"})
         return status
+    if getattr(args, "allow_flight", False) and args.balance != "nishiwaki":
+        log.warning("--allow-flight is deprecated and does nothing with --balance %s: flight "
+                    "phases are planned by default (ballistic CoM, bounded landings; "
+                    "docs/clips-flight.md); it applies to --balance nishiwaki only",
+                    args.balance)
     motion = load_clip(args)
     config = _retarget_config(args, args.steps, args.window_frames, support=not args.no_support,
                               balance=args.balance)
@@ -83,6 +91,8 @@ def run(args) -> int:
     if report["unconstrained_frames"]:
         print(f"flight frames without support or ZMP constraint: "
               f"{report['unconstrained_frames']}")
+    if report["flight_frames"]:
+        print(f"flight frames (planned ballistic, no support): {report['flight_frames']}")
     print(format_table(metrics))
     return 0
 

@@ -141,7 +141,9 @@ def flat_support(motion: MarkerMotion, contacts: Contacts,
     A frame of a support phase is flat when the foot's pitch, ``atan2(z_ankle - z_toe,
     |xy_ankle - xy_toe|)``, is within ``config.flat.pitch_deg`` of its median over the middle
     half of the phase. Each phase keeps its longest flat run, so the number of footfalls is the
-    source's; a phase without one (a toe walk) keeps its middle half.
+    source's; a phase without one (a toe walk) keeps its middle half. Frames in which the
+    source stands but neither foot is flat keep the source's support (no flight the source
+    does not have).
 
     Args:
         motion: the source with toe_* and ankle_* markers.
@@ -149,7 +151,8 @@ def flat_support(motion: MarkerMotion, contacts: Contacts,
         config: SupportConfig.
 
     Returns:
-        Contacts whose support mask is a subset of ``contacts.support``.
+        Contacts whose support mask is a subset of ``contacts.support`` (its sliding and
+        pivoting frames those of ``contacts`` within it).
     """
     config = config or SupportConfig()
     pos = motion.positions_m
@@ -168,7 +171,13 @@ def flat_support(motion: MarkerMotion, contacts: Contacts,
             best = max(((a + start, b + start) for a, b in runs(ok)),
                        key=lambda r: r[1] - r[0], default=(q1, q3))
             flat[best[0]:best[1], k] = True
-    return Contacts(support=flat, fps=contacts.fps)
+    # the human stands on a toe or a heel only (no flat part in either foot): the robot stands
+    # flat there, where a cut would make a flight the human never had
+    bare = contacts.support.any(axis=1) & ~flat.any(axis=1)
+    flat[bare] = contacts.support[bare]
+    return Contacts(support=flat, fps=contacts.fps,
+                    sliding=None if contacts.sliding is None else contacts.sliding & flat,
+                    pivoting=None if contacts.pivoting is None else contacts.pivoting & flat)
 
 
 def support_blend(contacts: Contacts, ramp_s: float) -> np.ndarray:
@@ -227,8 +236,9 @@ def support_foot_targets(motion: MarkerMotion, contacts: Contacts,
             for k, (start, stop) in enumerate(phases):
                 q1, q3 = middle_half(start, stop)
                 middle = pos[q1:q3, toe, :2]
-                if np.linalg.norm(middle - middle[0], axis=1).max() > config.slide_threshold_m:
-                    continue  # the source foot really slides
+                if (np.linalg.norm(middle - middle[0], axis=1).max() > config.slide_threshold_m
+                        or contacts.moving[start:stop, SIDES.index(side)].any()):
+                    continue  # the source foot really slides (or pivots)
                 mine = owner[on] == k
                 pin_toe[mine, :2] = np.median(pos[start:stop, toe, :2], axis=0)
                 pin_back[mine] = np.median(pos[start:stop, ankle, :2] - pos[start:stop, toe, :2],

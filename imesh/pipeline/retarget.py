@@ -24,7 +24,14 @@ from ..arms.config import ArmsConfig
 from ..arms.solve import refine_arms
 from ..balance import BalanceConfig, balance_loop, check_flight
 from ..balance.loop import BalanceResult
-from ..contacts.phases import FOOT_MARKERS, SIDES, ContactConfig, Contacts, detect_contacts
+from ..contacts.phases import (
+    FOOT_MARKERS,
+    SIDES,
+    ContactConfig,
+    Contacts,
+    detect_contacts,
+    runs,
+)
 from ..contacts.support import SupportConfig, flat_support, support_blend, support_foot_targets
 from ..core.motion import MarkerMotion
 from ..core.progress import ProgressCallback, notify
@@ -82,9 +89,11 @@ class RetargetConfig:
         wholebody: WholeBodyConfig of the whole-body solve.
         nishiwaki: BalanceConfig of the Nishiwaki loop (``balance="nishiwaki"``).
         lead_s: standing lead-in and lead-out of the whole-body solve [s] (0: none).
-        allow_flight: accept flight phases (both feet up): those frames get no support and no
-            ZMP constraint, and the result lists them. False: refuse them with FlightPhaseError
-            before any work.
+        allow_flight: ``balance="nishiwaki"`` only: accept flight phases (both feet up):
+            those frames get no support and no ZMP constraint, and the result lists them.
+            False: refuse them with FlightPhaseError before any work. The whole-body solve
+            plans flight as physics has it (ballistic CoM, :mod:`imesh.solve.forces`) and
+            ignores this.
         pelvis_weight: priority of the pelvis triangle (pelvis, hip_l, hip_r) and the base's
             lateral direction: the paper fits the waist 6-DOF from these first; a high weight
             keeps the feet from swinging the base when other targets disagree.
@@ -142,8 +151,12 @@ class RetargetResult:
         wholebody: the whole-body solve (:class:`imesh.solve.WholeBodySolution`), or None.
         balance: the Nishiwaki loop's result (``balance="nishiwaki"``), or None.
         lead_frames: (lead-in, lead-out) frames added before and after the clip.
-        unconstrained_frames: flight frames left without support or ZMP constraint
-            (``allow_flight``), as [start, stop) ranges of ``motion``'s frames.
+        unconstrained_frames: flight frames left without support or ZMP constraint and
+            without a model of the flight, as [start, stop) ranges of ``motion``'s frames
+            (none: the whole-body solve plans every flight frame, ``flight_frames``).
+        flight_frames: the planned flight phases of the whole-body solve (no support, the CoM
+            ballistic: :mod:`imesh.solve.forces`), as [start, stop) ranges of ``motion``'s
+            frames.
         seconds: wall time per stage [s].
         arms: the report of the arms' SQP in the initial fit (``config.arms``), or None.
     """
@@ -161,6 +174,7 @@ class RetargetResult:
     unconstrained_frames: list
     seconds: dict
     arms: dict | None = None
+    flight_frames: list = field(default_factory=list)
 
     def report(self) -> dict:
         fit_report = self.fit.report() if hasattr(self.fit, "report") else {}
@@ -170,6 +184,7 @@ class RetargetResult:
             "fps": self.adapted.fps,
             "lead_frames": list(self.lead_frames),
             "unconstrained_frames": self.unconstrained_frames,
+            "flight_frames": self.flight_frames,
             "markers": list(self.adapted.names),
             "human_scale": self.arrangement.scale,
             "bone_residual_m": self.morph.bone_residual_m,
@@ -291,8 +306,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         configuration's hash, the imesh version).
 
     Raises:
-        FlightPhaseError: the clip has flight phases and ``allow_flight`` is off (before any
-            solve).
+        FlightPhaseError: ``balance="nishiwaki"``, the clip has flight phases and
+            ``allow_flight`` is off (before any solve).
         SolverError: the whole-body solve failed.
     """
     config = config or RetargetConfig()
@@ -308,7 +323,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     contacts = detect_contacts(source, config.contacts)
     nishiwaki = config.nishiwaki or BalanceConfig(error_lowpass_hz=1.5,
                                                   allow_flight=config.allow_flight)
-    if config.balance != "none":  # fail before the morph, not after it
+    if config.balance == "nishiwaki":  # fail before the morph, not after it (the whole-body
+        # solve plans flight: ballistic, imesh.solve.forces)
         check_flight(motion.source or "motion", contacts.support, source.fps,
                      BalanceConfig(allow_flight=config.allow_flight))
     hard = soft = soft_w = None
@@ -374,6 +390,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     balance = solution = None
     lead = (0, 0)
     unconstrained: list = []
+    flight: list = []
     support_out = flat
     if config.balance == "nishiwaki":
         t3 = time.perf_counter()
@@ -408,9 +425,12 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")
         limits = joint_limits(robot, fit_config.limits)
+        sliding = np.zeros_like(ext.support)
+        sliding[n_lead:n_lead + n_work] = flat.moving
         plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
                                            source.fps, limits, config.wholebody,
-                                           rest_frames=3 if n_lead >= 3 else 0)
+                                           rest_frames=3 if n_lead >= 3 else 0,
+                                           sliding=sliding)
         seconds["plan"] = time.perf_counter() - t3
         n_out = len(ext.q)
         notify(progress, "plan", 1, 1, n_out)
@@ -432,10 +452,10 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         seconds["wholebody"] = time.perf_counter() - t4
         q_out = solution.q
         lead = (n_lead, n_lead)
-        unconstrained = [(a + n_lead, b + n_lead) for a, b in contacts.flight_phases()]
+        flight = runs(np.logical_not(plan.support.any(axis=1)))
         adapted = adapted.with_positions(
             ext.markers[:, :adapted.n_markers], source=adapted.source)
-        support_out = Contacts(support=ext.support, fps=source.fps)
+        support_out = Contacts(support=ext.support, fps=source.fps, sliding=sliding)
     motion_out = dataclasses.replace(fit.motion, q=q_out,
                                      provenance=make_provenance(motion, robot, lead, __version__))
     seconds["total"] = time.perf_counter() - t0
@@ -445,4 +465,4 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                           contacts=contacts, support=support_out, morph=morph, fit=fit,
                           wholebody=solution, balance=balance, lead_frames=lead,
                           unconstrained_frames=unconstrained, seconds=seconds,
-                          arms=arms_report)
+                          arms=arms_report, flight_frames=flight)

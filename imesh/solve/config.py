@@ -113,17 +113,30 @@ class ForceOptions(NonNegative):
             and 1.3).
         friction: mu of the friction cone the ground's total horizontal force stays in (the
             evaluator's ``friction_ratio_max`` uses the same mu); 0: no friction rows.
+        impact_normal: the upper bound within ``impact_s`` of a flight phase (take-off and
+            landing: a 0.5 s leap leaves and meets the ground at 2.5 m/s, which 1.3 g cannot
+            give or take in the support frames a clip has around it).
+        impact_s: [s] before a take-off and after a landing.
+        kinetic_friction: the largest mu of a sliding sole: where the only support slides, the
+            ground's horizontal force is against the slide and at most ``kinetic_friction``
+            times the normal force (a floor at most this rough); 0: no kinetic rows.
     """
 
     min_normal: float = 0.7
     max_normal: float = 1.3
     friction: float = 0.7
+    impact_normal: float = 3.0
+    impact_s: float = 0.3
+    kinetic_friction: float = 0.3
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.max_normal < self.min_normal:
             raise OptionError("max_normal", self.max_normal,
                               f"a number >= min_normal ({self.min_normal})")
+        if self.impact_normal < self.max_normal:
+            raise OptionError("impact_normal", self.impact_normal,
+                              f"a number >= max_normal ({self.max_normal})")
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,11 @@ For support phase s of foot f the sole keeps one pose F_s for the whole phase (D
 z), and x, y, yaw from the initial trajectory: the median sole centre and the circular mean of
 the yaw over the middle half of the phase (the ends of a phase carry the heel strike and toe-off
 of the fit).
+
+A sliding (or pivoting) foot keeps its sole flat on the ground but moves along it: every frame
+of a slide is its own one-frame footprint, level on z = 0 at the initial trajectory's sole
+centre and yaw of that frame (the fit follows the human's slide), so the sole rows, the support
+polygon (the ZMP inside the sliding sole) and the desired ZMP move with it.
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ class Footprint:
         polygon_m: (4, 3) float [m] world corners of the part of the sole the ZMP may use: the
             sole rectangle clipped to where the ankle can hold the largest planned load (see
             :func:`ankle_reach`).
+        sliding: the sole slides (or pivots) through this one-frame placement.
     """
 
     side: str
@@ -42,6 +48,7 @@ class Footprint:
     center_m: np.ndarray
     corners_m: np.ndarray
     polygon_m: np.ndarray
+    sliding: bool = False
 
 
 def _yaw(rot: np.ndarray) -> np.ndarray:
@@ -107,8 +114,10 @@ def ankle_reach(robot, side: str, load: float = 1.0) -> float:
 
 
 def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray,
-                    load: float = 1.0, margin: float = 0.0) -> list[Footprint]:
-    """One level footprint on z = 0 per support phase of each foot.
+                    load: float = 1.0, margin: float = 0.0,
+                    sliding: np.ndarray | None = None) -> list[Footprint]:
+    """One level footprint on z = 0 per support phase of each foot, and one per frame of a
+    slide.
 
     Args:
         robot: the robot (``soles``, ``q_nominal`` give the level sole orientation).
@@ -119,6 +128,7 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
             to :func:`ankle_reach` at this load).
         margin: fraction of the sole's half sizes kept free of the ZMP (the polygon is the
             sole rectangle shrunk about its centre by it, then clipped to the ankle's reach).
+        sliding: (T, 2) bool support frames in which the sole slides or pivots (None: none).
 
     Returns:
         Footprints of both feet, in order of side then time.
@@ -126,6 +136,8 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
     out = []
     level = robot.frame_rotations(robot.q_nominal,
                                   [robot.soles[s].frame for s in SIDES])  # soles level there
+    support = np.asarray(support, dtype=bool)
+    sliding = np.zeros_like(support) if sliding is None else np.asarray(sliding, bool) & support
     for k, side in enumerate(SIDES):
         sole = robot.soles[side]
         rot_level = level[k]
@@ -134,8 +146,13 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         # in the sole frame (the ankle is its origin): the rectangle shrunk about its centre
         local = sole.center + (1.0 - margin) * (sole.corners() - sole.center)
         local[:, :2] = np.clip(local[:, :2], -reach, reach)
-        for start, stop in runs(support[:, k]):
-            a, b = middle_half(start, stop)
+        # a planted phase: its middle half's placement; a slide: every frame's own
+        spans: list[tuple[int, int, int, int, bool]] = [
+            (start, stop, *middle_half(start, stop), False)
+            for start, stop in runs(support[:, k] & ~sliding[:, k])]
+        spans += [(int(t), int(t) + 1, int(t), int(t) + 1, True)
+                  for t in np.flatnonzero(sliding[:, k])]
+        for start, stop, a, b, slide in sorted(spans):
             sel = poses[a:b]
             centers = sel[:, :3, :3] @ sole.center + sel[:, :3, 3]
             # yaw of the sole relative to its level orientation in the nominal pose
@@ -147,9 +164,9 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
             pose[:3, :3] = R
             pose[:3, 3] = c - R @ sole.center
             corners = sole.corners() @ R.T + pose[:3, 3]
-            out.append(Footprint(side=side, start=start, stop=stop, frame_pose=pose,
+            out.append(Footprint(side=side, start=int(start), stop=int(stop), frame_pose=pose,
                                  center_m=c, corners_m=corners,
-                                 polygon_m=local @ R.T + pose[:3, 3]))
+                                 polygon_m=local @ R.T + pose[:3, 3], sliding=slide))
     return out
 
 

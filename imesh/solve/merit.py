@@ -15,6 +15,7 @@ from .collision import collision_violation
 from .config import WholeBodyConfig
 from .contacts import clearance, sole_errors
 from .costs import world_coordinates
+from .forces import normal_bounds
 from .plan import GRAVITY, Linearization, Plan
 
 
@@ -55,13 +56,26 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     if lin.body_z.shape[1]:
         penalty += config.slack.elastic * np.sum(np.maximum(-lin.body_z.min(axis=1), 0.0))
     az = lin.com_acceleration[:, 2]
+    low, high = normal_bounds(plan, config)
+    fl = ~sup
     penalty += config.slack.balance * (
-        np.sum(np.maximum((config.forces.min_normal - 1.0) * GRAVITY - az[sup], 0.0))
-        + np.sum(np.maximum(az[sup] - (config.forces.max_normal - 1.0) * GRAVITY, 0.0))
+        np.sum(np.maximum(low[sup] - az[sup], 0.0))
+        + np.sum(np.maximum(az[sup] - high[sup], 0.0))
         + (np.sum(np.maximum(np.abs(lin.com_acceleration[sup, :2]).max(axis=1)
                              - config.forces.friction / np.sqrt(2.0) * (GRAVITY + az[sup]), 0.0))
            if config.forces.friction > 0 else 0.0)
-        + np.sum(np.abs(az[~sup] + GRAVITY)))
+        + np.sum(np.abs(az[fl] + GRAVITY))
+        + np.sum(np.abs(lin.com_acceleration[fl, :2]).max(axis=1, initial=0.0))
+        + np.sum(np.abs(lin.angular_momentum_rate[fl, :2] / lin.mass).max(axis=1, initial=0.0)))
+    if plan.kinetic is not None and config.forces.kinetic_friction > 0:
+        kin = np.isfinite(plan.kinetic).all(axis=1) & sup
+        u = plan.kinetic[kin]
+        a_xy = lin.com_acceleration[kin, :2]
+        along = np.sum(a_xy * u, axis=1)
+        across = a_xy[:, 1] * u[:, 0] - a_xy[:, 0] * u[:, 1]
+        cap = config.forces.kinetic_friction * (GRAVITY + az[kin])
+        penalty += config.slack.balance * np.sum(np.maximum.reduce(
+            [np.maximum(-along, 0.0), np.maximum(along - cap, 0.0), np.abs(across)]))
     if lin.torques is not None:
         penalty += config.slack.balance * np.sum(lin.torques.excess(1.0 - config.margins.torque))
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (

@@ -96,6 +96,11 @@ class Plan:
         fixed_end_frames: the last this many frames do not move either (the window joining
             two chains of windows solved in parallel ends on the second chain's solution:
             :mod:`imesh.solve.windows`).
+        normal_max: (T,) largest total normal force per frame, times the weight (take-offs
+            and landings allow more: ``ForceOptions.impact_normal``); None:
+            ``config.forces.max_normal`` everywhere.
+        kinetic: (T, 2) unit horizontal direction of the kinetic friction force where the only
+            support slides (against the slide), NaN elsewhere; None: no slide.
     """
 
     marker_points: np.ndarray
@@ -119,3 +124,10 @@ class Plan:
     rest_ends: tuple[bool, bool] = (True, True)
     q_start: np.ndarray | None = None
     fixed_end_frames: int = 0
+    normal_max: np.ndarray | None = None
+    kinetic: np.ndarray | None = None
+
+    @property
+    def flight(self) -> np.ndarray:
+        """(T,) bool frames without a support foot: the body flies."""
+        return ~np.asarray(self.support.any(axis=1))

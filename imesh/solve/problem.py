@@ -36,8 +36,11 @@ Constraints:
   solvable; the slack vanishes where the constraints can be met);
 * joints: position bounds; ``|Delta q| <= v_max dt``; ``|Delta^2 q| <= a_max dt^2`` (elastic,
   one slack per frame);
-* normal force: ``min_normal g <= g + c_z'' <= max_normal g`` (elastic); in flight frames
-  ``c_z'' = -g``;
+* normal force: ``min_normal g <= g + c_z'' <= max_normal g`` (elastic; ``impact_normal``
+  around take-offs and landings); in flight frames the CoM is ballistic, ``c'' = (0, 0, -g)``,
+  and the horizontal angular momentum about it is conserved;
+* kinetic friction: where the only support slides, the total horizontal force is
+  ``kinetic_friction`` times the normal force, against the slide (elastic);
 * friction: ``|c_a''| <= (mu / sqrt 2) (g + c_z'')`` for a = x, y in support frames (elastic):
   the ground's total force ``m (c'' - g)`` in the friction pyramid;
 * joint torques: ``|P_t tau_t| <= (1 - torque_margin) effort`` on the frames and joints above
@@ -113,7 +116,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     torque_rows(rows, lin, config, lay)
     polygon_rows(rows, lin, plan, zl, config, lay)
     band_rows(rows, band, config)
-    force_rows(rows, lin, zl, config, lay)
+    force_rows(rows, lin, plan, zl, config, lay)
     if lin.collision is not None and len(lin.collision.frames):
         rows.add(*collision_qp_rows(lin.collision, T, lay.nx, lay.offset["collision_slack"],
                                     config.collision.margin_m))

@@ -278,11 +278,48 @@ def swing_clearance(support: np.ndarray, base_m: float, lift_m: float, edge_m: f
     return out
 
 
+def impact_normal(flight: np.ndarray, fps: float, normal: float, impact: float,
+                  impact_s: float) -> np.ndarray:
+    """(T,) largest normal force per frame, times the weight: ``impact`` within ``impact_s``
+    before a take-off and after a landing of a flight phase (``flight`` (T,) bool), ``normal``
+    elsewhere."""
+    out = np.full(len(flight), normal)
+    n = int(round(impact_s * fps))
+    for a, b in runs(flight):
+        out[max(a - n, 0):b + n] = impact
+    return out
+
+
+def kinetic_directions(footprints: list[Footprint], support: np.ndarray, fps: float,
+                       min_speed: float = 0.1) -> np.ndarray:
+    """(T, 2) unit direction of the kinetic friction force (against the slide of the sliding
+    sole centre) in the frames whose only support slides faster than ``min_speed`` [m/s]; NaN
+    elsewhere (a planted foot's static friction, a pivot turning in place)."""
+    T = len(support)
+    centre = np.full((T, 2, 2), np.nan)
+    slides = np.zeros((T, 2), dtype=bool)
+    for f in footprints:
+        k = SIDES.index(f.side)
+        centre[f.start:f.stop, k] = f.center_m[:2]
+        slides[f.start:f.stop, k] |= f.sliding
+    out = np.full((T, 2), np.nan)
+    only = support.sum(axis=1) == 1
+    for k in range(2):
+        for a, b in runs(slides[:, k]):
+            if b - a < 2:
+                continue
+            v = np.gradient(centre[a:b, k], 1.0 / fps, axis=0)
+            speed = np.linalg.norm(v, axis=1)
+            sel = (speed > min_speed) & only[a:b] & support[a:b, k]
+            out[a:b][sel] = -v[sel] / speed[sel, None]
+    return out
+
+
 def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: CompiledTargets,
                     support: np.ndarray, fps: float, limits: JointLimits,
                     config: WholeBodyConfig,
-                    transition_s: float = 0.1, rest_frames: int = 3
-                    ) -> tuple[Plan, list[Footprint]]:
+                    transition_s: float = 0.1, rest_frames: int = 3,
+                    sliding: np.ndarray | None = None) -> tuple[Plan, list[Footprint]]:
     """Fix the targets, mesh, support, footprints and limits of a whole-body solve.
 
     Args:
@@ -290,21 +327,30 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
         q_init: (T, nq) initial trajectory (within the joint limits).
         markers: (T, M, 3) adapted markers (the fit's markers, ``targets`` index them).
         targets: key points and directions compiled against ``markers``.
-        support: (T, 2) bool [left, right] planned support; every frame needs one foot.
+        support: (T, 2) bool [left, right] planned support (sliding and planted feet); frames
+            without are flight (ballistic, :mod:`.forces`).
         fps: frame rate [1/s].
         limits: the (n,) joint limits (e.g. :func:`imesh.fit.limits.joint_limits`).
         config: WholeBodyConfig.
         transition_s: blending of the desired ZMP between phases (as the evaluator's).
         rest_frames: the first and last this many frames are held identical (start and end
             at rest); 0: free.
+        sliding: (T, 2) bool support frames whose sole slides or pivots along the ground
+            (one footprint per frame, :func:`~imesh.solve.footprints.plan_footprints`); None:
+            none.
     """
     T = len(q_init)
     frames = _Frames(robot, targets)
     kin = robot.trajectory_kinematics(q_init, [frames.ids[i] for i in frames.soles])
     poses = {s: kin.placements[:, k] for k, s in enumerate(SIDES)}
-    support = split_pivots(robot, poses, support, fps)
+    support = np.asarray(support, dtype=bool)
+    sliding = (np.zeros_like(support) if sliding is None
+               else np.asarray(sliding, dtype=bool) & support)
+    # planted runs that pivot or slide in the fit become re-steps; detected slides stay slides
+    support = split_pivots(robot, poses, support & ~sliding, fps) | sliding
     footprints = plan_footprints(robot, poses, support, load=config.forces.max_normal,
-                                 margin=config.zmp.margin)
+                                 margin=config.zmp.margin, sliding=sliding)
+    flight = np.logical_not(support.any(axis=1))
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
         sole_targets[f.start:f.stop, SIDES.index(f.side)] = f.frame_pose
@@ -325,7 +371,12 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                 a_max=limits.a_max, fps=fps,
                 rest_frames=rest_frames,
                 clearance=swing_clearance(support, config.feet.clearance_m,
-                                          config.feet.swing_lift_m, config.feet.swing_edge_m))
+                                          config.feet.swing_lift_m, config.feet.swing_edge_m),
+                normal_max=(impact_normal(flight, fps, config.forces.max_normal,
+                                          config.forces.impact_normal, config.forces.impact_s)
+                            if flight.any() else None),
+                kinetic=(kinetic_directions(footprints, support, fps) if sliding.any()
+                         else None))
     return plan, footprints
 
 

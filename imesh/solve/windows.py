@@ -97,6 +97,8 @@ def plan_window(plan: Plan, start: int, stop: int, *, fixed_frames: int = 0,
         halfplanes=(hp_frame[sel] - start, hp_n[sel], hp_b[sel]),
         desired_zmp=plan.desired_zmp[part], q_init=plan.q_init[part],
         clearance=None if plan.clearance is None else plan.clearance[part],
+        normal_max=None if plan.normal_max is None else plan.normal_max[part],
+        kinetic=None if plan.kinetic is None else plan.kinetic[part],
         fixed_frames=fixed_frames, rest_ends=rest_ends, q_start=q_start,
         fixed_end_frames=fixed_end_frames)
 

@@ -1,0 +1,185 @@
+"""Slides, pivots and flight (issue 31): clips with a known slide and a known hop, built from a
+real standing frame, are detected as what they are and retargeted; the written motions are
+measured by the evaluator's own sole tracks and CoM (imesh.metrics.flight)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import load_test_robot
+
+from imesh.contacts.phases import ContactConfig, FlightConfig, detect_contacts
+from imesh.core.motion import MarkerMotion
+from imesh.errors import OptionError
+
+FPS = 30.0
+GRAVITY = 9.81
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_test_robot("jvrc1")
+
+
+@pytest.fixture(scope="module")
+def standing(mocap):
+    """The CMU wash's first frame (both feet flat) as the 21 standard markers."""
+    from imesh.io import load_motion
+    from imesh.morph.adapt import prepare_markers
+
+    m = prepare_markers(load_motion(mocap("cmu_02_10_wash_self_cc3rig.bvh")))
+    return m.frames(0, 1)
+
+
+def _clip(standing: MarkerMotion, seconds: float) -> tuple[MarkerMotion, np.ndarray]:
+    """(T, M, 3) copies of the standing frame at 30 fps; returns the motion's builder and
+    positions to edit."""
+    T = int(round(seconds * FPS))
+    pos = np.repeat(standing.positions_m[:1], T, axis=0).copy()
+    return standing, pos
+
+
+def _motion(standing: MarkerMotion, pos: np.ndarray, name: str) -> MarkerMotion:
+    return MarkerMotion(positions_m=pos, fps=FPS, names=standing.names,
+                        valid=np.ones(pos.shape[:2], dtype=bool), bones=standing.bones,
+                        source=name)
+
+
+def slide_clip(standing: MarkerMotion, speed: float = 0.5, start_s: float = 1.0,
+               duration_s: float = 0.5, seconds: float = 2.5) -> MarkerMotion:
+    """The left foot (ankle and toe; the knee half as far) translated forward along the floor
+    at ``speed`` for ``duration_s``, the rest of the body standing."""
+    s, pos = _clip(standing, seconds)
+    t = np.arange(len(pos)) / FPS
+    dx = speed * np.clip(t - start_s, 0.0, duration_s)
+    for name, share in (("ankle_l", 1.0), ("toe_l", 1.0), ("knee_l", 0.5)):
+        pos[:, s.names.index(name), 0] += share * dx
+    return _motion(s, pos, "synthetic:slide")
+
+
+def hop_clip(standing: MarkerMotion, start_s: float = 1.0, duration_s: float = 0.2,
+             lift_m: float = 0.1, seconds: float = 2.5) -> MarkerMotion:
+    """A hop: for ``duration_s`` the body follows a ballistic arc (apex ``g d^2 / 8``) and both
+    feet are ``lift_m`` above the floor (the knees half as much)."""
+    s, pos = _clip(standing, seconds)
+    t = np.arange(len(pos)) / FPS
+    u = t - start_s
+    fly = (u >= 0) & (u < duration_s)
+    arc = np.where(fly, 0.5 * GRAVITY * u * (duration_s - u), 0.0)
+    pos[..., 2] += arc[:, None]
+    for side in ("l", "r"):
+        for name, share in ((f"ankle_{side}", 1.0), (f"toe_{side}", 1.0), (f"knee_{side}", 0.5)):
+            pos[:, s.names.index(name), 2] += share * np.where(fly, lift_m - arc, 0.0)
+    return _motion(s, pos, "synthetic:hop")
+
+
+def test_flight_config_validates_itself():
+    with pytest.raises(OptionError, match="ballistic_fraction"):
+        FlightConfig(ballistic_fraction=0.0)
+    assert ContactConfig().flight.ground_fraction > 0
+
+
+def test_slide_is_a_slide_and_hop_is_flight(standing):
+    """Detection on the clips themselves: the sliding foot is on the ground and moving through
+    the slide (no flight), the other foot stands; the hop is one flight phase of the hop's
+    length (0.2 s = 6 frames, +-2: the feet of this clip leave and meet the floor in one frame,
+    whose vertical speed keeps the detector off the ground a frame longer)."""
+    slide = detect_contacts(slide_clip(standing))
+    frames = np.arange(30, 45)
+    assert slide.support[frames, 0].all()
+    assert slide.moving[frames, 0].mean() >= 0.8
+    assert not slide.moving[:, 1].any()
+    assert not slide.flight.any()
+    names = [mode for mode, a, b in slide.timeline("left") if a < 45 and b > 30]
+    assert "slide" in names
+
+    hop = detect_contacts(hop_clip(standing))
+    phases = hop.flight_phases()
+    assert len(phases) == 1
+    a, b = phases[0]
+    assert abs(a - 30) <= 2 and abs(b - 36) <= 2
+    assert not hop.moving.any()
+
+
+def test_a_standing_clip_with_markers_high_is_not_flight(standing):
+    """Both feet 10 cm up for 0.2 s while the body does not fall (a marker set off the skin, a
+    dancer on the ball of the foot): not flight, the lower foot carries the body."""
+    s, pos = _clip(standing, 2.5)
+    fly = slice(30, 36)
+    for name in ("ankle_l", "toe_l", "ankle_r", "toe_r"):
+        pos[fly, s.names.index(name), 2] += 0.1
+    for name in ("ankle_l", "toe_l"):  # the right foot is the lower one
+        pos[fly, s.names.index(name), 2] += 0.01
+    contacts = detect_contacts(_motion(s, pos, "synthetic:high"))
+    assert not contacts.flight.any()
+    assert contacts.support[fly, 1].all()
+    assert not contacts.moving.any()  # standing, not sliding
+
+
+def _retarget_and_score(robot, motion, tmp_path):
+    from imesh.evaluate.scoreboard import evaluate_motion, metric_values
+    from imesh.io.robot_motion import load_robot_motion, save_robot_motion
+    from imesh.metrics.soles import sole_tracks
+    from imesh.pipeline.retarget import retarget
+
+    res = retarget(motion, robot)
+    path = tmp_path / "out.npz"
+    save_robot_motion(path, res.motion)
+    written = load_robot_motion(path, robot)
+    m = metric_values(evaluate_motion(robot, written))
+    return res, written, m, sole_tracks(robot, written.q, written.fps)
+
+
+def test_known_slide_is_retargeted(robot, standing, tmp_path):
+    """The slide retargeted on JVRC-1 with default settings and scored on the written file: no
+    limit violation, no ground penetration beyond 2 mm, no flight; the left sole stays on the
+    ground (lowest corner within 2 mm) while it slides forward about as far as the human foot
+    (25 cm; at least 80 % of the scaled human's); the standing foot does not skid (<= 0.5 mm
+    per 1/30 s outside the planned slide)."""
+    from imesh.metrics.flight import flight_report, skid_apart_from_slides
+    from imesh.metrics.support import detect_support
+
+    res, written, m, soles = _retarget_and_score(robot, slide_clip(standing), tmp_path)
+    assert m["limit_violation_frames"] == 0
+    assert m["ground_penetration_mm"] <= 2.0
+    assert flight_report(robot, written.q, written.fps, soles).flight_frames == 0
+    lead = res.lead_frames[0]
+    slide = np.arange(lead + 33, lead + 43)  # the slide's frames away from its ends
+    left = soles.centers["left"]
+    assert np.abs(soles.lowest("left")[slide]).max() <= 2e-3
+    travel = left[lead + 60, 0] - left[lead + 15, 0]
+    # the human foot's 25 cm: the morph keeps a slide's horizontal motion (measured 242 mm),
+    # at least the scaled human's (the arrangement's scale, 0.77 for JVRC-1)
+    assert 0.8 * 0.25 * res.arrangement.scale <= travel <= 1.2 * 0.25
+    sliding = res.support.sliding
+    assert sliding[:, 0].sum() >= 10 and not sliding[:, 1].any()
+    skid, _ = skid_apart_from_slides(soles, detect_support(soles).support, sliding)
+    assert skid.mean_mm_per_frame <= 0.5
+
+
+def test_known_hop_is_retargeted(robot, standing, tmp_path):
+    """The hop retargeted on JVRC-1 with default settings (no --allow-flight) and scored on the
+    written file: no limit violation, no ground penetration beyond 2 mm; the robot flies
+    (both soles off the ground) about as long as the human, its CoM ballistic in the flight
+    frames the evaluator's differences can judge (within 0.5 m/s^2 of g), landing and take-off
+    forces reported."""
+    from imesh.metrics.flight import flight_report
+
+    res, written, m, soles = _retarget_and_score(robot, hop_clip(standing), tmp_path)
+    # detected after the pipeline's own 8 Hz low-pass and arrangement: one flight of the
+    # hop's frames [30, 36) (+-1: the push of the take-off and the catch of the landing are
+    # the ground's), planned without support
+    (a, b), = res.contacts.flight_phases()
+    assert abs(a - 30) <= 1 and abs(b - 36) <= 1
+    lead = res.lead_frames[0]
+    assert not res.support.support[lead + a:lead + b].any()
+    assert res.support.support[lead + a - 1].all() and res.support.support[lead + b].all()
+    assert m["limit_violation_frames"] == 0
+    assert m["ground_penetration_mm"] <= 2.0
+    report = flight_report(robot, written.q, written.fps, soles)
+    assert 4 <= report.flight_frames <= 8
+    assert report.judged_frames >= 1
+    assert report.com_accel_error <= 0.5
+    # measured: 5 frames, 0.003 m/s^2 off g, landing at 0.95 m/s with 2.5 body weights
+    assert report.landing_normal and all(f > 1.0 for f in report.landing_normal)
+
