@@ -261,8 +261,9 @@ class WholeBodyController:
         for j, s in enumerate(active):
             Jt[:, 6 * j:6 * j + 6] = dyn.jacobians[s].T
             E[6 + 6 * j:12 + 6 * j, :nv] = dyn.jacobians[s]
+            flat = self._flat_error(dyn.poses[s], int(s))
             e[6 + 6 * j:12 + 6 * j] = (-dyn.drifts[s] - cfg.gains.contact_kd * dyn.twists[s]
-                                       + cfg.gains.contact_kp * self._flat_error(dyn.poses[s], int(s)))
+                                       + cfg.gains.contact_kp * flat)
         E[:6, nv:] = -Jt[:6]
 
         # --- inequalities: wrench cones, torque limits ----------------------------------------
