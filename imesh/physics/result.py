@@ -41,7 +41,7 @@ class PhysicsResult:
             simulated and the reference motion over the survived frames [mm] (NaN without key
             points); ``keypoint_max_mm`` the largest.
         slip_mm: largest horizontal displacement of a sole centre within one planned support
-            phase [mm].
+            phase, from the frame the sole is down in the simulation [mm].
         friction_ratio: largest tangential / (mu x normal) ground force ratio of a loaded sole.
         cop_margin_mm: smallest distance of a loaded sole's centre of pressure to its edge [mm]
             (negative: outside, the sole tips).

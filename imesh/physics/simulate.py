@@ -32,6 +32,8 @@ log = logging.getLogger(__name__)
 #: A base faster than this [m/s or rad/s] or this far from the origin [m] has diverged.
 DIVERGED_SPEED = 200.0
 DIVERGED_M = 1000.0
+#: A sole whose lowest corner is this close to the ground is down (for the slip figure) [m].
+CONTACT_M = 0.005
 #: Moment arm [m] that weighs the torques against the forces in the contact-wrench distribution.
 WRENCH_ARM_M = 0.05
 
@@ -137,7 +139,8 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
     - ``cop_margin_mm``: smallest distance of a loaded sole's centre of pressure to the edge of
       its rectangle (negative outside) [mm];
     - ``slip_mm``: largest horizontal displacement of a sole centre within one planned support
-      phase, over the survived frames [mm].
+      phase, from the frame the sole is down (lowest corner within ``CONTACT_M``), over the
+      survived frames [mm].
     """
     T = len(ok)
     n = np.maximum(samples, 1)[:, None, None]
@@ -170,11 +173,19 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
         use = loaded & np.isfinite(edge)
         if use.any():
             margin = float(1e3 * edge[use].min())
+        # the sole's lowest corner in the simulation: a planned support counts from the frame
+        # its sole is down (within CONTACT_M), so the landing itself is not slip
+        R = pl[:, :, :3, :3]
+        low = (centre_w[..., 2] - np.abs(R[..., 2, 0]) * half[None, :, 0]
+               - np.abs(R[..., 2, 1]) * half[None, :, 1])
         for k in range(2):
             sup = ref.support[:, k] & ok
             edges = np.flatnonzero(np.diff(np.r_[0, sup.astype(np.int8), 0]))
             for a, b in zip(edges[::2], edges[1::2], strict=True):
-                xy = centre_w[a:b, k, :2]
+                down = np.flatnonzero(low[a:b, k] <= CONTACT_M)
+                if not len(down):
+                    continue
+                xy = centre_w[a + down[0]:b, k, :2]
                 slip = max(slip, float(np.linalg.norm(xy - xy[0], axis=1).max()))
     return {"zmp": zmp, "force": force, "sole_forces": forces, "sole_cop": sole_cop,
             "friction_ratio": friction_ratio, "cop_margin_mm": margin, "slip_mm": 1e3 * slip}
