@@ -92,6 +92,10 @@ class WbcConfig:
         min_normal_force_n: smallest normal force of a sole in contact [N].
         contact_height_m: a sole planned in support is treated as in contact once its lowest
             corner is this close to the ground [m].
+        limit_horizon_s: the joint accelerations are bounded so that every joint, braking
+            over this time, stays within its position limits and below its velocity limit [s]
+            (without them the swing leg reached its foot targets with JVRC-1's knee bent 0.66
+            rad backwards).
     """
 
     gains: WbcGains = field(default_factory=WbcGains)
@@ -102,9 +106,11 @@ class WbcConfig:
     torque_fraction: float = 1.0
     min_normal_force_n: float = 1.0
     contact_height_m: float = 0.005
+    limit_horizon_s: float = 0.1
 
     def __post_init__(self) -> None:
-        require_finite(self, ("rate_hz", "friction_fraction", "torque_fraction"), positive=True)
+        require_finite(self, ("rate_hz", "friction_fraction", "torque_fraction",
+                              "limit_horizon_s"), positive=True)
         require_finite(self, ("min_normal_force_n", "contact_height_m"), positive=False)
         if not 0.0 <= self.cop_margin < 1.0:
             raise OptionError("cop_margin", self.cop_margin, "a fraction in [0, 1)")

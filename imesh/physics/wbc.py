@@ -25,6 +25,10 @@ afterwards: the limits are constraints). Tasks (``A_i x = b_i``, PD feedback on 
   feed-forward);
 - joints: ``qdd_ref + kp (q_ref - q) + kd (qd_ref - qd)`` (posture, weakest).
 
+Joint limits bound the accelerations (Del Prete 2018's discrete-time form, with a horizon
+``h = WbcConfig.limit_horizon_s``): ``2 (q_min - q - qd h) / h^2 <= qdd <= 2 (q_max - q - qd h) /
+h^2`` and ``(-qd_max - qd) / h <= qdd <= (qd_max - qd) / h``.
+
 The contact wrench cone of a rectangular sole of half sizes X, Y with friction coefficient mu
 (Caron, Pham & Nakamura 2015, eq. 11-15), in the sole frame (``f = (fx, fy, fz)``,
 ``m = (mx, my, mz)`` about the sole centre): ``fz >= f_min``, ``|fx|, |fy| <= mu fz``,
@@ -142,6 +146,8 @@ class WholeBodyController:
                                   keep * robot.soles[s].half_extents[1], mu) for s in SIDES]
         self.half_extents = np.array([robot.soles[s].half_extents for s in SIDES])
         self.tau_max = robot.effort_max * config.torque_fraction
+        self.q_lower, self.q_upper = robot.q_lower, robot.q_upper
+        self.v_max = robot.v_max
         legs = np.unique(np.concatenate([robot.supporting_joints(f) for f in self.frames]))
         self.posture_weights = np.full(self.n_joints, config.weights.upper_body)
         self.posture_weights[legs] = config.weights.joints
@@ -281,6 +287,17 @@ class WholeBodyController:
             G_rows.append(G)
             l_rows.append(np.full(len(C), -np.inf))
             u_rows.append(upper)
+        # joint position and velocity limits as acceleration bounds over the horizon
+        hz = cfg.limit_horizon_s
+        qj, vj = q[7:], v[6:]
+        lo_a = np.maximum(2.0 * (self.q_lower - qj - vj * hz) / hz ** 2, (-self.v_max - vj) / hz)
+        up_a = np.minimum(2.0 * (self.q_upper - qj - vj * hz) / hz ** 2, (self.v_max - vj) / hz)
+        lo_a = np.minimum(lo_a, up_a)  # beyond a limit already: brake as hard as the other side
+        Gl = np.zeros((nj, n))
+        Gl[:, 6:nv] = np.eye(nj)
+        G_rows.append(Gl)
+        l_rows.append(lo_a)
+        u_rows.append(up_a)
         Gt = np.zeros((nj, n))
         Gt[:, :nv] = M[6:]
         Gt[:, nv:] = -Jt[6:]
