@@ -27,6 +27,7 @@ class WbcGains(NonNegative):
         base_kp: base orientation stiffness [1/s^2]; ``base_kd`` [1/s].
         sole_kp: swing sole pose stiffness [1/s^2]; ``sole_kd`` [1/s].
         joint_kp: joint posture stiffness [1/s^2]; ``joint_kd`` [1/s].
+        momentum_kp: feedback of the centroidal angular momentum [1/s].
         contact_kd: damping of a contact sole's residual velocity [1/s].
         contact_kp: stiffness driving a contact sole back flat on the ground (height, roll,
             pitch) [1/s^2].
@@ -41,6 +42,7 @@ class WbcGains(NonNegative):
     sole_kd: float = 40.0
     joint_kp: float = 200.0
     joint_kd: float = 28.0
+    momentum_kp: float = 5.0
     contact_kd: float = 10.0
     contact_kp: float = 100.0
 
@@ -52,6 +54,7 @@ class WbcWeights(NonNegative):
 
     Attributes:
         com: centre of mass.
+        momentum: centroidal angular momentum rate, in ZMP-equivalent units (``Ldot / m z``).
         base: base orientation.
         swing: swing soles (6 rows each).
         joints: joint posture of the legs (the joints between the base and a sole: they move
@@ -67,6 +70,7 @@ class WbcWeights(NonNegative):
     """
 
     com: float = 100.0
+    momentum: float = 100.0
     base: float = 10.0
     swing: float = 30.0
     joints: float = 0.05

@@ -34,6 +34,9 @@ class TrackPoint:
         sole_positions: (2, 3) float [left, right] sole centres [m]; ``sole_vel``,
             ``sole_acc`` their derivatives.
         sole_rotations: (2, 3, 3) float; ``sole_omega``, ``sole_alpha`` (2, 3).
+        momentum: (3,) float centroidal angular momentum about the CoM [kg m^2/s];
+            ``momentum_rate`` (3,) its rate [N m] (pinocchio's, from the evaluator's central
+            differences: the ``Ldot`` of the planned multibody ZMP).
         support: (2,) bool [left, right] planned support.
         frame: the nearest motion frame.
     """
@@ -53,6 +56,8 @@ class TrackPoint:
     sole_rotations: np.ndarray
     sole_omega: np.ndarray
     sole_alpha: np.ndarray
+    momentum: np.ndarray
+    momentum_rate: np.ndarray
     support: np.ndarray
     frame: int
 
@@ -160,6 +165,9 @@ class ReferenceTrack:
         self._base = _Orientation(base_R, ref.fps)
         self._sole_rot = [_Orientation(pl[:, k, :3, :3], ref.fps) for k in range(2)]
         self.com_height_m = float(np.mean(kin.com[:, 2]))
+        _, dh, ag = robot.centroidal_trajectory(ref.q, ref.v, ref.a)
+        self._momentum = np.einsum("tij,tj->ti", ag[:, 3:], ref.v)
+        self._momentum_rate = dh[:, 3:]
 
     def frame(self, t: float) -> int:
         """The motion frame nearest to time ``t`` [s] (clamped to the clip)."""
@@ -181,6 +189,14 @@ class ReferenceTrack:
         # the angular velocities are tracked themselves: value and first derivative
         omega, alpha = (np.zeros(9), np.zeros(9)) if rest else (x[n + 9:], dx[n + 9:])
         f = self.frame(tc)
+        x_f = min(max(tc * self.fps, 0.0), self.n_frames - 1.0)
+        i = min(int(x_f), max(self.n_frames - 2, 0))
+        w = x_f - i if self.n_frames > 1 else 0.0
+        j = min(i + 1, self.n_frames - 1)
+        momentum = (1 - w) * self._momentum[i] + w * self._momentum[j]
+        momentum_rate = (1 - w) * self._momentum_rate[i] + w * self._momentum_rate[j]
+        if rest:
+            momentum = momentum_rate = np.zeros(3)
         return TrackPoint(
             q_joints=x[:n], qd_joints=dx[:n], qdd_joints=ddx[:n], com=x[n:n + 3],
             com_vel=dx[n:n + 3], com_acc=ddx[n:n + 3], base_rotation=self._base(tc),
@@ -189,4 +205,5 @@ class ReferenceTrack:
             sole_acc=ddx[n + 3:n + 9].reshape(2, 3),
             sole_rotations=np.array([o(tc) for o in self._sole_rot]),
             sole_omega=omega[3:].reshape(2, 3), sole_alpha=alpha[3:].reshape(2, 3),
-            support=self.ref.support[f], frame=f)
+            momentum=momentum, momentum_rate=momentum_rate, support=self.ref.support[f],
+            frame=f)

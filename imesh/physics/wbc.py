@@ -20,6 +20,9 @@ afterwards: the limits are constraints). Tasks (``A_i x = b_i``, PD feedback on 
   the commanded ZMP ``p = p_ref + (1 + k_xi / omega) (xi - xi_ref)`` and
   ``cddot = omega^2 (c - p)``, i.e. ``cddot_ref - k_xi omega e_c - (omega + k_xi) e_cdot``;
   the wrench cone then keeps the realised ZMP inside the soles. Vertical: PD.
+- centroidal angular momentum about the CoM: ``Ldot = Ldot_ref + k_L (L_ref - L)`` (the
+  planned multibody ZMP includes ``Ldot``: a small robot's centre of pressure moves 30 mm per
+  10 N m of it);
 - base orientation (angular acceleration with PD on ``log(R_ref R^T)``);
 - swing soles: 6-D pose (PD on position and orientation, the reference's acceleration as
   feed-forward);
@@ -39,7 +42,8 @@ The contact wrench cone of a rectangular sole of half sizes X, Y with friction c
 
 A sole is in contact when the reference plans it in support and the simulated sole is within
 ``WbcConfig.contact_height_m`` of the ground; a planned support whose sole is still in the air
-is tracked as a swing sole (it lands), and a sole that leaves its support early is too.
+is tracked as a swing sole (it lands), and a sole that leaves its support early is too. When no
+planned sole is down (the landing is late), the soles that are down stay in contact.
 """
 
 from __future__ import annotations
@@ -157,8 +161,12 @@ class WholeBodyController:
     # ------------------------------------------------------------------------------------------
 
     def contacts(self, point: TrackPoint, sole_heights: np.ndarray) -> np.ndarray:
-        """(2,) bool soles in contact: planned in support and within reach of the ground."""
-        return point.support & (sole_heights <= self.config.contact_height_m)
+        """(2,) bool soles in contact: planned in support and down on the ground; when no
+        planned sole is down yet (a late landing), the soles that are down keep carrying the
+        robot instead of leaving it in the air."""
+        down = sole_heights <= self.config.contact_height_m
+        planned = point.support & down
+        return planned if planned.any() else down
 
     def sole_heights(self, poses: np.ndarray) -> np.ndarray:
         """(2,) float [left, right] lowest sole corner above the ground [m], from the sole
@@ -216,6 +224,14 @@ class WholeBodyController:
         cdd[:2] += k_xi * om * e_c[:2] + (om + k_xi) * e_cd[:2]
         cdd[2] += g.com_z_kp * e_c[2] + g.com_z_kd * e_cd[2]
         task(dyn.com_jacobian, cdd - dyn.com_drift, cfg.weights.com)
+
+        # centroidal angular momentum: the planned ZMP has Ldot in it (p = c - (z cdd + Ldot^
+        # / m) / g), so its rate is tracked, scaled to the CoM's units (/ m z: a ZMP shift)
+        scale = 1.0 / (self.robot.mass * self.track.com_height_m)
+        L = dyn.centroidal_map[3:] @ v
+        Ld = ref.momentum_rate + g.momentum_kp * (ref.momentum - L)
+        task(dyn.centroidal_map[3:] * scale, (Ld - dyn.centroidal_drift[3:]) * scale,
+             cfg.weights.momentum)
 
         # base orientation (the free flyer's angular velocity in the world: R v[3:6])
         R = quat_xyzw_to_matrix(q[3:7])

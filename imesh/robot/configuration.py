@@ -298,8 +298,12 @@ class Configuration:
             # omega x (omega x r) = omega (omega . r) - r |omega|^2
             drifts[k, :3] = (acc.linear + skew(acc.angular) @ r + w * (w @ r) - r * (w @ w))
             drifts[k, 3:] = acc.angular
+        pin.computeCentroidalMapTimeVariation(model, data, q, v)
+        Ag = np.array(data.Ag)
+        Ag_drift = np.array(data.dAg) @ v
         self.q = q.copy()
         self.has_jacobians = True
         return Dynamics(mass_matrix=M, bias=bias, com_m=com, com_velocity=com_vel,
                         com_jacobian=Jcom, com_drift=com_drift, poses=poses, jacobians=jac,
-                        drifts=drifts, twists=twists)
+                        drifts=drifts, twists=twists, centroidal_map=Ag,
+                        centroidal_drift=Ag_drift)

@@ -36,6 +36,9 @@ class Dynamics:
             [m/s^2, rad/s^2].
         twists: (F, 6) float ``J v``: linear velocity of the points, angular velocity of the
             frames [m/s, rad/s].
+        centroidal_map: (6, nv) float ``A_g`` of the centroidal momentum ``h = A_g v`` (linear
+            momentum, angular momentum about the CoM; world axes) [kg m/s, kg m^2/s].
+        centroidal_drift: (6,) float ``Adot_g v``: the momentum rate when ``a = 0``.
     """
 
     mass_matrix: np.ndarray
@@ -48,3 +51,5 @@ class Dynamics:
     jacobians: np.ndarray
     drifts: np.ndarray
     twists: np.ndarray
+    centroidal_map: np.ndarray
+    centroidal_drift: np.ndarray
