@@ -13,12 +13,15 @@ from imesh.core.robot_motion import RobotMotion
 from imesh.errors import OptionError
 from imesh.physics.config import WbcConfig
 from imesh.physics.wbc import wrench_cone
+from imesh.robot import ROBOTS_DIR, load_robot_config
+from imesh.robot.registry import package_available
 
 
-@pytest.fixture(scope="module")
-def g1():
-    pytest.importorskip("example_robot_data")
-    return load_test_robot("g1")
+def _robot(name: str):
+    if name == "g1" and not package_available(load_robot_config(ROBOTS_DIR / "g1" /
+                                                                "robot.toml")):
+        pytest.skip("example-robot-data not installed (pip install imesh-retarget[g1])")
+    return load_test_robot(name)
 
 
 @pytest.fixture(scope="module")
@@ -91,11 +94,9 @@ def test_wbc_stands_and_tracks(name):
     torque within the effort limits (constraints of the QP, never clamped), the weight carried
     by the soles with their centres of pressure inside."""
     pytest.importorskip("dartpy")
-    if name == "g1":
-        pytest.importorskip("example_robot_data")
     from imesh.physics import PhysicsConfig, TimingConfig, simulate_motion
 
-    robot = load_test_robot(name)
+    robot = _robot(name)
     result = simulate_motion(robot, _standing(robot, 1.5),
                              config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
     assert result.config.control.controller == "wbc"
