@@ -31,6 +31,7 @@ from .evaluate.scoreboard import evaluate_motion
 from .evaluate.verify import verify_motion
 from .io import load_motion
 from .io.formats import is_export, read_export, robot_named_in, write_export
+from .io.gmr import is_gmr
 from .io.robot_motion import _match_joints, save_robot_motion
 from .pipeline.retarget import RetargetConfig, RetargetResult
 from .pipeline.retarget import retarget as _retarget
@@ -186,8 +187,10 @@ def export_motion(motion: RobotMotion | PathLike, output: PathLike, fmt: str | N
         output: the file to write.
         fmt: ``"npz"`` (imesh's own layout), ``"csv"`` (one headerless row per frame: base
             position [m], base quaternion x, y, z, w, joints [rad] in the robot's order, the
-            retargeted-LAFAN1 layout) or ``"mujoco"`` (``.npz`` with ``qpos`` (T, nq) in the
-            MJCF's order, base quaternion w, x, y, z); default from the suffix (.npz, .csv).
+            retargeted-LAFAN1 layout), ``"mujoco"`` (``.npz`` with ``qpos`` (T, nq) in the
+            MJCF's order, base quaternion w, x, y, z) or ``"gmr"`` (GMR's ``.pkl``: ``fps``,
+            ``root_pos``, ``root_rot`` x, y, z, w, ``dof_pos`` in GMR's joint order; G1);
+            default from the suffix (.npz, .csv, .pkl).
         fps: resample to this frame rate first [1/s] (linear, slerp for the base).
         robot: the robot, to read a headerless CSV given as ``motion``.
         mjcf: the MuJoCo model for ``"mujoco"``: None (default) compiles the robot's URDF
@@ -211,8 +214,8 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
     the output of another retargeting tool (docs/checking.md).
 
     Args:
-        motion: a RobotMotion, or a motion file (imesh .npz/.csv, plain arrays .npz, or a file
-            of :func:`export_motion`).
+        motion: a RobotMotion, or a motion file (imesh .npz/.csv, plain arrays .npz, GMR's
+            .pkl, or a file of :func:`export_motion`).
         robot: the robot (name or Robot); default the robot the file names.
         source: the human clip, for ``close_pair_error`` and ``marker_rms_mm``.
         adapted: the adapted markers the robot fitted (an imesh .npz stores them itself).
@@ -250,7 +253,7 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
 
 def _robot_named_in(path: Path) -> str:
     """The robot a motion file names (``robot=`` of :func:`evaluate` left out)."""
-    if path.suffix.lower() in (".npz", ".csv") and path.is_file():
+    if (path.suffix.lower() in (".npz", ".csv") or is_gmr(path)) and path.is_file():
         name = robot_named_in(path)
         if name:
             return name

@@ -9,6 +9,7 @@ from collections.abc import Iterator
 from ..io.atomic import Output, check_outputs, output_transaction
 
 _MOTION = (".npz", ".csv")
+_EXPORT = (*_MOTION, ".pkl")  # a GMR pickle (--format gmr)
 _JSON = (".json",)
 _HTML = (".html", ".htm")
 _FOLDER = None
@@ -17,7 +18,7 @@ _FOLDER = None
 #: must be listed here.
 OUTPUTS: dict[str, tuple[tuple[str, str, tuple[str, ...] | None], ...]] = {
     "adapt": (("output", "-o", _MOTION), ("report", "--json", _JSON)),
-    "retarget": (("output", "-o", _MOTION), ("report", "--json", _JSON),
+    "retarget": (("output", "-o", _EXPORT), ("report", "--json", _JSON),
                  ("markers", "--markers", _MOTION), ("plots", "--plots", _FOLDER),
                  ("report_html", "--report", _HTML)),
     "evaluate": (("report", "--json", _JSON), ("plot", "--plot", (".png", ".pdf", ".svg")),
@@ -27,7 +28,7 @@ OUTPUTS: dict[str, tuple[tuple[str, str, tuple[str, ...] | None], ...]] = {
                ("plots", "--plots", _FOLDER)),
     "demo": (("output", "-o", _FOLDER),),
     "rig": (("output", "-o", (".toml",)),),
-    "export": (("output", "-o", _MOTION),),
+    "export": (("output", "-o", _EXPORT),),
     "batch": (("output", "-o", _FOLDER),),
 }
 

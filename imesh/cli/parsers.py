@@ -100,10 +100,12 @@ def _add_morph_options(p: argparse.ArgumentParser) -> None:
 
 def _add_format_options(p: argparse.ArgumentParser) -> None:
     """``--format`` and ``--mjcf`` of the robot-motion writers."""
-    p.add_argument("--format", choices=("npz", "csv", "mujoco"),
+    p.add_argument("--format", choices=("npz", "csv", "mujoco", "gmr"),
                    help="output format (imesh.io.formats): npz (imesh's), csv (one headerless row "
                         "per frame: base xyz, quaternion xyzw, joints), mujoco (qpos .npz, "
-                        "quaternion wxyz, MJCF joint order); default: imesh's by the suffix")
+                        "quaternion wxyz, MJCF joint order), gmr (GMR's .pkl: fps, root_pos, "
+                        "root_rot xyzw, dof_pos in GMR's joint order; G1); default: imesh's by "
+                        "the suffix")
     p.add_argument("--mjcf", help="MuJoCo model for --format mujoco: an MJCF (.xml) whose joints "
                    "are the robot's, or 'menagerie' (mujoco-menagerie's model: g1); default: "
                    "compiled by MuJoCo from the robot's URDF, offline")
@@ -249,7 +251,7 @@ def add_batch(sub) -> argparse.ArgumentParser:
                    "--head`); default: a local Ray runtime")
     p.add_argument("--backend", choices=("ray", "processes"), default="ray",
                    help="ray (default) or local processes (no Ray needed)")
-    p.add_argument("--format", choices=("npz", "csv", "mujoco"), default="npz",
+    p.add_argument("--format", choices=("npz", "csv", "mujoco", "gmr"), default="npz",
                    help="output format (docs/exports.md; default npz)")
     p.add_argument("--mjcf", help="MuJoCo model for --format mujoco")
     p.add_argument("--fps", type=float, help="output frame rate (default 30)")

@@ -5,6 +5,8 @@ Motion files (:func:`load_motion_file`):
 - imesh robot motions (``.npz``/``.csv`` written by
   :func:`imesh.io.robot_motion.save_robot_motion`), including files of other tools written in that
   layout; the adapted markers an imesh ``.npz`` carries go to ``motion.adapted``;
+- GMR's motion pickle (``.pkl``: ``fps``, ``root_pos``, ``root_rot`` xyzw, ``dof_pos`` in the
+  joint order of GMR's model, mapped by name; :mod:`imesh.io.gmr`);
 - plain ``.npz`` arrays: ``joint_names`` (n,) str, ``joint_positions`` (T, n) [rad],
   ``base_position`` (T, 3) [m] (world, Z up, ground z = 0), the base orientation as
   ``base_quat_xyzw`` or ``base_quat_wxyz`` (T, 4) (the key names the order), ``fps`` (or pass
@@ -38,6 +40,7 @@ from ..errors import (
 from ..human.arrange import arrange_for_robot
 from ..io import load_motion
 from ..io.clip import read_clip
+from ..io.gmr import is_gmr, read_gmr
 from ..io.npz import load_marker_motion, load_npz
 from ..io.robot_motion import NPZ_KEYS, load_robot_motion
 from ..morph.adapt import prepare_markers
@@ -51,7 +54,7 @@ def load_motion_file(path: str | os.PathLike, robot, fps: float | None = None) -
     """Read a robot motion to evaluate: an imesh robot motion or plain arrays (module docstring).
 
     Args:
-        path: ``.npz`` or ``.csv`` file.
+        path: ``.npz``, ``.csv`` or GMR ``.pkl`` file.
         robot: the :class:`imesh.robot.Robot` the motion is for (names and joints are checked;
             columns are reordered into ``robot.joint_names`` order).
         fps: frame rate for files that store none [1/s].
@@ -59,8 +62,11 @@ def load_motion_file(path: str | os.PathLike, robot, fps: float | None = None) -
     Raises:
         MotionFileError: unreadable file, wrong shapes or joint count, unknown or missing joint
             names (listing the valid ones), non-finite values, a motion of another robot.
+        GMRJointError: a GMR pickle lacking joints of the robot (named).
     """
     path = Path(path)
+    if is_gmr(path):
+        return read_gmr(path, robot, fps)
     adapted = None
     if path.suffix.lower() == ".npz" and path.is_file():
         arrays = load_npz(path, "robot motion")

@@ -26,6 +26,11 @@ Formats (:data:`FORMATS`):
     ``--mjcf menagerie`` takes the robot's model in the ``mujoco-menagerie`` package (G1:
     ``unitree_g1``, :data:`MENAGERIE`; the package downloads its assets on first use), and
     ``--mjcf FILE`` any MJCF whose joint names are the robot's.
+``gmr``
+    GMR's motion pickle (``.pkl``, :mod:`imesh.io.gmr`): ``fps``, ``root_pos`` (T, 3) [m],
+    ``root_rot`` (T, 4) **x, y, z, w**, ``dof_pos`` (T, n) [rad] in the joint order of GMR's
+    model of the robot (G1: GMR's ``unitree_g1``), ``local_body_pos``/``link_body_list`` None;
+    also ``robot``, ``joint_names``, ``provenance``, which GMR's loaders ignore.
 
 ``--fps`` resamples first (:func:`resample_robot_motion`): linear in the base position and the
 joints, spherical-linear (slerp) in the base quaternion.
@@ -46,13 +51,14 @@ from ..core.robot_motion import RobotMotion
 from ..errors import ImeshError, MotionFileError, OptionError
 from ..robot import load_robot
 from .atomic import atomic_path
+from .gmr import gmr_robot_name, is_gmr, read_gmr, write_gmr
 from .npz import load_npz
 from .robot_motion import load_robot_motion, read_provenance, save_robot_motion
 
 log = logging.getLogger(__name__)
 
 #: Export formats and the file suffix each writes.
-FORMATS: dict[str, str] = {"npz": ".npz", "csv": ".csv", "mujoco": ".npz"}
+FORMATS: dict[str, str] = {"npz": ".npz", "csv": ".csv", "mujoco": ".npz", "gmr": ".pkl"}
 #: Frame rate assumed for a headerless CSV when none is given [1/s] (the LAFAN1 datasets').
 CSV_DEFAULT_FPS = 30.0
 #: Robots with a MuJoCo model in the ``mujoco-menagerie`` package (``--mjcf menagerie``): robot
@@ -74,7 +80,7 @@ def format_for(path: str | os.PathLike, fmt: str | None) -> str:
     """
     suffix = Path(path).suffix.lower()
     if fmt is None:
-        by_suffix = {".npz": "npz", ".csv": "csv"}
+        by_suffix = {".npz": "npz", ".csv": "csv", ".pkl": "gmr"}
         if suffix not in by_suffix:
             raise OptionError(f"output extension of {path}", suffix or Path(path).name,
                               list(by_suffix))
@@ -298,6 +304,8 @@ def write_export(motion: RobotMotion, path: str | os.PathLike, fmt: str | None =
     elif fmt == "csv":
         with atomic_path(path) as tmp:
             np.savetxt(tmp, motion.q, delimiter=",", fmt="%.17g")
+    elif fmt == "gmr":
+        write_gmr(motion, path)
     else:
         model, source, xml = mujoco_model(motion.robot if robot is None else robot, mjcf)
         qpos, names, filled = mujoco_qpos(motion, model)
@@ -348,8 +356,11 @@ def is_export(path: str | os.PathLike) -> bool:
 
 
 def robot_named_in(path: str | os.PathLike) -> str | None:
-    """The robot a motion file names (None for a headerless CSV or a file that names none)."""
+    """The robot a motion file names (None for a headerless CSV, a GMR pickle GMR wrote or a
+    file that names none)."""
     path = Path(path)
+    if is_gmr(path):
+        return gmr_robot_name(path)
     if path.suffix.lower() == ".npz":
         arrays = load_npz(path, "robot motion")
         return str(arrays["robot"]) if "robot" in arrays else None
@@ -384,10 +395,12 @@ def robot_for_motion_file(path: str | os.PathLike, robot: str | os.PathLike | No
     path = Path(path)
     if not path.is_file():
         raise MotionFileError(str(path), "no such file")
-    name = robot_named_in(path) if path.suffix.lower() in (".npz", ".csv") else None
+    name = robot_named_in(path) if path.suffix.lower() in (".npz", ".csv") or is_gmr(path) \
+        else None
     if not name:
         raise MotionFileError(str(path), "the file does not name its robot: pass --robot "
-                              "(robot=)")
+                              "(robot=)" + ("; GMR's pickles do not (GMR's unitree_g1 is "
+                                            "--robot g1)" if is_gmr(path) else ""))
     provenance = read_provenance(path)
     try:
         loaded = load_robot(name)
@@ -408,7 +421,9 @@ def robot_for_motion_file(path: str | os.PathLike, robot: str | os.PathLike | No
 def read_export(path: str | os.PathLike, robot=None, fps: float | None = None) -> RobotMotion:
     """Read any robot-motion file imesh writes: the imesh .npz/.csv, a headerless CSV
     (``robot`` required: name or Robot for its joint names; ``fps`` default
-    :data:`CSV_DEFAULT_FPS`) or a MuJoCo qpos .npz (joints the motion did not have dropped).
+    :data:`CSV_DEFAULT_FPS`), a MuJoCo qpos .npz (joints the motion did not have dropped) or a
+    GMR pickle (``.pkl``, :func:`imesh.io.gmr.read_gmr`; ``robot`` required unless the file
+    names it; ``fps`` overrides the file's).
 
     Raises:
         MotionFileError: unreadable or malformed file (names the file and the problem).
@@ -417,6 +432,10 @@ def read_export(path: str | os.PathLike, robot=None, fps: float | None = None) -
     if not path.is_file():
         raise MotionFileError(str(path), "no such file")
     suffix = path.suffix.lower()
+    if is_gmr(path):
+        if robot is None or isinstance(robot, str | os.PathLike):
+            robot = robot_for_motion_file(path, robot)
+        return read_gmr(path, robot, fps)
     if suffix == ".csv" and _is_headerless_csv(path):
         return _read_headerless_csv(path, robot, fps)
     if suffix == ".npz" and _is_mujoco(path):
