@@ -132,3 +132,54 @@ def test_batch_from_the_folder_holding_the_checkout(clips, tmp_path):
     assert result.returncode == 0, result.stdout + result.stderr
     done = [r for r in _records(tmp_path / "out") if r.get("status") == "ok"]
     assert sorted(Path(r["clip"]).name for r in done) == ["walk.bvh", "wave.bvh"]
+    # -q: nothing from Ray (start-up, token authentication) on stderr; plain text out (not a TTY)
+    assert "WARNING" not in result.stderr and "Token" not in result.stderr, result.stderr
+    assert "\x1b" not in result.stdout
+    assert "\x1b" not in (tmp_path / "out" / LOG_NAME).read_text()
+
+
+@pytest.mark.parametrize("seconds", [0.5, 3.5, 8.0])
+def test_batch_sigterm_at_any_moment(clips, tmp_path, seconds):
+    """SIGTERM while Python imports the command (0.5 s), around Ray's start-up (3.5 s, where
+    ray.init had its own handler: exit 15 without a word before) and while the clip is solved
+    (8 s): exit 130 with one line on stderr (-q: nothing else), no output or temporary file."""
+    single = tmp_path / "in"
+    single.mkdir()
+    shutil.copy(clips / "walk.bvh", single / "walk.bvh")
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "imesh", "-q", "batch", str(single),
+                             "--robot", "jvrc1", "-o", str(out), "--workers", "1"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(seconds)
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode in (130, 143), (proc.returncode, stderr)
+    assert stderr.splitlines() == ["imesh: interrupted"], stderr
+    assert stdout == ""
+    assert not (out / "walk.npz").exists()
+    assert not out.exists() or _leftovers(out) == []
+
+
+def test_ray_error_messages_are_plain_text(tmp_path):
+    """A real Ray task error (its ``ray::run_clip()`` prefix in ANSI colour) becomes a plain
+    one-line message in the record, the JSON log and the table."""
+    import traceback
+
+    from ray.exceptions import RayTaskError
+
+    from imesh.pipeline.batch import BatchReport, error_record
+
+    try:
+        raise ImportError("cannot import name '__version__' from 'imesh'")
+    except ImportError as exc:
+        error = RayTaskError("run_clip", traceback.format_exc(), exc)
+    assert "\x1b[" in str(error)  # Ray colours it
+    record = error_record("walk.bvh", "out/walk.npz", error)
+    assert "\x1b" not in record["error"] and "\n" not in record["error"]
+    assert "cannot import name '__version__'" in record["error"]
+    assert record["error_type"] == "RayTaskError"
+    raw = {**record, "error": str(error)}  # a log line of an older version
+    assert "\x1b" not in BatchReport((raw,), 1.0).table()
+

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
 from collections.abc import Sequence
 from importlib import import_module
@@ -85,6 +86,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0 ok, 2 on any ImeshError, see
     :data:`EXIT_OK` ...)."""
     args = build_parser().parse_args(argv)
+    previous = _sigterm_like_ctrl_c() if args.command == "batch" else None
     _setup_logging(args.verbose)
     try:
         with _cli_module("outputs").command_outputs(args):
@@ -98,6 +100,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("imesh: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+_TERMINATED = {"set": False}
+
+
+def _on_sigterm(signum, frame) -> None:
+    """SIGTERM as Ctrl-C, once: later SIGTERMs while the command cleans up are ignored."""
+    if not _TERMINATED["set"]:
+        _TERMINATED["set"] = True
+        raise KeyboardInterrupt
+
+
+def _sigterm_like_ctrl_c():
+    """``imesh batch``: SIGTERM raises KeyboardInterrupt (exit 130, one line, no partial file)
+    from here on, before the command's imports and Ray's start-up; returns the previous
+    handler (None off the main thread, where signals cannot be handled)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    _TERMINATED["set"] = False
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    return signal.SIG_DFL if previous is None else previous
 
 
 def entry_point() -> None:

@@ -3,11 +3,10 @@
 
 from __future__ import annotations
 
-import signal
 from pathlib import Path
 
 from ..io.atomic import _TRANSACTION
-from ..pipeline.batch import EXIT_OK, EXIT_PARTIAL, LOG_NAME, BatchSettings, interrupt, run_batch
+from ..pipeline.batch import EXIT_OK, EXIT_PARTIAL, LOG_NAME, BatchSettings, run_batch
 
 
 def run(args) -> int:
@@ -21,13 +20,11 @@ def run(args) -> int:
                              urdf=str(Path(args.urdf).resolve()) if args.urdf else None,
                              force=args.force)
 
-    previous = signal.signal(signal.SIGTERM, interrupt)
-    try:
-        report = run_batch(args.inputs, args.output, settings, workers=args.workers,
-                           address=args.address, backend=args.backend,
-                           progress=not args.quiet, retry_failed=args.retry_failed)
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    # SIGTERM is handled like Ctrl-C from the start of the command (imesh.cli.app.main)
+    report = run_batch(args.inputs, args.output, settings, workers=args.workers,
+                       address=args.address, backend=args.backend,
+                       progress=not args.quiet, quiet=args.quiet,
+                       retry_failed=args.retry_failed)
     print(report.table())
     print(f"log: {Path(args.output) / LOG_NAME}")
     return EXIT_OK if report.complete else EXIT_PARTIAL

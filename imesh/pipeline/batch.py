@@ -17,7 +17,9 @@ processes``, no Ray needed). Per clip, in ``OUT_DIR``:
 ``OUT_DIR/batch.jsonl`` gets one JSON line per clip and run (``status`` ok / skipped / error,
 the error's type and message), and a final ``summary`` line; the summary table is printed.
 One bad clip never stops the others. Exit status: 0 every clip done (:data:`EXIT_OK`), 4 some
-failed (:data:`EXIT_PARTIAL`), 2 bad usage or no clip found, 130 interrupted.
+failed (:data:`EXIT_PARTIAL`), 2 bad usage or no clip found, 130 interrupted (Ctrl-C or
+SIGTERM, at any moment: :func:`interrupt`; no partial output stays). Messages in the log and
+the table are plain text: the colour codes of Ray's errors are removed (:func:`plain`).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import json
 import logging
 import multiprocessing
 import os
+import re
 import signal
 import sys
 import threading
@@ -175,6 +178,26 @@ def remove_stale_temporaries(out_dir: Path) -> list[Path]:
     return removed
 
 
+# ------------------------------------------------------------------------------ messages
+#: ANSI escape sequences (CSI such as the colours of Ray's ``RayTaskError``, and 2-byte ones).
+_ANSI = re.compile(r"\x1b\[[0-?]*[ -/]*[@-~]|\x1b[@-Z\\-_]")
+_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f]")
+
+
+def plain(text: str, one_line: bool = True) -> str:
+    """``text`` without ANSI escape sequences or other control characters (for the log and the
+    table); with ``one_line`` its whitespace runs (newlines included) become one space."""
+    text = _CONTROL.sub("", _ANSI.sub("", text))
+    return " ".join(text.split()) if one_line else text
+
+
+def error_record(clip: str, output: str, exc: BaseException) -> dict:
+    """The record of a clip whose worker failed outside :func:`run_clip` (a Ray task error, a
+    crashed process): its type and plain one-line message (at most 2000 characters)."""
+    return {"clip": clip, "output": output, "status": "error", "error_type": type(exc).__name__,
+            "error": plain(str(exc))[:2000] or repr(exc)}
+
+
 # ------------------------------------------------------------------------------ one clip
 def run_clip(clip: str, output: str, settings: BatchSettings) -> dict:
     """Retarget one clip, verify, write the output and its stamp; never raises.
@@ -194,9 +217,9 @@ def run_clip(clip: str, output: str, settings: BatchSettings) -> dict:
         record["status"] = "ok"
     except Exception as exc:  # noqa: BLE001 - one bad clip never stops the batch
         record.update(status="error", error_type=type(exc).__name__,
-                      error=" ".join(str(exc).split()) or repr(exc))
+                      error=plain(str(exc)) or repr(exc))
         if not isinstance(exc, ImeshError):
-            record["traceback"] = traceback.format_exc(limit=-3)
+            record["traceback"] = plain(traceback.format_exc(limit=-3), one_line=False)
     record["seconds"] = round(time.perf_counter() - t0, 3)
     return record
 
@@ -228,23 +251,35 @@ def _retarget_clip(clip: Path, output: Path, settings: BatchSettings, record: di
 
 # ------------------------------------------------------------------------------ executors
 def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, workers: int,
-                 address: str | None) -> Iterator[dict]:
-    """Run the jobs as Ray tasks, at most ``workers`` at a time; yield records as they end."""
+                 address: str | None, quiet: bool = False) -> Iterator[dict]:
+    """Run the jobs as Ray tasks, at most ``workers`` at a time; yield records as they end.
+
+    ``quiet``: Ray logs errors only (not its start-up and token-authentication warnings). A
+    SIGTERM while ``ray.init`` has its own handler installed (``sys.exit(15)``) is a
+    KeyboardInterrupt as at any other moment; Ray is shut down in every case."""
     ray = optional("ray", "pip install imesh-retarget[batch] (or --backend processes)",
                    "--backend ray")
     env = {"env_vars": {"PYTHONPATH": os.pathsep.join(
         p for p in [str(Path(__file__).resolve().parents[2]), os.environ.get("PYTHONPATH")]
         if p)}}
-    if address:
-        ray.init(address=address, runtime_env=env, log_to_driver=False,
-                 logging_level=logging.WARNING)
-    else:
-        ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
-                 logging_level=logging.WARNING, runtime_env=env)
-
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, interrupt)  # ray.init installs its own
+    level = logging.ERROR if quiet else logging.WARNING
+    main_thread = threading.current_thread() is threading.main_thread()
+    ours = signal.getsignal(signal.SIGTERM) if main_thread else None
     try:
+        try:
+            if address:
+                ray.init(address=address, runtime_env=env, log_to_driver=False,
+                         logging_level=level)
+            else:
+                ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
+                         logging_level=level, runtime_env=env)
+        except SystemExit as exc:  # Ray's SIGTERM handler during ray.init
+            if exc.code == signal.SIGTERM:
+                raise KeyboardInterrupt from None
+            raise
+        finally:
+            if main_thread and callable(ours):
+                signal.signal(signal.SIGTERM, ours)  # ray.init installs its own
         task = ray.remote(num_cpus=1, max_retries=0)(run_clip)
         pending: dict = {}
         queue = list(jobs)
@@ -258,9 +293,7 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
                 try:
                     yield ray.get(ref)
                 except Exception as exc:  # noqa: BLE001 - a worker crash is one clip's error
-                    yield {"clip": clip, "output": out, "status": "error",
-                           "error_type": type(exc).__name__,
-                           "error": " ".join(str(exc).split())[:2000]}
+                    yield error_record(clip, out, exc)
     finally:
         ray.shutdown()
 
@@ -276,8 +309,7 @@ def _process_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, w
                 try:
                     yield fut.result()
                 except Exception as exc:  # noqa: BLE001 - a worker crash is one clip's error
-                    yield {"clip": clip, "output": out, "status": "error",
-                           "error_type": type(exc).__name__, "error": str(exc)}
+                    yield error_record(clip, out, exc)
         except BaseException:
             for fut in futures:
                 fut.cancel()
@@ -310,8 +342,8 @@ class BatchReport:
         lines = [f"{'clip':<{width}}  {'status':<7} {'frames':>6} {'seconds':>8}  detail"]
         for r in self.records:
             detail = (f"{'(failed before, not retried) ' if r.get('cached') else ''}"
-                      f"{r.get('error_type')}: {r.get('error')}" if r["status"] == "error"
-                      else r.get("output", ""))
+                      f"{r.get('error_type')}: {plain(str(r.get('error')))}"
+                      if r["status"] == "error" else r.get("output", ""))
             frames = r.get("frames", "")
             secs = f"{r['seconds']:.1f}" if "seconds" in r else ""
             lines.append(f"{Path(r['clip']).name:<{width}}  {r['status']:<7} {frames!s:>6} "
@@ -325,7 +357,7 @@ class BatchReport:
 def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathLike,
               settings: BatchSettings = BatchSettings(), *, workers: int = 2,
               address: str | None = None, backend: str = "ray", progress: bool = True,
-              retry_failed: bool = False,
+              retry_failed: bool = False, quiet: bool = False,
               on_record: Callable[[dict], None] | None = None) -> BatchReport:
     """Retarget many clips into ``out_dir`` (module docstring).
 
@@ -340,6 +372,7 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
         retry_failed: run clips again whose last run failed with the same input bytes and
             settings (by default they are reported as failed again without running: a re-run
             recomputes nothing).
+        quiet: Ray's start-up and token warnings silenced (``imesh -q batch``).
         on_record: called with each clip's record as it ends.
 
     Returns:
@@ -374,6 +407,7 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
     failures = {} if retry_failed else known_failures(out_dir)
     digest = settings.digest()
     bar = None
+    results: Iterator[dict] | None = None
     try:
         jobs = []
         for clip in clips:
@@ -390,8 +424,8 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
             target = settings.robot or settings.urdf or "jvrc1"
             bar = tqdm(total=len(jobs), desc=f"batch -> {target}", unit="clip",
                        disable=not progress, file=sys.stderr, smoothing=0)
-            results = (_ray_results(jobs, settings, workers, address) if backend == "ray"
-                       else _process_results(jobs, settings, workers))
+            results = (_ray_results(jobs, settings, workers, address, quiet)
+                       if backend == "ray" else _process_results(jobs, settings, workers))
             for record in results:
                 emit(record)
                 bar.set_postfix(failed=sum(r["status"] == "error" for r in records.values()))
@@ -404,6 +438,8 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
             "settings": dataclasses.asdict(settings)}}) + "\n")
         return report
     finally:
+        if results is not None:  # workers stopped (Ray shut down) before the temporaries go
+            getattr(results, "close", lambda: None)()
         if bar is not None:
             bar.close()
         log_file.close()
@@ -411,5 +447,6 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
 
 
 def interrupt(signum, frame):
-    """SIGTERM ends a batch like Ctrl-C: workers stop, temporary files are removed."""
+    """A SIGTERM handler ending a batch like Ctrl-C (KeyboardInterrupt: workers stop, temporary
+    files are removed); ``imesh batch`` installs one at its start (:mod:`imesh.cli.app`)."""
     raise KeyboardInterrupt
