@@ -12,6 +12,7 @@ import pytest
 
 import imesh.io as io
 from imesh.cli import main
+from imesh.cli.loading import PIPELINE_MIN_FRAMES
 from imesh.human import RigRecognitionError, UnitsError, markerset, recognize, rig_tables, standard
 from imesh.io.units import UNIT_SCALES_M
 
@@ -367,9 +368,31 @@ def test_public_rigs_are_recognized(name, tmp_path):
     order = [std.index(n) for n in ("pelvis", "spine", "chest", "neck", "head")]
     assert np.all(np.diff(z[order]) > 0.02), z[order]
     out = tmp_path / "adapted.npz"
-    assert main(["-q", "adapt", str(public_clip(name)), "--scale", "arms=1.1", "-o",
-                 str(out)]) == 0
-    assert out.is_file()
+    status = main(["-q", "adapt", str(public_clip(name)), "--scale", "arms=1.1", "-o",
+                   str(out)])
+    if motion.n_frames >= PIPELINE_MIN_FRAMES:
+        assert status == 0
+        assert out.is_file()
+    else:  # makehuman_game_walk1: 14 frames, below the low-pass filter's 16 (next test)
+        assert status == 2
+        assert not out.exists()
+
+
+def test_fourteen_frame_rig_is_read_but_not_retargeted(mocap, tmp_path, capsys):
+    """makehuman_game_walk1.bvh has 14 frames at 24 fps: its rig is recognized (above) and
+    ``imesh inspect`` reads it; ``imesh retarget`` refuses it before any work, naming the
+    16-frame minimum and its reason (the zero-phase low-pass pads 15 frames), no output."""
+    import json
+
+    clip = public_clip("makehuman_game_walk1.bvh")
+    assert main(["inspect", str(clip), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["frames"] == 14 and info["fps"] == pytest.approx(24.0, abs=1e-3)
+    out = tmp_path / "walk.npz"
+    assert main(["-q", "retarget", str(clip), "--robot", "g1", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "14 frames" in err and "at least 16 frames" in err and "low-pass" in err
+    assert not out.exists()
 
 
 # ---------------------------------------------------------------- failures

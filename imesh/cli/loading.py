@@ -8,10 +8,15 @@ from ..io.clip import parse_units, read_clip
 
 __all__ = ["PIPELINE_MIN_FRAMES", "load_clip", "parse_units"]
 
-#: Frames the adapt/retarget pipeline needs: its zero-phase low-pass (order 4, run forwards and
-#: backwards) pads 3 x 5 coefficients, and contacts, velocities and the acceleration energy need
-#: neighbouring frames.
+#: Frames the adapt/retarget pipeline needs. Every clip is low-passed before the solve
+#: (:mod:`imesh.human.filtering`: Butterworth order 4, run forwards and backwards, whose edge
+#: padding is 3 x 5 coefficients = 15 frames, so it needs at least 16); a shorter clip would be
+#: solved unfiltered, and capture jitter then dominates the accelerations the solve limits. The
+#: clip can still be inspected and its rig recognized (``imesh inspect``, ``imesh rig``).
 PIPELINE_MIN_FRAMES = 16
+_WHY = ("its zero-phase low-pass filter pads 15 frames at each end; a shorter clip would be "
+        "solved unfiltered, its capture jitter dominating the accelerations; imesh inspect and "
+        "imesh rig read it")
 
 
 def load_clip(args, *, apply_rig: bool = True) -> MarkerMotion:
@@ -28,6 +33,5 @@ def load_clip(args, *, apply_rig: bool = True) -> MarkerMotion:
         "asf": getattr(args, "asf", None), "fps": getattr(args, "fps", None),
         "rig": getattr(args, "rig", None) if apply_rig else None})
     if args.command in ("adapt", "retarget"):
-        require_frames(motion, PIPELINE_MIN_FRAMES, f"imesh {args.command} (its low-pass filter, "
-                       "contact and acceleration terms)")
+        require_frames(motion, PIPELINE_MIN_FRAMES, f"imesh {args.command} ({_WHY})")
     return motion
