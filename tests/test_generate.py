@@ -28,7 +28,7 @@ def erd(suffix: str) -> Path:
     try:
         files = metadata.files("example-robot-data") or []
     except metadata.PackageNotFoundError:
-        pytest.skip("example-robot-data not installed (pip install imesh[g1])")
+        pytest.skip("example-robot-data not installed (pip install imesh-retarget[g1])")
     for f in files:
         if str(f).replace("\\", "/").endswith(suffix):
             return Path(f.locate())

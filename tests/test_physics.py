@@ -36,7 +36,7 @@ ROBOTS = ["jvrc1", "g1", "hrp4c"]
 def _load(name: str):
     if name == "g1" and not package_available(load_robot_config(ROBOTS_DIR / "g1" /
                                                                 "robot.toml")):
-        pytest.skip("example-robot-data not installed (pip install imesh[g1])")
+        pytest.skip("example-robot-data not installed (pip install imesh-retarget[g1])")
     return load_test_robot(name)
 
 

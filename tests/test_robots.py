@@ -47,7 +47,7 @@ def robot(request):
     name = request.param
     if name == "g1" and not package_available(load_robot_config(ROBOTS_DIR / "g1" /
                                                                 "robot.toml")):
-        pytest.skip("example-robot-data not installed (pip install imesh[g1])")
+        pytest.skip("example-robot-data not installed (pip install imesh-retarget[g1])")
     return load_robot(name, robot_urdf(name))
 
 
@@ -410,7 +410,7 @@ def test_missing_package_names_the_extra(tmp_path):
     toml = copy_robot(tmp_path, "g1")
     toml.write_text(toml.read_text().replace('distribution = "example-robot-data"',
                                              'distribution = "example-robot-data-absent"'))
-    with pytest.raises(RobotConfigError, match=r"pip install imesh\[g1\]"):
+    with pytest.raises(RobotConfigError, match=r"pip install imesh-retarget\[g1\]"):
         load_robot(toml)
 
 
