@@ -88,19 +88,20 @@ def _standing(robot, seconds: float, fps: float = 30.0) -> RobotMotion:
                        joint_names=robot.joint_names)
 
 
-@pytest.mark.parametrize("name", ["jvrc1", "g1"])
-def test_wbc_stands_and_tracks(name):
-    """Closed loop on the nominal pose: no fall, key points within 5 mm of the reference, every
-    torque within the effort limits (constraints of the QP, never clamped), the weight carried
-    by the soles with their centres of pressure inside."""
+@pytest.mark.parametrize(("name", "seconds"), [("jvrc1", 10.0), ("g1", 1.5)])
+def test_wbc_stands_and_tracks(name, seconds):
+    """Closed loop on the nominal pose (JVRC-1 for 10 s): no fall, key points within 5 mm of
+    the reference, every torque within the effort limits (constraints of the QP, never
+    clamped), the weight carried by the soles with their centres of pressure inside."""
     pytest.importorskip("dartpy")
     from imesh.physics import PhysicsConfig, TimingConfig, simulate_motion
 
     robot = _robot(name)
-    result = simulate_motion(robot, _standing(robot, 1.5),
+    result = simulate_motion(robot, _standing(robot, seconds),
                              config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
     assert result.config.control.controller == "wbc"
     assert not result.fell, result.fall_reason
+    assert result.survived_s == pytest.approx(seconds)
     assert result.keypoint_rms_mm < 5.0 and result.keypoint_max_mm < 10.0
     assert result.torque_ratio_max <= 1.0 + 1e-9 and result.saturation_fraction == 0.0
     assert result.relaxed_fraction == 0.0
