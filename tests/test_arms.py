@@ -288,7 +288,7 @@ def test_cli_fit_sqp_re_solves_the_pipeline_arms(mocap, tmp_path, capsys):
     assert code == 0
     with np.load(out) as data:  # the motion, and the adapted markers it was fitted to
         assert sorted(data.files) == sorted(
-            (*NPZ_KEYS, "adapted_positions_m", "adapted_marker_names"))
+            (*NPZ_KEYS, "adapted_positions_m", "adapted_marker_names", "provenance"))
     sqp = json.loads(rep.read_text())["fit_sqp"]
     assert sqp["mode"] == "refine"
     assert sqp["frames_outside"] == {"position": 0, "velocity": 0, "acceleration": 0}

@@ -64,7 +64,7 @@ def test_cli_retarget_writes_the_contract(mocap, tmp_path):
     with np.load(out) as data:
         assert set(data.files) == {"fps", "robot", "joint_names", "base_position",
                                    "base_quat_xyzw", "joint_positions", "adapted_positions_m",
-                                   "adapted_marker_names"}
+                                   "adapted_marker_names", "provenance"}
         assert str(data["robot"]) == "hrp4c"
         t = data["joint_positions"].shape[0]
         assert data["base_position"].shape == (t, 3) and data["base_quat_xyzw"].shape == (t, 4)
