@@ -202,7 +202,8 @@ def mujoco_model(robot, mjcf: str | os.PathLike | None = None):
     """The MuJoCo model (``mujoco.MjModel``) of ``robot``, where it came from and its MJCF text.
 
     Args:
-        robot: an :class:`imesh.robot.Robot` (or a robot name, loaded with ``load_robot``).
+        robot (imesh.robot.Robot | str): the robot (or a robot name, loaded with
+            ``load_robot``).
         mjcf: None (default): compiled from the robot's URDF (:func:`mujoco_from_urdf`);
             ``"menagerie"``: the robot's model in ``mujoco-menagerie`` (:data:`MENAGERIE`);
             else an MJCF file.
@@ -289,7 +290,7 @@ def write_export(motion: RobotMotion, path: str | os.PathLike, fmt: str | None =
         fps: resample to this frame rate first [1/s].
         mjcf: MuJoCo model for ``mujoco`` (:func:`mujoco_model`: None compiles the robot's
             URDF, ``"menagerie"``, or an MJCF file).
-        robot: the :class:`imesh.robot.Robot` of the motion, for its URDF (default
+        robot (imesh.robot.Robot | None): the robot of the motion, for its URDF (default
             ``load_robot(motion.robot)``; a robot whose model the user provides must be given).
 
     Returns:
