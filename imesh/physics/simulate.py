@@ -19,8 +19,10 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..contacts.phases import SIDES
+from ..contacts.phases import SIDES, runs
 from ..errors import ImeshError
+from ..metrics.markers import keypoint_motion
+from ..metrics.soles import sole_tracks
 from .config import PhysicsConfig
 from .controllers import JointTracker, KinematicTracker, WbcTracker
 from .reference import Reference, build_reference
@@ -106,21 +108,15 @@ def _joint_tracking(config: PhysicsConfig) -> PhysicsConfig:
                                                                    controller="spd"))
 
 
-def _keypoint_errors(robot, q_ref: np.ndarray, q_sim: np.ndarray, ok: np.ndarray
+def _keypoint_errors(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray
                      ) -> tuple[float, float]:
     """(RMS, max) [mm] distance between the robot's key points (markers.toml) in the simulated
     and the reference motion over the survived frames (NaN without key points)."""
     if robot.markers is None or not ok.any():
         return float("nan"), float("nan")
-    _, ids, offsets, _ = robot.keypoint_arrays()
-    frames = sorted(set(ids.tolist()))
-    col = np.searchsorted(frames, ids)
-
-    def points(q: np.ndarray) -> np.ndarray:
-        pl = robot.trajectory_kinematics(q, frames).placements[:, col]  # (T, K, 4, 4)
-        return np.einsum("tkij,kj->tki", pl[..., :3, :3], offsets) + pl[..., :3, 3]
-
-    d = np.linalg.norm(points(q_sim[ok]) - points(q_ref[ok]), axis=-1)
+    sim = keypoint_motion(robot, q_sim[ok], ref.fps).positions_m
+    planned = keypoint_motion(robot, ref.q[ok], ref.fps).positions_m
+    d = np.linalg.norm(sim - planned, axis=-1)
     return float(1e3 * np.sqrt(np.mean(d ** 2))), float(1e3 * d.max())
 
 
@@ -142,7 +138,6 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
       phase, from the frame the sole is down (lowest corner within ``CONTACT_M``), over the
       survived frames [mm].
     """
-    T = len(ok)
     n = np.maximum(samples, 1)[:, None, None]
     forces = sole_force / n
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -161,27 +156,27 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
     margin = float("nan")
     slip = 0.0
     if ok.any():
-        frames = [robot.soles[s].frame for s in SIDES]
-        centres = np.array([robot.soles[s].center for s in SIDES])
-        q_ok = np.where(ok[:, None], q_sim, ref.q)
-        pl = robot.trajectory_kinematics(q_ok, frames).placements  # (T, 2, 4, 4)
-        centre_w = pl[:, :, :3, 3] + np.einsum("tfij,fj->tfi", pl[:, :, :3, :3], centres)
-        rel = np.concatenate([sole_cop - centre_w[..., :2], np.zeros((T, 2, 1))], axis=-1)
-        local = np.einsum("tfji,tfj->tfi", pl[:, :, :3, :3], rel)[..., :2]  # in the foot frame
+        # the simulated soles (the reference's pose after a fall, never used there)
+        tracks = sole_tracks(robot, np.where(ok[:, None], q_sim, ref.q), ref.fps)
+        centre_w = np.stack([tracks.centers[side] for side in SIDES], axis=1)  # (T, 2, 3)
+        corners = np.stack([tracks.corners[side] for side in SIDES], axis=1)  # (T, 2, 4, 3)
+        # the sole's own axes from its corners (front-left, front-right, back-right, back-left)
+        x_axis = corners[..., 0, :2] - corners[..., 3, :2]
+        y_axis = corners[..., 0, :2] - corners[..., 1, :2]
+        x_axis /= np.linalg.norm(x_axis, axis=-1, keepdims=True)
+        y_axis /= np.linalg.norm(y_axis, axis=-1, keepdims=True)
+        rel = sole_cop - centre_w[..., :2]
+        local = np.stack([np.sum(rel * x_axis, axis=-1), np.sum(rel * y_axis, axis=-1)], -1)
         half = np.array([robot.soles[s].half_extents for s in SIDES])
         edge = np.min(half[None] - np.abs(local), axis=-1)  # (T, 2), > 0 inside
         use = loaded & np.isfinite(edge)
         if use.any():
             margin = float(1e3 * edge[use].min())
-        # the sole's lowest corner in the simulation: a planned support counts from the frame
-        # its sole is down (within CONTACT_M), so the landing itself is not slip
-        R = pl[:, :, :3, :3]
-        low = (centre_w[..., 2] - np.abs(R[..., 2, 0]) * half[None, :, 0]
-               - np.abs(R[..., 2, 1]) * half[None, :, 1])
+        # a planned support counts from the frame its sole is down (lowest corner within
+        # CONTACT_M), so the landing itself is not slip
+        low = corners[..., 2].min(axis=-1)
         for k in range(2):
-            sup = ref.support[:, k] & ok
-            edges = np.flatnonzero(np.diff(np.r_[0, sup.astype(np.int8), 0]))
-            for a, b in zip(edges[::2], edges[1::2], strict=True):
+            for a, b in runs(ref.support[:, k] & ok):
                 down = np.flatnonzero(low[a:b, k] <= CONTACT_M)
                 if not len(down):
                     continue
@@ -365,7 +360,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         drift = height_drift = float("nan")
     if config.fixed_base:
         drift = height_drift = 0.0
-    kp_rms, kp_max = _keypoint_errors(robot, ref.q, q_sim, ok)
+    kp_rms, kp_max = _keypoint_errors(robot, ref, q_sim, ok)
     tracked_steps = max(0, steps_done - settle)
     sim_time = steps_done * dt
     relaxed = (controller.controller.relaxed_steps / max(tracked_steps // controller.every, 1)
