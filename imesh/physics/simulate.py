@@ -13,6 +13,7 @@ linearly between frames.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 
@@ -102,8 +103,6 @@ def _contact_sides(sim: DartRobot) -> dict[str, int]:
 
 def _joint_tracking(config: PhysicsConfig) -> PhysicsConfig:
     """``config`` with the SPD joint tracker (a welded base has no balance to keep)."""
-    import dataclasses
-
     return dataclasses.replace(config, control=dataclasses.replace(config.control,
                                                                    controller="spd"))
 
