@@ -85,6 +85,9 @@ def _add_load_options(p: argparse.ArgumentParser, resample: bool = True) -> None
                    "whose name starts the .amc name)")
     p.add_argument("--rig", help="rig table mapping the file to the standard markers: a .toml "
                    "(see `imesh rig`) or a built-in name; default: recognized from the skeleton")
+    p.add_argument("--body-model", metavar="DIR",
+                   help="folder of the SMPL-X / SMPL-H body-model files an AMASS .npz needs "
+                   "(DIR/smplx/SMPLX_NEUTRAL.npz ...; docs/amass.md)")
 
 
 def _add_morph_options(p: argparse.ArgumentParser) -> None:
