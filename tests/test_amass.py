@@ -136,63 +136,88 @@ def rotvec(*parts: tuple[str, float]) -> np.ndarray:
 ROOT_UP = Rotation.from_euler("z", 90, degrees=True) * Rotation.from_euler("x", 90, degrees=True)
 
 
-def _angle(y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Angle of (y, z) in the model's sagittal plane; a rotation about +x adds to it."""
-    return np.arctan2(z, y)
+def _leg_ik(a: np.ndarray, b: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Hip and knee rotations putting the ankle at ``d`` (T, 3) from the hip, model frame.
+
+    The hip turns the leg by ``R_z(roll) R_x(flexion)``, the knee by ``R_x(bend)``; ``a`` and
+    ``b`` are the rest thigh and shank (hip to knee, knee to ankle). Closed form: the bend
+    gives the hip-ankle distance, the flexion the height along the model's z, the roll the
+    rest. Returns (hip rotations (T,), knee angles (T,) [rad]).
+    """
+    dist2 = np.sum(d * d, axis=1)
+    ayz, byz = np.hypot(a[1], a[2]), np.hypot(b[1], b[2])
+    beta = np.arctan2(a[1] * b[2] - a[2] * b[1], a[1:] @ b[1:])  # the rest knee's bend
+    cos = (dist2 - a @ a - b @ b - 2 * a[0] * b[0]) / (2 * ayz * byz)
+    bend = np.arccos(np.clip(cos, -1.0, 1.0)) - beta
+    c, s_ = np.cos(bend), np.sin(bend)
+    v = a + np.column_stack([np.full_like(bend, b[0]), b[1] * c - b[2] * s_, b[1] * s_ + b[2] * c])
+    w_y = -np.sqrt(np.maximum(np.sum(v * v, axis=1) - v[:, 0] ** 2 - d[:, 2] ** 2, 0.0))
+    flexion = np.arctan2(d[:, 2], w_y) - np.arctan2(v[:, 2], v[:, 1])
+    roll = np.arctan2(d[:, 1], d[:, 0]) - np.arctan2(w_y, v[:, 0])
+    hip = (Rotation.from_euler("z", roll[:, None]) * Rotation.from_euler("x", flexion[:, None]))
+    return hip, bend
 
 
 def walk_parameters(seconds: float = 2.5, fps: float = 60.0, period_s: float = 1.1,
-                    speed_m_s: float = 0.9) -> tuple[np.ndarray, np.ndarray]:
+                    speed_m_s: float = 0.9, sway_m: float = 0.03
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """A plausible walk: (poses (T, 165), trans (T, 3)) for the synthetic SMPL-X model.
 
     Designed from the feet, as a walk is: the pelvis moves forward (world +X) at a constant
-    speed and height; each foot stands still on the floor for half a cycle (sole on z = 0) and
-    swings to its next footprint in the other half on a smooth arc 8 cm high. Hip and knee
-    flexion come from two-link inverse kinematics of each leg in its sagittal plane, the ankle
-    keeps the foot level; arms hang at 75 degrees, swing against the legs, elbows bent 20
-    degrees. So the stance foot neither slides nor sinks and the swing foot clears the floor.
+    speed and height, swaying 3 cm towards the stance foot; each foot stands still on the floor
+    for 60 % of the cycle (sole on z = 0; 20 % double support) and swings to its next
+    footprint in the other 40 % on minimum-jerk profiles (8 cm high), so feet start and stop
+    without a jump in acceleration. Hip and knee rotations come from the inverse kinematics of
+    each leg, the ankle keeps the foot level and forward; arms hang at 75 degrees, swing
+    against the legs, elbows bent 20 degrees. So the stance foot neither slides nor sinks, the
+    swing foot clears the floor, and the centre of mass moves over the support.
     """
     spec = MODELS["smplx"]
     idx = {name: j for j, name in enumerate(spec.joints)}
     rest = template_joints("smplx")
     n = int(round(seconds * fps))
     t = np.arange(n) / fps
-    step = speed_m_s * period_s / 2.0  # the pelvis moves one step per stance
+    stance_part = 0.6  # of the cycle
+    reach = speed_m_s * period_s * stance_part / 2  # the stance ankle from +reach to -reach [m]
     ankle_z = SOLE_BELOW_FOOT_M + rest[idx["left_ankle"], 1] - rest[idx["left_foot"], 1]
-    a = rest[idx["left_knee"], 1:] - rest[idx["left_hip"], 1:]  # thigh (y, z)
-    b = rest[idx["left_ankle"], 1:] - rest[idx["left_knee"], 1:]  # shank (y, z)
-    l1, l2 = np.linalg.norm(a), np.linalg.norm(b)
-    beta = np.arctan2(a[0] * b[1] - a[1] * b[0], a @ b)  # the rest knee's bend
-    hip_above_ankle = np.sqrt((0.98 * np.linalg.norm(a + b)) ** 2 - (step / 2) ** 2)
+    trans = np.zeros((n, 3))
+    trans[:, 0] = speed_m_s * t
+    trans[:, 1] = sway_m * np.sin(2 * np.pi * (t / period_s - 0.05))  # over the left foot
+    a = rest[idx["left_knee"]] - rest[idx["left_hip"]]
+    b = rest[idx["left_ankle"]] - rest[idx["left_knee"]]
+    hip_above_ankle = np.sqrt((0.97 * np.linalg.norm(a + b)) ** 2 - reach ** 2 - sway_m ** 2)
+    hip_rest = ROOT_UP.apply(rest[idx["left_hip"]] - rest[0]) + rest[0]
+    trans[:, 2] = ankle_z + hip_above_ankle - hip_rest[2]
     poses = np.zeros((n, len(spec.joints), 3))
     for side, shift in (("left", 0.0), ("right", 0.5)):
-        s = (t / period_s + shift) % 1.0  # 0..0.5 stance, 0.5..1 swing
-        stance = s < 0.5
-        u = np.where(stance, s, s - 0.5) / 0.5
-        forward = np.where(stance, step / 2 * (1 - 2 * u),  # ankle ahead of the hip [m]
-                           -step / 2 + step * (1 - np.cos(np.pi * u)) - step * u)
-        lift = np.where(stance, 0.0, 0.08 * np.sin(np.pi * u) ** 2)
-        target = np.column_stack([-(hip_above_ankle - lift), forward])  # model (y, z)
-        dist = np.linalg.norm(target, axis=1)
-        cos_bend = (dist ** 2 - l1 ** 2 - l2 ** 2) / (2 * l1 * l2)
-        knee = np.arccos(np.clip(cos_bend, -1.0, 1.0)) - beta
-        shank = np.column_stack([b[0] * np.cos(knee) - b[1] * np.sin(knee),
-                                 b[0] * np.sin(knee) + b[1] * np.cos(knee)])
-        leg = a + shank
-        hip = _angle(target[:, 0], target[:, 1]) - _angle(leg[:, 0], leg[:, 1])
-        poses[:, idx[f"{side}_hip"], 0] = hip
-        poses[:, idx[f"{side}_knee"], 0] = knee
-        poses[:, idx[f"{side}_ankle"], 0] = -(hip + knee)  # the foot stays level
+        hip_j, knee_j = idx[f"{side}_hip"], idx[f"{side}_knee"]
+        s = (t / period_s + shift) % 1.0  # stance, then swing
+        stance = s < stance_part
+        u = np.where(stance, s / stance_part, (s - stance_part) / (1 - stance_part))
+        jerk = u ** 3 * (10 - 15 * u + 6 * u ** 2)  # minimum jerk 0 -> 1
+        forward = np.where(stance, reach * (1 - 2 * u),  # ankle ahead of the hip [m]
+                           -reach + speed_m_s * period_s * (jerk - (1 - stance_part) * u))
+        lift = np.where(stance, 0.0, 0.08 * 64 * (u * (1 - u)) ** 3)
+        hip_world = ROOT_UP.apply(rest[hip_j] - rest[0]) + rest[0] + trans
+        ankle_world = np.column_stack([
+            hip_world[:, 0] + forward,
+            np.full(n, (ROOT_UP.apply(rest[idx[f"{side}_ankle"]] - rest[0]) + rest[0])[1]),
+            ankle_z + lift])
+        d = ROOT_UP.inv().apply(ankle_world - hip_world)
+        leg_a = rest[knee_j] - rest[hip_j]
+        leg_b = rest[idx[f"{side}_ankle"]] - rest[knee_j]
+        hip, knee = _leg_ik(leg_a, leg_b, d)
+        poses[:, hip_j] = hip.as_rotvec()
+        poses[:, knee_j, 0] = knee
+        poses[:, idx[f"{side}_ankle"]] = (hip * Rotation.from_euler("x", knee[:, None])
+                                          ).inv().as_rotvec()  # the foot stays level
         sign = 1.0 if side == "left" else -1.0
-        swing_deg = 0.6 * np.degrees(hip)
+        # the arm swings back (+x in the model) while its side's foot is ahead
+        swing_deg = 0.6 * np.degrees(np.arctan2(forward, hip_above_ankle))
         poses[:, idx[f"{side}_shoulder"]] = np.array(
             [rotvec(("x", a_), ("z", -75.0 * sign)) for a_ in swing_deg])
         poses[:, idx[f"{side}_elbow"], 1] = np.radians(-20.0 * sign)
     poses[:, 0] = ROOT_UP.as_rotvec()
-    hip_rest = ROOT_UP.apply(rest[idx["left_hip"]] - rest[0]) + rest[0]
-    trans = np.zeros((n, 3))
-    trans[:, 0] = speed_m_s * t
-    trans[:, 2] = ankle_z + hip_above_ankle - hip_rest[2]
     return poses.reshape(n, -1), trans
 
 
@@ -388,7 +413,8 @@ def _nan_frame(folder: Path) -> Path:
 
 @pytest.mark.parametrize(("make", "model", "expected"), [
     (lambda d: _walk_file(d), None,
-     r"AMASS SMPLX motion and needs the SMPLX body model.*valid: --body-model DIR"),
+     r"error: \S+clip.npz: an AMASS SMPLX motion needs the SMPLX body model, which imesh "
+     r"cannot ship; valid: --body-model DIR"),
     (lambda d: _walk_file(d), "nowhere",
      r"body model '.*nowhere': no such folder; valid: the folder holding "
      r"smplx/SMPLX_NEUTRAL.npz"),
@@ -454,3 +480,35 @@ def test_other_npz_files_are_not_clips(tmp_path):
     with pytest.raises(MotionFileError, match="no such file"):
         load_motion(tmp_path / "gone.npz", body_model=tmp_path)
     assert issubclass(BodyModelError, ImeshError)
+
+
+# ----------------------------------------------------------------------------------------------
+# acceptance 6: an AMASS-layout file with the synthetic body model retargets end to end
+
+
+def test_amass_walk_retargets_end_to_end(capsys, models, tmp_path):
+    """``imesh retarget WALK.npz --body-model DIR`` on the default robot: the walk (2 s at
+    60 fps, 0.8 m/s, shape beta 0 = 0.3) passes every gate, the motion records the body model
+    in its provenance, and ``imesh evaluate --source`` reads the clip again through it."""
+    import json
+
+    from imesh.io.robot_motion import load_robot_motion
+
+    poses, trans = walk_parameters(seconds=2.0, speed_m_s=0.8, period_s=1.2)
+    clip = write_amass(tmp_path / "walk.npz", poses, trans, betas=0.3 * np.eye(16)[0])
+    out, report = tmp_path / "walk_jvrc1.npz", tmp_path / "walk.json"
+    status, text = run(capsys, "-q", "retarget", clip, "--body-model", models, "-o", out,
+                       "--json", report)
+    assert status == 0, text
+    result = json.loads(report.read_text())
+    metrics = {k: v["value"] for k, v in result["metrics"].items()}
+    assert result["verification"]["passed"] and result["robot"] == "jvrc1"
+    assert metrics["marker_rms_mm"] < 100.0 and metrics["ground_penetration_mm"] < 10.0
+    assert metrics["limit_violation_frames"] == 0 and metrics["zmp_inside_fraction"] >= 0.95
+    assert metrics["foot_skid_mm_per_frame"] < 1.0  # the synthetic feet do not slide
+    provenance = load_robot_motion(out).provenance
+    assert provenance is not None
+    assert provenance.source.load["body_model"] == str(models)
+    assert provenance.source.frames == 120 and provenance.source.fps == 60.0
+    status, text = run(capsys, "evaluate", out, "--source", clip)
+    assert status == 0 and "close_pair_error" in text, text

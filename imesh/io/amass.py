@@ -126,13 +126,14 @@ class BodyModelError(ImeshError):
     for the file's model and gender in it, or a file that is not that model.
 
     Attributes:
-        path: the folder or file at fault.
+        path: the folder or file at fault ("" when none was given).
         reason: what is wrong.
         valid: what would be valid.
     """
 
     def __init__(self, path: str | os.PathLike, reason: str, valid: str):
-        super().__init__(f"body model {str(path)!r}: {reason}; valid: {valid}")
+        where = f"body model {str(path)!r}: " if str(path) else ""
+        super().__init__(f"{where}{reason}; valid: {valid}")
         self.path = str(path)
         self.reason = reason
         self.valid = valid
@@ -508,7 +509,7 @@ def read_amass(path: str | os.PathLike, body_model: str | os.PathLike | None,
     params = read_amass_parameters(p, fps)
     spec = params.spec
     if body_model is None:
-        raise BodyModelError("", f"{p} is an AMASS {spec.kind.upper()} motion and needs the "
+        raise BodyModelError("", f"{p}: an AMASS {spec.kind.upper()} motion needs the "
                              f"{spec.kind.upper()} body model, which imesh cannot ship",
                              f"--body-model DIR (body_model= in load_motion), DIR holding "
                              f"{spec.kind}/{spec.file_stem}_{params.gender.upper()}.npz "
