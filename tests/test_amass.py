@@ -512,3 +512,13 @@ def test_amass_walk_retargets_end_to_end(capsys, models, tmp_path):
     assert provenance.source.frames == 120 and provenance.source.fps == 60.0
     status, text = run(capsys, "evaluate", out, "--source", clip)
     assert status == 0 and "close_pair_error" in text, text
+    # a body-model folder that moved: --body-model overrides the provenance's
+    moved = tmp_path / "moved"
+    models.rename(moved)
+    try:
+        status, line = run(capsys, "evaluate", out, "--source", clip)
+        assert status == 2 and "no such folder" in line, line
+        status, again = run(capsys, "evaluate", out, "--source", clip, "--body-model", moved)
+        assert status == 0 and again.splitlines()[1:] == text.splitlines()[1:], again
+    finally:
+        moved.rename(models)
