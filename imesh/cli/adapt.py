@@ -23,7 +23,7 @@ def run(args) -> int:
     people = None
     if args.people:
         people = load_motion(args.people, units=parse_units(args.units), up_axis=args.up_axis,
-                             fps=args.source_fps)
+                             fps=args.source_fps, body_model=args.body_model)
         if args.fps:
             people = people.resample(args.fps)
         if args.rig:

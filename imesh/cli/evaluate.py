@@ -7,6 +7,7 @@ from ..evaluate.motion_files import load_motion_file
 from ..evaluate.scoreboard import evaluate_motion
 from ..evaluate.table import format_table
 from ..io.atomic import write_json
+from ..io.clip import read_clip
 from ..io.formats import robot_for_motion_file
 from ..physics import ControlConfig, PhysicsConfig
 from ..viz.report import write_report
@@ -20,7 +21,14 @@ def run(args) -> int:
     if args.physics:
         config = PhysicsConfig(fixed_base=args.fixed_base,
                                control=ControlConfig(controller=args.controller))
-    report = evaluate_motion(robot, motion, source=args.source, physics=args.physics,
+    source = args.source
+    if source is not None and getattr(args, "body_model", None):
+        # an AMASS clip (a GMR user's source, or a body-model folder that moved): read here
+        # with the provenance's other reading options; frames and fps are still compared
+        clip = motion.provenance.source if motion.provenance is not None else None
+        source = read_clip(source, {**(dict(clip.load) if clip is not None else {}),
+                                    "body_model": args.body_model})
+    report = evaluate_motion(robot, motion, source=source, physics=args.physics,
                              adapted=args.adapted, physics_config=config,
                              plot=args.plot if args.physics else None,
                              resample=args.resample)
@@ -29,7 +37,7 @@ def run(args) -> int:
     if args.report:
         write_json(args.report, report)
     if args.report_html:
-        write_report(args.report_html, robot, args.motion, metrics=report, source=args.source,
+        write_report(args.report_html, robot, args.motion, metrics=report, source=source,
                      fps=args.fps)
         print(f"report: {args.report_html}")
     return 0

@@ -21,8 +21,9 @@ _WHY = ("its zero-phase low-pass filter pads 15 frames at each end; a shorter cl
 
 def load_clip(args, *, apply_rig: bool = True) -> MarkerMotion:
     """The clip ``args.clip`` read with the parsed options: units, up axis, frame rates, ASF
-    skeleton, resampled to ``--fps`` and mapped by ``--rig`` (when ``apply_rig``); the options
-    are recorded in the motion (:func:`imesh.io.clip.read_clip`) for the retarget's provenance.
+    skeleton, body model (AMASS), resampled to ``--fps`` and mapped by ``--rig`` (when
+    ``apply_rig``); the options are recorded in the motion (:func:`imesh.io.clip.read_clip`)
+    for the retarget's provenance.
 
     Raises:
         ImeshError: an unreadable clip; for adapt and retarget, fewer than
@@ -31,7 +32,8 @@ def load_clip(args, *, apply_rig: bool = True) -> MarkerMotion:
     motion = read_clip(args.clip, {
         "units": args.units, "up_axis": args.up_axis, "source_fps": args.source_fps,
         "asf": getattr(args, "asf", None), "fps": getattr(args, "fps", None),
-        "rig": getattr(args, "rig", None) if apply_rig else None})
+        "rig": getattr(args, "rig", None) if apply_rig else None,
+        "body_model": getattr(args, "body_model", None)})
     if args.command in ("adapt", "retarget"):
         require_frames(motion, PIPELINE_MIN_FRAMES, f"imesh {args.command} ({_WHY})")
     return motion

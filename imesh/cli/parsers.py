@@ -85,6 +85,9 @@ def _add_load_options(p: argparse.ArgumentParser, resample: bool = True) -> None
                    "whose name starts the .amc name)")
     p.add_argument("--rig", help="rig table mapping the file to the standard markers: a .toml "
                    "(see `imesh rig`) or a built-in name; default: recognized from the skeleton")
+    p.add_argument("--body-model", metavar="DIR",
+                   help="folder of the SMPL-X / SMPL-H body-model files an AMASS .npz needs "
+                   "(DIR/smplx/SMPLX_NEUTRAL.npz ...; docs/amass.md)")
 
 
 def _add_morph_options(p: argparse.ArgumentParser) -> None:
@@ -273,6 +276,9 @@ def add_evaluate(sub) -> argparse.ArgumentParser:
         "base position [m], base quaternion; see docs/checking.md), print a table and "
         "optionally write them as JSON (keys = the metric names).")
     p.add_argument("--source", help="the human clip the motion was retargeted from")
+    p.add_argument("--body-model", metavar="DIR",
+                   help="the body-model folder of an AMASS --source (default: the one the "
+                   "motion's provenance records; docs/amass.md)")
     p.add_argument("--adapted", help="the adapted markers the robot fitted (.npz from "
                    "'imesh retarget --markers')")
     p.add_argument("--resample", action="store_true",

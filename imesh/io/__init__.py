@@ -1,4 +1,5 @@
-"""Motion import: BVH, CMU ASF/AMC, C3D and TRC files to :class:`~imesh.core.motion.MarkerMotion`.
+"""Motion import: BVH, CMU ASF/AMC, C3D, TRC and AMASS (SMPL-H/SMPL-X .npz, with the user's body
+model) files to :class:`~imesh.core.motion.MarkerMotion`.
 
 ``load_motion(path)`` picks the reader by extension, converts to metres, Z up, floor at z = 0 and
 logs each decision (units, up axis, floor) so it can be checked and overridden.
@@ -11,6 +12,7 @@ from pathlib import Path
 
 from ..core.motion import MarkerMotion
 from ..errors import MotionFileError, UnsupportedFormatError
+from .amass import is_amass, read_amass
 from .asf_amc import read_asf_amc
 from .bvh import read_bvh
 from .c3d import read_c3d
@@ -21,19 +23,21 @@ from .units import UNIT_SCALES_M, UP_AXES, finalize
 __all__ = ["load_motion", "read_raw", "finalize", "RawMotion", "UNIT_SCALES_M", "UP_AXES",
            "SUPPORTED_EXTENSIONS"]
 
-SUPPORTED_EXTENSIONS = (".bvh", ".amc", ".c3d", ".trc")
+SUPPORTED_EXTENSIONS = (".bvh", ".amc", ".c3d", ".trc", ".npz")
 
 
 def read_raw(path: str | os.PathLike, *, asf: str | os.PathLike | None = None,
-             fps: float | None = None) -> RawMotion:
+             fps: float | None = None,
+             body_model: str | os.PathLike | None = None) -> RawMotion:
     """Parse a motion file without unit/axis conversion.
 
     Args:
-        path: .bvh, .amc (with its .asf), .c3d or .trc file.
+        path: .bvh, .amc (with its .asf), .c3d, .trc or AMASS .npz file.
         asf: skeleton file for .amc input; by default the single .asf in the same folder whose
             name is a prefix of the .amc name (``cmu_07.asf`` for ``cmu_07_05.amc``).
         fps: frame rate for formats that do not store one (AMC; default 120 as in the CMU
-            listing); ignored otherwise.
+            listing; an AMASS file without ``mocap_framerate``); ignored otherwise.
+        body_model: the body-model folder an AMASS file needs (:mod:`imesh.io.amass`).
     """
     p = Path(path)
     if not p.is_file():
@@ -47,6 +51,12 @@ def read_raw(path: str | os.PathLike, *, asf: str | os.PathLike | None = None,
         return read_c3d(p)
     if ext == ".trc":
         return read_trc(p)
+    if ext == ".npz":
+        if is_amass(p):
+            return read_amass(p, body_model, fps=fps)
+        raise UnsupportedFormatError(
+            str(p), "an .npz clip must be an AMASS motion (keys poses, trans, betas, gender, "
+            "mocap_framerate); robot motions are read by imesh evaluate/view/export")
     raise UnsupportedFormatError(
         str(p), f"unsupported extension {ext!r}; valid: {', '.join(SUPPORTED_EXTENSIONS)}"
     )
@@ -55,16 +65,20 @@ def read_raw(path: str | os.PathLike, *, asf: str | os.PathLike | None = None,
 def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
                 up_axis: str | None = None, ground: str | float = "auto",
                 fps: float | None = None, asf: str | os.PathLike | None = None,
-                check: bool = True) -> MarkerMotion:
+                check: bool = True,
+                body_model: str | os.PathLike | None = None) -> MarkerMotion:
     """Read a motion file into a MarkerMotion (metres, Z up, floor at z = 0).
 
     Args:
-        path: .bvh, .amc, .c3d or .trc file.
+        path: .bvh, .amc, .c3d, .trc or AMASS .npz file.
         units: override the detected unit ("m", "cm", "mm", "in", "cmu") or metres per unit.
         up_axis: override the detected up axis ("+Y", "+Z", ...).
         ground: "auto" (shift to the floor when off by > 3 cm), "none", or a shift in metres.
-        fps: frame rate for AMC files, which store none (default 120).
+        fps: frame rate for AMC files, which store none (default 120), and for AMASS files
+            without one.
         asf: the skeleton for an .amc file (default: found beside it).
+        body_model: the folder of SMPL-X/SMPL-H body-model files an AMASS .npz needs
+            (docs/amass.md).
         check: run the plausibility checks of :func:`imesh.core.motion.check_plausible` (frame
             rate, body height 0.3-3 m, positions within 1 km, no marker faster than 100 m/s).
 
@@ -73,9 +87,10 @@ def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
 
     Raises:
         MotionFileError: the file cannot be read (message names file, line, frame).
+        imesh.io.amass.BodyModelError: an AMASS file without a usable body model.
         ImplausibleMotionError: the content cannot be a recording of a person (names the check,
             frame and marker, and the valid range).
     """
-    raw = read_raw(path, asf=asf, fps=fps)
+    raw = read_raw(path, asf=asf, fps=fps, body_model=body_model)
     return finalize(raw, units=units, up_axis=up_axis, ground=ground, check=check,
                     consume=True)

@@ -1,7 +1,7 @@
 """A human clip read with the options of the command line (``--units``, ``--up-axis``,
-``--source-fps``, ``--asf``, ``--fps``, ``--rig``), the options recorded in the motion, so that a
-retarget's provenance (:mod:`imesh.core.provenance`) can read the clip again the same way
-(``imesh evaluate --source``)."""
+``--source-fps``, ``--asf``, ``--fps``, ``--rig``, ``--body-model``), the options recorded in
+the motion, so that a retarget's provenance (:mod:`imesh.core.provenance`) can read the clip
+again the same way (``imesh evaluate --source``)."""
 
 from __future__ import annotations
 
@@ -31,12 +31,13 @@ def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = No
     """Read a human clip with reading options and record them in ``meta["load_options"]``.
 
     Args:
-        path: the clip (BVH, ASF/AMC, C3D, TRC).
+        path: the clip (BVH, ASF/AMC, C3D, TRC, AMASS .npz).
         options: keys of :data:`imesh.core.provenance.LOAD_OPTION_KEYS`: ``units`` (a unit
             name or metres per unit), ``up_axis`` (e.g. ``"+Y"``), ``source_fps`` (frame rate of
             formats that store none [1/s]), ``asf`` (the skeleton of an .amc), ``fps`` (resample
-            to this rate [1/s]), ``rig`` (a rig table: .toml path or built-in name); None
-            values are the defaults.
+            to this rate [1/s]), ``rig`` (a rig table: .toml path or built-in name),
+            ``body_model`` (the body-model folder of an AMASS file, recorded as an absolute
+            path); None values are the defaults.
 
     Returns:
         The motion (metres, Z up), resampled and mapped by the rig as asked.
@@ -51,7 +52,7 @@ def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = No
         raise OptionError("clip reading option", unknown[0], LOAD_OPTION_KEYS)
     motion = load_motion(path, units=parse_units(given.get("units")),
                          up_axis=given.get("up_axis"), fps=given.get("source_fps"),
-                         asf=given.get("asf"))
+                         asf=given.get("asf"), body_model=given.get("body_model"))
     if given.get("fps"):
         motion = motion.resample(float(given["fps"]))
     if given.get("rig"):
@@ -60,5 +61,7 @@ def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = No
         motion = to_standard(motion, rig=str(given["rig"]))
     if not given:
         return motion
+    if given.get("body_model"):  # read again from elsewhere (imesh evaluate --source)
+        given["body_model"] = os.path.abspath(given["body_model"])
     recorded = {k: (str(v) if k in ("asf", "rig") else v) for k, v in given.items()}
     return dataclasses.replace(motion, meta={**motion.meta, "load_options": recorded})

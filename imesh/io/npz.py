@@ -15,6 +15,7 @@ import struct
 import tokenize
 import zipfile
 import zlib
+from collections.abc import Collection
 from pathlib import Path
 
 import numpy as np
@@ -59,7 +60,8 @@ _NPZ_ERRORS = (OSError, EOFError, ValueError, zipfile.BadZipFile, zlib.error,
                KeyError, tokenize.TokenError)
 
 
-def load_npz(path: str | os.PathLike, what: str = ".npz file") -> dict[str, np.ndarray]:
+def load_npz(path: str | os.PathLike, what: str = ".npz file", *,
+             keys: Collection[str] | None = None) -> dict[str, np.ndarray]:
     """Every array of an .npz archive, read after checking what the archive declares.
 
     Each member must be an ``.npy`` array of a plain (non-object) dtype whose header's shape
@@ -69,6 +71,10 @@ def load_npz(path: str | os.PathLike, what: str = ".npz file") -> dict[str, np.n
     Args:
         path: the file.
         what: what the file should be, for messages ("robot motion .npz").
+        keys: read only the members of these names (absent ones are left out of the result);
+            the others are neither read nor checked, so an archive may hold arrays of Python
+            objects imesh does not need (an AMASS file's ``markers_latent_vids``, a body
+            model's ``joint2num``). None: every member.
 
     Raises:
         MotionFileError: no such file, empty, not a zip archive, corrupt member, object arrays,
@@ -81,7 +87,7 @@ def load_npz(path: str | os.PathLike, what: str = ".npz file") -> dict[str, np.n
         raise MotionFileError(str(p), f"empty file (0 bytes): not a readable .npz file "
                               f"({what})")
     try:
-        return _read_npz_members(p, what)
+        return _read_npz_members(p, what, None if keys is None else set(keys))
     except MotionFileError:
         raise
     except MemoryError:
@@ -92,11 +98,14 @@ def load_npz(path: str | os.PathLike, what: str = ".npz file") -> dict[str, np.n
                               f"{type(exc).__name__}: {str(exc)[:200]})") from None
 
 
-def _read_npz_members(p: Path, what: str) -> dict[str, np.ndarray]:
+def _read_npz_members(p: Path, what: str, keys: set[str] | None) -> dict[str, np.ndarray]:
     fmt = np.lib.format
     out: dict[str, np.ndarray] = {}
     with zipfile.ZipFile(p) as zf:
         infos = zf.infolist()
+        if keys is not None:
+            infos = [i for i in infos if i.filename.endswith(".npy")
+                     and i.filename[:-4] in keys]
         total = sum(i.file_size for i in infos)
         if total > MAX_NPZ_BYTES:
             raise MotionFileError(str(p), f"the archive declares {total} bytes of arrays; at "
