@@ -111,6 +111,26 @@ def test_wbc_stands_and_tracks(name, seconds):
     assert np.nanmean(result.contact_force_n) == pytest.approx(robot.mass * 9.81, rel=0.03)
 
 
+def test_wbc_holds_an_off_centre_com_where_the_reference_has_it(jvrc1):
+    """Leaning forward (waist pitched 0.3 rad: the CoM 46 mm ahead of the ankles), the
+    centres of pressure must sit off the sole centres; the QP's regularization of the contact
+    moments must not pull the CoM back from the reference (at the old weight 1e-2: 1.4 mm
+    behind for good)."""
+    pytest.importorskip("dartpy")
+    from imesh.physics import PhysicsConfig, TimingConfig, simulate_motion
+
+    robot = jvrc1
+    q0 = robot.q_nominal.copy()
+    q0[7 + robot.joint_index("WAIST_P")] = 0.3
+    motion = RobotMotion(q=np.repeat(q0[None], 61, axis=0), fps=30.0, robot=robot.name,
+                         joint_names=robot.joint_names)
+    result = simulate_motion(robot, motion,
+                             config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
+    assert not result.fell
+    error = robot.com(result.q[-1]) - robot.com(result.q_reference[-1])
+    assert np.linalg.norm(error[:2]) < 3e-4
+
+
 def test_wbc_falls_when_the_motion_cannot_be_performed(jvrc1):
     """The check can fail: a reference with both feet 0.3 m in the air for 1 s (no support:
     nothing can hold the robot up there) is judged a fall."""
