@@ -61,6 +61,8 @@ class WbcWeights(NonNegative):
             the CoM over the feet, so they yield to the CoM).
         upper_body: joint posture of every other joint (waist, arms, head: a torso swung to
             catch the balance moves the hands and the head far from the reference).
+        contact: the contact soles' acceleration rows when they cannot all be met within the
+            torque limits (then a task, the heaviest; otherwise constraints).
         acceleration: every generalized acceleration (regularization).
         force: every contact force component, per N^2 (spreads the load between the soles).
         moment: every contact moment component about the sole centre, per (N m)^2 (keeps the
@@ -77,6 +79,7 @@ class WbcWeights(NonNegative):
     swing: float = 30.0
     joints: float = 0.05
     upper_body: float = 1.0
+    contact: float = 1e4
     acceleration: float = 1e-4
     force: float = 1e-5
     moment: float = 1e-4

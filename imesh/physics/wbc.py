@@ -110,8 +110,8 @@ class ControlStep:
         contacts: (2,) bool [left, right] soles treated as in contact.
         wrenches: (2, 6) float [left, right] contact wrenches the QP chose (world axes, at the
             sole centres; 0 off contact) [N, Nm].
-        relaxed: the QP with torque limits was infeasible and was solved without them (the
-            torques are then clamped, and the step counted).
+        relaxed: the QP with its contact rows as constraints was infeasible within the torque
+            limits and was solved with them as the heaviest task (the step is counted).
     """
 
     tau: np.ndarray
@@ -326,15 +326,22 @@ class WholeBodyController:
 
         sol = self._solve(H, c, E, e, G, lo, up)
         relaxed = sol is None
-        if relaxed:  # torque limits unreachable at this state: solve without, clamp after
+        if relaxed:
+            # The contact rows cannot all be met within the torque limits (a landing sole
+            # still moving, a sole tipped on its edge): they become the heaviest task and the
+            # torque limits stay. (Dropping the limits and clamping the torques afterwards
+            # realizes other accelerations than the QP's: G1 spun off the ground at 4 rad/s.)
             self.relaxed_steps += 1
-            sol = self._solve(H, c, E, e, G[:-nj], lo[:-nj], up[:-nj])
-            if sol is None:  # nor the contacts: dynamics alone
-                sol = self._solve(H, c, E[:6], e[:6], G[:0], lo[:0], up[:0])
+            Ec, ec = E[6:], e[6:]
+            Hs = H + cfg.weights.contact * (Ec.T @ Ec)
+            cs = c - cfg.weights.contact * (Ec.T @ ec)
+            sol = self._solve(Hs, cs, E[:6], e[:6], G, lo, up)
+            if sol is None:  # not even the dynamics within the limits: without them
+                sol = self._solve(Hs, cs, E[:6], e[:6], G[:-nj], lo[:-nj], up[:-nj])
         x = sol if sol is not None else np.zeros(n)
         a, w = x[:nv], x[nv:]
         # within the limits by the QP's constraints, to its tolerance (1e-6): the clip removes
-        # that round-off (and clamps the torques of a relaxed step, which are counted)
+        # that round-off (and clamps the torques of the rare step solved without them)
         tau = np.clip(M[6:] @ a + h[6:] - Jt[6:] @ w, -self.tau_max, self.tau_max)
         wrenches = np.zeros((2, 6))
         for j, s in enumerate(active):
