@@ -148,6 +148,52 @@ def test_wbc_falls_when_the_motion_cannot_be_performed(jvrc1):
     assert 0.5 <= result.survived_s < 1.5
 
 
+def _lean(robot, theta: float) -> np.ndarray:
+    """(nq,) the nominal pose leaned forward by ``theta`` [rad] about the ankles: base rotated
+    about the left ankle's axis, both ankle pitches opened by as much (the soles stay put)."""
+    import pinocchio as pin
+    from scipy.spatial.transform import Rotation
+
+    q0 = robot.q_nominal.copy()
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q0)
+    ankle = data.oMi[robot.model.getJointId("L_ANKLE_P")].translation.copy()
+    turn = Rotation.from_rotvec([0.0, theta, 0.0])
+    q = q0.copy()
+    q[:3] = ankle + turn.apply(q0[:3] - ankle)
+    q[3:7] = (turn * Rotation.from_quat(q0[3:7])).as_quat()
+    for name in ("L_ANKLE_P", "R_ANKLE_P"):
+        q[7 + robot.joint_index(name)] -= theta
+    return q
+
+
+def test_wbc_loses_a_motion_whose_com_leaves_the_soles(jvrc1):
+    """The check can fail a motion the controller survives by not performing it: JVRC-1 leans
+    0.3 rad forward about its ankles for 0.5 s (the CoM 0.09 m beyond the toes: no contact
+    can hold that). The controller stays up by not leaning; its head is then far from the
+    reference's, and the check counts the motion lost, within the lean."""
+    pytest.importorskip("dartpy")
+    from imesh.physics import PhysicsConfig, TimingConfig, simulate_motion
+
+    robot = jvrc1
+    soles = [robot.frame_positions(q, [robot.soles[s].frame], [robot.soles[s].center])[0]
+             for q in (robot.q_nominal, _lean(robot, 0.3)) for s in ("left", "right")]
+    assert np.abs(np.array(soles[:2]) - np.array(soles[2:])).max() < 1e-6
+    toe = soles[0][0] + robot.soles["left"].half_extents[0]
+    assert robot.com(_lean(robot, 0.3))[0] > toe + 0.08
+    w = np.zeros(76)
+    w[30:33] = np.linspace(0.0, 1.0, 3)
+    w[33:48] = 1.0
+    w[48:51] = np.linspace(1.0, 0.0, 3)
+    motion = RobotMotion(q=np.array([_lean(robot, 0.3 * x) for x in w]), fps=30.0,
+                         robot=robot.name, joint_names=robot.joint_names)
+    result = simulate_motion(robot, motion,
+                             config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
+    assert result.fell
+    assert "lost the motion" in result.fall_reason
+    assert 1.0 <= result.survived_s <= 1.6
+
+
 def test_kinematic_mode_stands_with_exact_joints(jvrc1):
     """The paper's check: joints as velocity actuators follow the reference exactly (error
     < 1e-3 rad), the base is free, the nominal pose stands."""

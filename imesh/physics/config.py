@@ -203,15 +203,23 @@ class FallConfig:
         height_m: fallen when the base is this much lower than the reference [m].
         tilt_rad: fallen when the base orientation differs from the reference by more than
             this angle [rad].
+        lost_m: the motion is lost (counted as a fall) when a key point of the robot
+            (markers.toml) is farther than this from where the reference has it [m]: a
+            balance controller that stays up by not following the motion (a lean that would
+            put the CoM beyond the toes) has not performed it. 0 turns it off.
         stop: end the simulation at a fall (the rest of the result is NaN).
     """
 
     height_m: float = 0.25
     tilt_rad: float = 0.8
+    lost_m: float = 0.25
     stop: bool = True
 
     def __post_init__(self) -> None:
         require_finite(self, ("height_m", "tilt_rad"), positive=True)
+        require_finite(self, ("lost_m",), positive=False)
+        if self.lost_m < 0:
+            raise OptionError("fall lost_m", self.lost_m, ">= 0 [m] (0: off)")
 
 
 @dataclass(frozen=True)

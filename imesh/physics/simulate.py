@@ -96,6 +96,33 @@ def _tilt(rotvec_sim: np.ndarray, quat_ref: np.ndarray) -> float:
     return float(np.arccos(np.clip(z_sim @ z_ref, -1.0, 1.0)))
 
 
+class _LostReference:
+    """Whether the robot has lost the motion: a key point (markers.toml) farther than
+    ``FallConfig.lost_m`` from where the reference has it. The reference's key points are
+    computed once; a simulated frame costs one forward kinematics."""
+
+    def __init__(self, robot, ref: Reference, limit_m: float):
+        self.limit = limit_m
+        self.on = limit_m > 0 and robot.markers is not None
+        if self.on:
+            self.robot = robot
+            self.names, self.frames, self.offsets, _ = robot.keypoint_arrays()
+            self.planned = keypoint_motion(robot, ref.q, ref.fps).positions_m
+
+    def __call__(self, q: np.ndarray, frame: int) -> str:
+        """'' while the key points of ``q`` (nq,) are within the limit of frame ``frame``'s,
+        else the reason."""
+        if not self.on:
+            return ""
+        pts = self.robot.frame_positions(q, self.frames, self.offsets)
+        d = np.linalg.norm(pts - self.planned[frame], axis=1)
+        k = int(np.argmax(d))
+        if d[k] <= self.limit:
+            return ""
+        return (f"lost the motion: key point {self.names[k]!r} {d[k]:.2f} m from the "
+                f"reference (limit {self.limit:g} m)")
+
+
 def _contact_sides(sim: DartRobot) -> dict[str, int]:
     """Shape-node name -> sole index (0 left, 1 right) of the sole boxes."""
     return {f"{side}_sole": k for k, side in enumerate(SIDES)}
@@ -261,6 +288,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     ratio_max = 0.0
     ctrl_s = 0.0
     base_z_ref = ref.q[:, 2]
+    lost = _LostReference(robot, ref, config.fall.lost_m) if nb else None
     t0 = time.perf_counter()
 
     total = settle + track + 1
@@ -300,14 +328,16 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
                 next_frame += 1
                 pos_rec[f] = pos
                 tau_rec[f] = tau
-                if nb:
+                if nb and not fell:
                     low = pos[5] < base_z_ref[f] - config.fall.height_m
                     tilt = _tilt(pos[:3], ref.q[f, 3:7])
-                    if (low or tilt > config.fall.tilt_rad) and not fell:
+                    off = lost(sim.q_from_positions(pos), f) if lost is not None else ""
+                    if low or tilt > config.fall.tilt_rad or off:
                         fell, fall_step = True, i
                         reason = (f"base {base_z_ref[f] - pos[5]:.2f} m below the reference"
                                   if low else f"base tilted {np.degrees(tilt):.0f} deg from the "
-                                  "reference") + f" at t = {i * dt:.2f} s"
+                                  "reference" if tilt > config.fall.tilt_rad else off
+                                  ) + f" at t = {i * dt:.2f} s"
             if fell and config.fall.stop:
                 pos_rec[f] = np.nan
                 tau_rec[f] = np.nan
