@@ -148,6 +148,29 @@ def test_wbc_falls_when_the_motion_cannot_be_performed(jvrc1):
     assert 0.5 <= result.survived_s < 1.5
 
 
+def test_wbc_models_the_joint_damping_the_simulator_applies():
+    """HRP-4C's URDF gives every joint 0.2 N m s/rad of damping, which DART applies and
+    pinocchio's dynamics leave out: a wrist of a few grams then barely moves under the torques
+    a model without it computes (0.20 rad RMS behind a 0.3 rad, 1 Hz wrist wave). With the
+    damping in the controller's joint rows it follows within 0.08 rad RMS."""
+    pytest.importorskip("dartpy")
+    from imesh.physics import PhysicsConfig, TimingConfig, simulate_motion
+    from imesh.physics.world import DartRobot
+
+    robot = _robot("hrp4c")
+    sim = DartRobot(robot, PhysicsConfig())
+    assert np.allclose(sim.joint_damping, 0.2)
+    t = np.arange(61) / 30.0
+    q = np.repeat(robot.q_nominal[None], len(t), axis=0)
+    wrist = robot.joint_index("R_WRIST_Y")
+    q[:, 7 + wrist] += 0.3 * np.sin(2 * np.pi * t)
+    motion = RobotMotion(q=q, fps=30.0, robot=robot.name, joint_names=robot.joint_names)
+    result = simulate_motion(robot, motion,
+                             config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
+    assert not result.fell
+    assert np.sqrt(np.nanmean(result.joint_error_rad[:, wrist] ** 2)) < 0.08
+
+
 def _lean(robot, theta: float) -> np.ndarray:
     """(nq,) the nominal pose leaned forward by ``theta`` [rad] about the ankles: base rotated
     about the left ankle's axis, both ankle pitches opened by as much (the soles stay put)."""

@@ -151,7 +151,8 @@ class WbcTracker:
         self.config = config
         self.track = ReferenceTrack(sim.robot, ref)
         self.controller = WholeBodyController(sim.robot, self.track, config.control.wbc,
-                                              config.ground.friction)
+                                              config.ground.friction,
+                                              joint_damping=sim.joint_damping)
         dt = config.timing.dt
         self.every = max(1, int(round(1.0 / (config.control.wbc.rate_hz * dt))))
         self.dt = dt

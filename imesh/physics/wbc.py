@@ -11,6 +11,8 @@ simulator's), one dense QP chooses the generalized accelerations ``a`` (nv) and 
            C_c R_c^T w_c <= 0                                  (contact wrench cone, below)
            |M_j a + h_j - sum_c J_{c,j}^T w_c| <= tau_max     (joint torques within the limits)
 
+``h`` is pinocchio's ``C v + g`` plus the joints' viscous damping ``B qd`` of the simulated
+robot (the URDF's ``<dynamics damping>``, which DART applies and pinocchio leaves out).
 The torques ``tau = M_j a + h_j - sum_c J_{c,j}^T w_c`` are applied as they are (never clamped
 afterwards: the limits are constraints). Tasks (``A_i x = b_i``, PD feedback on the reference of
 :class:`imesh.physics.track.ReferenceTrack`):
@@ -129,9 +131,12 @@ class WholeBodyController:
         config: gains, weights, margins.
         friction: the ground's friction coefficient (the controller assumes
             ``config.friction_fraction`` of it).
+        joint_damping: (n,) float viscous damping of the joints [N m s/rad] (the simulator's,
+            from the URDF), added to the joint rows of the equation of motion; None: 0.
     """
 
-    def __init__(self, robot, track: ReferenceTrack, config: WbcConfig, friction: float):
+    def __init__(self, robot, track: ReferenceTrack, config: WbcConfig, friction: float,
+                 joint_damping: np.ndarray | None = None):
         from .qp import dense_qp  # noqa: PLC0415  (the solver's import is lazy)
 
         self._solve = dense_qp
@@ -156,6 +161,8 @@ class WholeBodyController:
         self.posture_weights = np.full(self.n_joints, config.weights.upper_body)
         self.posture_weights[legs] = config.weights.joints
         self.omega = np.sqrt(GRAVITY / max(track.com_height_m, 0.1))
+        self.damping = (np.zeros(self.n_joints) if joint_damping is None
+                        else np.asarray(joint_damping, dtype=float))
         self.relaxed_steps = 0
 
     # ------------------------------------------------------------------------------------------
@@ -273,7 +280,8 @@ class WholeBodyController:
                                          np.full(3, cfg.weights.moment)], k)
 
         # --- equalities: floating-base dynamics, contacts -------------------------------------
-        M, h = dyn.mass_matrix, dyn.bias
+        M, h = dyn.mass_matrix, dyn.bias.copy()
+        h[6:] += self.damping * v[6:]  # the joints' viscous damping, as the simulator has it
         E = np.zeros((6 + 6 * k, n))
         e = np.zeros(6 + 6 * k)
         E[:6, :nv] = M[:6]

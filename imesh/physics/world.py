@@ -329,6 +329,15 @@ class DartRobot:
         _add_collision(node, self.config.ground.friction)
         return ground
 
+    @property
+    def joint_damping(self) -> np.ndarray:
+        """(n,) float viscous damping of each joint in DART [N m s/rad], in
+        ``robot.joint_names`` order: the URDF's ``<dynamics damping>``, which DART applies and
+        pinocchio's dynamics leave out (HRP-4C: 0.2 on every joint; a wrist of a few grams
+        then barely moves under the torques a model without it computes)."""
+        skel = self.skeleton
+        return np.array([skel.getDof(int(i)).getDampingCoefficient() for i in self.joint_dofs])
+
     def _check_kinematics(self) -> None:
         """The DART skeleton must put the soles where pinocchio does (same root link, same
         joints) in the nominal pose."""
