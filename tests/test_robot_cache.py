@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import hrp4c_urdf
+from conftest import hrp4c_urdf, modules_after
 
 from imesh.core.cache import CACHE_ENV
 from imesh.robot import ROBOTS_DIR, load_robot
@@ -228,3 +228,17 @@ def test_cache_off_writes_nothing(tmp_path, monkeypatch):
     assert robot._built.geometry is not None and robot._built.cache_key == ""
     assert not (tmp_path / "imesh" / MODELS_KIND).exists()
     assert not (tmp_path / ".cache" / "imesh" / MODELS_KIND).exists()
+
+
+def test_a_cached_robot_loads_without_scipy_fcl_or_meshes(tmp_path, monkeypatch):
+    """Start-up: importing imesh.robot imports no scipy; a robot read from the cache imports
+    neither scipy nor fcl (its proxies' distances and its meshes wait for their first use); the
+    retarget command's module does not import scipy.signal (the low-pass imports it)."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
+    heavy = "m.split('.')[0] in ('scipy', 'fcl', 'trimesh', 'matplotlib')"
+    assert modules_after("import imesh.robot", heavy) == []
+    load = "from imesh.robot import load_robot; load_robot('jvrc1')"
+    modules_after(load, "False")  # fills the cache
+    assert modules_after(load, heavy) == []
+    assert modules_after("import imesh.cli.retarget",
+                         "m in ('scipy.signal', 'scipy.stats')") == []

@@ -2,15 +2,15 @@
 (imesh.robot.model_cache) and configurations generated from URDFs (imesh.robot.generate_files).
 
 Every entry is an ``.npz`` of plain arrays (read with ``allow_pickle=False``), written atomically
-(:func:`imesh.io.atomic.atomic_path`), keyed by a hash of what it is computed from; an entry that
+(:func:`write_cached`), keyed by a hash of what it is computed from; an entry that
 does not read is computed and written again, never trusted.
 """
 
 from __future__ import annotations
 
-import contextvars
 import logging
 import os
+import tempfile
 import zipfile
 from pathlib import Path
 
@@ -60,17 +60,23 @@ def read_cached(kind: str, key: str) -> dict | None:
 
 
 def write_cached(kind: str, key: str, **arrays) -> None:
-    """Store arrays under ``<cache>/<kind>/<key>.npz`` atomically (a temporary file renamed
-    into place, outside any output transaction of the command: a cache entry stays when the
-    command fails later); a read-only cache folder is no error (the next run computes again)."""
-    from ..errors import OutputPathError
-    from ..io.atomic import atomic_path
-
-    def write() -> None:
-        with atomic_path(cache_file(kind, key)) as tmp, open(tmp, "wb") as f:
-            np.savez(f, **arrays)
-
+    """Store arrays under ``<cache>/<kind>/<key>.npz`` atomically: a temporary file in the same
+    folder renamed into place, so that concurrent processes never read a partial file (the
+    scheme of :func:`imesh.io.atomic.atomic_path`, which core/ may not import, without its
+    output transaction: a cache entry stays when the command fails later). A read-only cache
+    folder is no error (the next run computes again)."""
+    path = cache_file(kind, key)
+    tmp: str | None = None
     try:
-        contextvars.Context().run(write)  # a fresh context: no output transaction
-    except (OSError, OutputPathError) as exc:
-        log.debug("cache file %s not written: %s", cache_file(kind, key), exc)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".tmp", dir=path.parent)
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **arrays)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+        tmp = None
+    except OSError as exc:
+        log.debug("cache file %s not written: %s", path, exc)
+    finally:
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
