@@ -263,17 +263,19 @@ def table_startup(clip: Path, robot: str, out: Path, runs: int = 5) -> None:
           f"{os.getloadavg()[0]:.2f}")
 
 
-#: A child process loading a robot: prints the seconds of load_robot and of capsule_model.
+#: A child process loading a robot: prints the wall and cpu seconds of the import, load_robot
+#: and capsule_model.
 _LOAD_ROBOT = """
 import json, sys, time
-t0 = time.perf_counter()
+w, c = [time.perf_counter()], [time.process_time()]
 from imesh.robot import load_robot
-t1 = time.perf_counter()
+w.append(time.perf_counter()); c.append(time.process_time())
 robot = load_robot(sys.argv[1], urdf=sys.argv[2] or None)
-t2 = time.perf_counter()
+w.append(time.perf_counter()); c.append(time.process_time())
 robot.capsule_model()
-t3 = time.perf_counter()
-print(json.dumps({"import": t1 - t0, "load": t2 - t1, "capsules": t3 - t2}))
+w.append(time.perf_counter()); c.append(time.process_time())
+print(json.dumps({"import": w[1] - w[0], "load": w[2] - w[1], "capsules": w[3] - w[2],
+                  "load_cpu": c[2] - c[1], "capsules_cpu": c[3] - c[2]}))
 """
 
 
@@ -281,8 +283,8 @@ def table_robots(runs: int = 5) -> None:
     hrp4c = data_root().parent / "robots" / "hrp4c" / "HRP4Cmain_reduced.urdf"
     print("\n## robots: load_robot and the first capsule_model(), one process per run "
           f"(medians; warm: {runs} runs, cold: 2)\n")
-    head = (f"{'robot':<8} {'cache':<6} {'import s':>9} {'load_robot s':>13} "
-            f"{'capsule_model s':>16} {'process s':>10} {'peak MB':>8}")
+    head = (f"{'robot':<8} {'cache':<6} {'import s':>9} {'load_robot s':>13} {'cpu s':>6} "
+            f"{'capsule_model s':>16} {'cpu s':>6} {'process s':>10} {'peak MB':>8}")
     print(head)
     print("-" * len(head))
     for name, urdf in (("g1", ""), ("jvrc1", ""), ("hrp4c", str(hrp4c))):
@@ -297,9 +299,10 @@ def table_robots(runs: int = 5) -> None:
                         env["IMESH_CACHE_DIR"] = empty
                     wall, peak, stdout = _timed(argv, env)
                 rows.append((json.loads(stdout.strip().splitlines()[-1]), wall, peak))
-            med = {k: _median([r[0][k] for r in rows]) for k in ("import", "load", "capsules")}
+            med = {k: _median([r[0][k] for r in rows]) for k in rows[0][0]}
             print(f"{name:<8} {cache:<6} {med['import']:>9.2f} {med['load']:>13.2f} "
-                  f"{med['capsules']:>16.2f} {_median([r[1] for r in rows]):>10.2f} "
+                  f"{med['load_cpu']:>6.2f} {med['capsules']:>16.2f} {med['capsules_cpu']:>6.2f} "
+                  f"{_median([r[1] for r in rows]):>10.2f} "
                   f"{_median([r[2] for r in rows]):>8.0f}", flush=True)
 
 
