@@ -63,9 +63,15 @@ CAPSULE_SOURCES = ("capsules/bodies.py", "capsules/fit.py", "capsules/mesh_check
 
 @functools.cache
 def _source_digest(files: tuple[str, ...]) -> bytes:
+    """A hash of the source of imesh.robot modules (an installation without its .py files
+    hashes their names only: the imesh version and ROBOT_CACHE_VERSION then stand for it)."""
     h = hashlib.sha256()
     for name in files:
-        h.update(name.encode() + b"\0" + (_HERE / name).read_bytes())
+        try:
+            source = (_HERE / name).read_bytes()
+        except OSError:
+            source = b"(no source)"
+        h.update(name.encode() + b"\0" + source)
     return h.digest()
 
 
