@@ -1,9 +1,9 @@
 """Speed of the whole process: where the time goes, frames per second, memory, start-up.
 
-    python benchmarks/speed.py [--tables profile whole startup inspect scaling]
+    python benchmarks/speed.py [--tables profile whole startup robots gmr inspect scaling]
                                [--robot g1] [--clips cmu_02_01_walk.bvh cmu_141_16_wave_hello.bvh]
                                [--inspect-frames 216000] [--scaling-frames 500 1000 2000]
-                               [--out DIR]
+                               [--runs 5] [--gmr-runs 3] [--out DIR]
 
 Tables (each printed as it is measured; docs/speed.md quotes them):
 
@@ -18,7 +18,20 @@ Tables (each printed as it is measured; docs/speed.md quotes them):
 * ``whole``: the same command as a separate process (``python -m imesh``), timed from
   outside with ``/usr/bin/time -v``: wall seconds, source frames per second (the clip's frames
   at its own rate over the wall time, as per-frame IK tools count) and peak memory.
-* ``startup``: ``imesh --help`` wall time (median of 5 runs).
+* ``startup``: ``imesh --help`` wall time, and the time from the start of ``imesh retarget
+  CLIP --robot ROBOT`` to its progress bar's first line ("first bar") and to its first advance
+  (the robot loaded and the clip prepared: "first advance"), the process stopped there; medians of
+  ``--runs`` runs with a warm cache (one run before them fills it).
+* ``robots``: ``load_robot`` of G1, JVRC-1 and HRP-4C (the URDF beside the shared data) and
+  their first ``capsule_model()``, each in a process of its own, with an empty cache folder
+  (``IMESH_CACHE_DIR`` a new temporary folder: the URDF's meshes read, proxies and capsules
+  fitted) and with a warm one; medians of ``--runs`` runs (cold: of 2).
+* ``gmr``: GMR (the per-frame IK tool, ``../shared/tools/gmr``, README.md there) and ``imesh -q
+  retarget CLIP --robot g1`` on the same clips as whole processes, in pairs (GMR, imesh, GMR,
+  imesh... after one warm-up pair), ``--gmr-runs`` pairs per clip: medians of the cpu seconds
+  (user + system), of the wall seconds, peak memory (MiB), source frames per cpu second and the
+  ratio imesh / GMR of the cpu seconds. When GMR is not set up (its venv or source missing) the
+  table says why and times imesh alone.
 * ``inspect``: ``imesh inspect`` on a long clip built in a temporary folder by concatenating a
   shared BVH forwards and backwards (positions stay continuous) to ``--inspect-frames`` frames:
   wall seconds and peak memory.
@@ -174,15 +187,186 @@ def table_whole(clips: list[Path], robot: str, out: Path) -> None:
         print(f"{clip.name:<30} {n:>7} {wall:>8.2f} {n / wall:>9.1f} {peak:>8.0f} {solve:>8.2f}")
 
 
-def table_startup() -> None:
+def first_progress(clip: Path, robot: str, out: Path
+                   ) -> tuple[float, float, float, float]:
+    """Seconds from the start of ``imesh retarget CLIP --robot ROBOT`` to its progress bar's
+    first line and to the bar's first advance (the robot loaded and the clip prepared; the
+    process is stopped there), and the process's cpu seconds (user + system) at both (what a
+    machine without other jobs would take)."""
+    import select
+
+    import psutil
+
+    argv = _imesh("retarget", str(clip), "--robot", robot, "-o", str(out / "first.npz"),
+                  "--force")
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(argv, env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    assert proc.stderr is not None
+    fd = proc.stderr.fileno()
+    first = loaded = None
+    cpu = cpu_first = float("nan")
+    text = b""
+    try:
+        while loaded is None and time.perf_counter() - t0 < 600:
+            ready, _, _ = select.select([fd], [], [], 0.05)
+            if not ready:
+                if proc.poll() is not None:
+                    break
+                continue
+            chunk = os.read(fd, 65536)
+            if not chunk:
+                break
+            now = time.perf_counter() - t0
+            text += chunk
+            if first is None and b"%|" in text:
+                first = now
+                use = psutil.Process(proc.pid).cpu_times()
+                cpu_first = use.user + use.system
+            # the bar's description names the stage: anything after "load" is an advance
+            lines = text.replace(b"\r", b"\n").split(b"\n")
+            if any(b"%|" in ln and b": load" not in ln and b" 0/" not in ln for ln in lines):
+                loaded = now
+                use = psutil.Process(proc.pid).cpu_times()
+                cpu = use.user + use.system
+    finally:
+        proc.kill()
+        proc.wait()
+    if first is None or loaded is None:
+        raise SystemExit(f"no progress bar from {' '.join(argv)}:\n{text.decode()[-2000:]}")
+    return first, loaded, cpu_first, cpu
+
+
+def _median(xs: list[float]) -> float:
+    import statistics
+
+    return float(statistics.median(xs))
+
+
+def table_startup(clip: Path, robot: str, out: Path, runs: int = 5) -> None:
     times = []
-    for _ in range(5):
+    for _ in range(runs):
         t0 = time.perf_counter()
         subprocess.run(_imesh("--help"), capture_output=True, env=_env(), check=True)
         times.append(time.perf_counter() - t0)
     times.sort()
-    print(f"\n## start-up: imesh --help: median {times[2]:.3f} s (min {times[0]:.3f}, max "
-          f"{times[-1]:.3f}; 5 runs)")
+    print(f"\n## start-up: imesh --help: median {_median(times):.3f} s (min {times[0]:.3f}, max "
+          f"{times[-1]:.3f}; {runs} runs)")
+    first_progress(clip, robot, out)  # fills the cache
+    firsts, loads, cpu_firsts, cpus = zip(
+        *(first_progress(clip, robot, out) for _ in range(runs)), strict=True)
+    print(f"imesh retarget {clip.name} --robot {robot}, warm cache, {runs} runs: first bar "
+          f"median {_median(list(firsts)):.3f} s (min {min(firsts):.3f}, max "
+          f"{max(firsts):.3f}), first advance median {_median(list(loads)):.3f} s (min "
+          f"{min(loads):.3f}, max {max(loads):.3f}); cpu seconds at the first bar median "
+          f"{_median(list(cpu_firsts)):.3f} s, at the first advance {_median(list(cpus)):.3f}"
+          f" s; load average "
+          f"{os.getloadavg()[0]:.2f}")
+
+
+#: A child process loading a robot: prints the wall and cpu seconds of the import, load_robot
+#: and capsule_model.
+_LOAD_ROBOT = """
+import json, sys, time
+w, c = [time.perf_counter()], [time.process_time()]
+from imesh.robot import load_robot
+w.append(time.perf_counter()); c.append(time.process_time())
+robot = load_robot(sys.argv[1], urdf=sys.argv[2] or None)
+w.append(time.perf_counter()); c.append(time.process_time())
+robot.capsule_model()
+w.append(time.perf_counter()); c.append(time.process_time())
+print(json.dumps({"import": w[1] - w[0], "load": w[2] - w[1], "capsules": w[3] - w[2],
+                  "load_cpu": c[2] - c[1], "capsules_cpu": c[3] - c[2]}))
+"""
+
+
+def table_robots(runs: int = 5) -> None:
+    hrp4c = data_root().parent / "robots" / "hrp4c" / "HRP4Cmain_reduced.urdf"
+    print("\n## robots: load_robot and the first capsule_model(), one process per run "
+          f"(medians; warm: {runs} runs, cold: 2)\n")
+    head = (f"{'robot':<8} {'cache':<6} {'import s':>9} {'load_robot s':>13} {'cpu s':>6} "
+            f"{'capsule_model s':>16} {'cpu s':>6} {'process s':>10} {'peak MB':>8}")
+    print(head)
+    print("-" * len(head))
+    for name, urdf in (("g1", ""), ("jvrc1", ""), ("hrp4c", str(hrp4c))):
+        argv = [sys.executable, "-c", _LOAD_ROBOT, name, urdf]
+        _timed(argv, _env())  # fills the cache
+        for cache, n in (("warm", runs), ("cold", 2)):
+            rows = []
+            for _ in range(n):
+                env = _env()
+                with tempfile.TemporaryDirectory(prefix="imesh-cache-") as empty:
+                    if cache == "cold":
+                        env["IMESH_CACHE_DIR"] = empty
+                    wall, peak, stdout = _timed(argv, env)
+                rows.append((json.loads(stdout.strip().splitlines()[-1]), wall, peak))
+            med = {k: _median([r[0][k] for r in rows]) for k in rows[0][0]}
+            print(f"{name:<8} {cache:<6} {med['import']:>9.2f} {med['load']:>13.2f} "
+                  f"{med['load_cpu']:>6.2f} {med['capsules']:>16.2f} {med['capsules_cpu']:>6.2f} "
+                  f"{_median([r[1] for r in rows]):>10.2f} "
+                  f"{_median([r[2] for r in rows]):>8.0f}", flush=True)
+
+
+def _cpu_timed(argv: list[str], env: dict | None = None) -> tuple[float, float, float]:
+    """Run a command to its end: (wall s, cpu s (user + system, of it and its children), peak
+    MiB of its largest process (``/usr/bin/time``'s maximum resident set size))."""
+    import resource
+
+    def cpu() -> float:
+        use = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return use.ru_utime + use.ru_stime
+
+    cpu0 = cpu()
+    wall, peak, _ = _timed(argv, env)
+    return wall, cpu() - cpu0, peak
+
+
+def gmr_setup(gmr_dir: Path) -> tuple[list[str] | None, str]:
+    """GMR's command (``[python, run_gmr.py]``) and "", or None and why it cannot run."""
+    venv = Path(os.environ.get("GMR_VENV", Path.home() / ".cache" / "gmr-venv"))
+    src = Path(os.environ.get("GMR_SRC", Path.home() / ".cache" / "gmr-src"))
+    script = gmr_dir / "run_gmr.py"
+    if not script.is_file():
+        return None, f"{script} not found"
+    if not (venv / "bin" / "python").is_file():
+        return None, (f"no GMR venv in {venv}: bash {gmr_dir / 'setup.sh'} <git mirror of "
+                      "github:YanjieZe/GMR> (README.md there)")
+    if not (src / "general_motion_retargeting").is_dir():
+        return None, f"no GMR source in {src}: bash {gmr_dir / 'setup.sh'} <git mirror>"
+    return [str(venv / "bin" / "python"), str(script)], ""
+
+
+def table_gmr(clips: list[Path], out: Path, runs: int = 3, gmr_dir: Path | None = None) -> None:
+    gmr_dir = gmr_dir or data_root().parent / "tools" / "gmr"
+    gmr, why = gmr_setup(gmr_dir)
+    load0 = os.getloadavg()[1]
+    print(f"\n## GMR beside imesh: G1, whole processes in pairs, {runs} pairs per clip after "
+          "one warm-up pair (medians)\n")
+    if gmr is None:
+        print(f"GMR unavailable: {why}; imesh timed alone\n")
+    head = (f"{'clip':<28} {'frames':>6} {'tool':<6} {'cpu s':>7} {'wall s':>7} "
+            f"{'peak MiB':>8} {'f/cpu s':>8} {'imesh/GMR cpu':>14}")
+    print(head)
+    print("-" * len(head))
+    for clip in clips:
+        n = _source_frames(clip)
+        tools = {"imesh": _imesh("-q", "retarget", str(clip), "--robot", "g1", "-o",
+                                 str(out / f"gmr-imesh-{clip.stem}.npz"), "--force")}
+        if gmr is not None:
+            tools = {"GMR": [*gmr, str(clip), str(out / f"gmr-{clip.stem}.npz")], **tools}
+        rows: dict[str, list[tuple[float, float, float]]] = {t: [] for t in tools}
+        for k in range(runs + 1):
+            for tool, argv in tools.items():
+                row = _cpu_timed(argv, _env())
+                if k:  # the first pair warms the caches up
+                    rows[tool].append(row)
+        med = {t: [_median([r[i] for r in rows[t]]) for i in range(3)] for t in tools}
+        for tool in tools:
+            wall, cpu, peak = med[tool]
+            ratio = (f"{med['imesh'][1] / med['GMR'][1]:>14.2f}" if tool == "imesh"
+                     and "GMR" in med else f"{'':>14}")
+            print(f"{clip.name[:28]:<28} {n:>6} {tool:<6} {cpu:>7.2f} {wall:>7.2f} "
+                  f"{peak:>8.0f} {n / cpu:>8.1f} {ratio}", flush=True)
+    print(f"load average (5 min) {load0:.2f} before, {os.getloadavg()[1]:.2f} after")
 
 
 def concatenated_bvh(source: Path, n_frames: int, path: Path) -> Path:
@@ -285,13 +469,19 @@ def table_scaling(source: Path, sizes: list[int], robot: str, tmp: Path,
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tables", nargs="+", default=["profile", "whole", "startup", "inspect"],
-                    choices=("profile", "whole", "startup", "inspect", "scaling"))
+                    choices=("profile", "whole", "startup", "robots", "gmr", "inspect",
+                             "scaling"))
     ap.add_argument("--robot", default="g1")
     ap.add_argument("--clips", nargs="+", default=list(CLIPS))
     ap.add_argument("--inspect-frames", type=int, default=216000)
     ap.add_argument("--scaling-frames", type=int, nargs="+", default=[500, 1000, 2000])
     ap.add_argument("--workers", type=int, choices=(1, 2), default=None,
                     help="imesh retarget --solve-workers of the scaling table (default 1)")
+    ap.add_argument("--runs", type=int, default=5,
+                    help="runs of the startup and robots tables (medians)")
+    ap.add_argument("--gmr-runs", type=int, default=3, help="pairs per clip of the gmr table")
+    ap.add_argument("--gmr-dir", type=Path, default=None,
+                    help="GMR's harness (default: ../shared/tools/gmr beside the data)")
     ap.add_argument("--out", help="folder of the written motions (default: a temporary one)")
     args = ap.parse_args(argv)
     clips = [data_root() / "mocap" / c for c in args.clips]
@@ -308,7 +498,11 @@ def main(argv=None) -> int:
             elif table == "whole":
                 table_whole(clips, args.robot, out)
             elif table == "startup":
-                table_startup()
+                table_startup(clips[0], args.robot, out, args.runs)
+            elif table == "robots":
+                table_robots(args.runs)
+            elif table == "gmr":
+                table_gmr(clips, out, args.gmr_runs, args.gmr_dir)
             elif table == "inspect":
                 table_inspect(clips[0], args.inspect_frames, tmp)
             elif table == "scaling":

@@ -47,6 +47,26 @@ def _package_dirs(urdf: Path, extra: Sequence[Path] = ()) -> list[str]:
     return list(dict.fromkeys(str(d) for d in dirs))
 
 
+def _distribution_file(dist: metadata.Distribution, suffix: str) -> Path | None:
+    """The installed file of a distribution whose path ends with ``suffix`` (``/``-separated),
+    or None. Its RECORD is searched as text first (G1's example-robot-data lists 1,029 files:
+    ``dist.files`` makes a path object of each, 45-90 ms of every robot load), then
+    ``dist.files`` (distributions without a RECORD, quoted names)."""
+    for line in (dist.read_text("RECORD") or "").splitlines():
+        name = line.rsplit(",", 2)[0]  # path,hash,size
+        if name.replace("\\", "/").endswith(suffix):
+            path = Path(str(dist.locate_file(name)))
+            if path.is_file():
+                return path
+    for f in dist.files or ():
+        if str(f).replace("\\", "/").endswith(suffix):
+            # typed as a SimplePath: a pathlib.Path for an installed distribution
+            path = Path(str(dist.locate_file(f)))
+            if path.is_file():
+                return path
+    return None
+
+
 def resolve_urdf(config: RobotConfig, urdf: str | os.PathLike | None) -> tuple[Path, list[str]]:
     """The URDF file of a robot and the folders for its ``package://`` URIs.
 
@@ -103,12 +123,9 @@ def resolve_urdf(config: RobotConfig, urdf: str | os.PathLike | None) -> tuple[P
             tried.append(f"distribution {m.distribution}")
         if dist is not None:
             suffix = m.urdf.replace("\\", "/").lstrip("/")
-            for f in dist.files or ():
-                if str(f).replace("\\", "/").endswith(suffix):
-                    # typed as a SimplePath: a pathlib.Path for an installed distribution
-                    path = Path(str(dist.locate_file(f)))
-                    if path.is_file():
-                        return path, _package_dirs(path)
+            found = _distribution_file(dist, suffix)
+            if found is not None:
+                return found, _package_dirs(found)
             tried.append(f"{m.distribution} files ending with {suffix}")
     raise RobotConfigError(
         f"the model of robot {config.name!r} is not installed ({'; '.join(tried)} not found): "
@@ -126,14 +143,21 @@ class BuiltModel:
     Robots of the same files (:func:`imesh.robot.model.load_robot`).
 
     :func:`build_model` fills all but ``q_nominal``, ``adjacent`` and ``ignored``, which need a
-    Robot (``load_robot`` completes them); ``capsules`` is built on first use.
+    Robot (``load_robot`` completes them, or reads them with the soles and proxies from the
+    robot cache, :mod:`imesh.robot.model_cache`); ``capsules`` is built on first use, and so is
+    ``geometry`` when the soles and proxies came from the cache (:meth:`link_geometry`).
 
     Attributes:
         q_nominal: (nq,) float nominal standing pose.
         q_lower, q_upper: (nq-7,) float [rad] position limits.
         v_max: (nv-6,) float [rad/s]; a_max: (nv-6,) float [rad/s^2]; effort_max: (nv-6,)
             float [Nm].
-        geometry: link -> {"collision": [GeometryItem], "visual": [GeometryItem]}.
+        geometry: link -> {"collision": [GeometryItem], "visual": [GeometryItem]}, or None
+            until :meth:`link_geometry` loads it.
+        full: the pinocchio model before the reduction (the geometry's frames refer to it).
+        package_dirs: folders for the URDF's ``package://`` mesh URIs.
+        cache_key: the robot cache key of these files (:func:`imesh.robot.model_cache.robot_key`),
+            or "" when the robot cache is off.
     """
 
     config: RobotConfig
@@ -150,8 +174,18 @@ class BuiltModel:
     shapes: list[CollisionShape]
     ignored: set[tuple[str, str]]
     adjacent: set[tuple[str, str]] = field(default_factory=set)
-    geometry: dict = field(default_factory=dict)
+    geometry: dict | None = None
     capsules: CapsuleModel | None = None
+    full: pinocchio.Model | None = None
+    package_dirs: list[str] = field(default_factory=list)
+    cache_key: str = ""
+
+    def link_geometry(self) -> dict:
+        """link -> {"collision": [GeometryItem], "visual": [GeometryItem]}: the URDF's
+        geometry, its meshes read on first use (:func:`load_geometry`)."""
+        if self.geometry is None:
+            self.geometry = load_geometry(self.full, self.urdf, self.package_dirs)
+        return self.geometry
 
 
 def _set_joint(model, q: np.ndarray, jid: int, value: float) -> None:
@@ -183,8 +217,50 @@ def _foot_items(model, foot: str, link_items: LinkItems) -> list[GeometryItem]:
     return items
 
 
+def load_geometry(full, urdf: Path, package_dirs: list[str]) -> dict:
+    """The URDF's collision and visual geometry per link, meshes read (pinocchio and coal:
+    about 4.5 s for the G1's 71 meshes, so a robot read from the robot cache does this only
+    when something asks for the meshes: the capsule fit, the mesh collision check).
+
+    Args:
+        full: the pinocchio model of the URDF (before the reduction).
+        urdf: the URDF file.
+        package_dirs: folders for its ``package://`` mesh URIs (:func:`resolve_urdf`).
+
+    Returns:
+        link -> {"collision": [GeometryItem], "visual": [GeometryItem]}, items in link frames
+        (valid for the reduced model: links keep their names).
+
+    Raises:
+        RobotConfigError: a mesh does not load.
+    """
+    pin = _pinocchio()
+    geoms = {}
+    for kind, gtype in (("collision", pin.GeometryType.COLLISION),
+                        ("visual", pin.GeometryType.VISUAL)):
+        try:
+            geoms[kind] = pin.buildGeomFromUrdf(full, str(urdf), gtype, None, package_dirs)
+        except Exception as exc:
+            raise RobotConfigError(f"cannot load the {kind} geometry (mesh files are looked up "
+                                   f"relative to {', '.join(package_dirs[:3])}): {exc}",
+                                   path=urdf) from None
+    coll = geometry_items(full, geoms["collision"], "collision")
+    vis = geometry_items(full, geoms["visual"], "visual")
+    by_link: dict[str, dict[str, list[GeometryItem]]] = {}
+    for it in coll + vis:
+        by_link.setdefault(it.frame, {"collision": [], "visual": []})[it.source].append(it)
+    return by_link
+
+
+def mesh_files(geometry: dict) -> list[str]:
+    """The mesh files the geometry was read from (absolute paths, each once, sorted)."""
+    return sorted({str(Path(p).resolve()) for d in geometry.values()
+                   for items in d.values() for it in items
+                   if (p := it.mesh_path)})
+
+
 def build_model(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
-                package_dirs: list[str]) -> BuiltModel:
+                package_dirs: list[str], geometry: bool = True) -> BuiltModel:
     """Parse the URDF, reduce it by ``joints.fixed``, check the configuration against it and
     derive limits, soles, geometry and collision proxies.
 
@@ -193,6 +269,9 @@ def build_model(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
         markers: the markers.toml content (its frames are checked), or None.
         urdf: the URDF file.
         package_dirs: folders for its ``package://`` mesh URIs (:func:`resolve_urdf`).
+        geometry: read the meshes and derive the soles and proxies from them. False: the model,
+            the checks and the limits only (soles and shapes empty, ``geometry`` None), for a
+            robot whose soles and proxies come from the robot cache.
 
     Returns:
         The built model without the nominal pose and the ignored pairs (see
@@ -211,15 +290,7 @@ def build_model(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
         full = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
     except Exception as exc:  # pinocchio raises ValueError/RuntimeError with the parser message
         raise RobotConfigError(f"URDF does not parse: {exc}", path=urdf) from None
-    geoms = {}
-    for kind, gtype in (("collision", pin.GeometryType.COLLISION),
-                        ("visual", pin.GeometryType.VISUAL)):
-        try:
-            geoms[kind] = pin.buildGeomFromUrdf(full, str(urdf), gtype, None, package_dirs)
-        except Exception as exc:
-            raise RobotConfigError(f"cannot load the {kind} geometry (mesh files are looked up "
-                                   f"relative to {', '.join(package_dirs[:3])}): {exc}",
-                                   path=urdf) from None
+    by_link = load_geometry(full, urdf, package_dirs) if geometry else None
 
     # --- joints: validate names, fix the listed ones at their nominal values
     joint_names = list(full.names)[2:]  # universe, root_joint
@@ -303,12 +374,25 @@ def build_model(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
     model.velocityLimit[6:] = v_max
     model.effortLimit[6:] = effort
 
-    # --- geometry items per link (in link frames; valid for the reduced model: links keep names)
-    coll = geometry_items(full, geoms["collision"], "collision")
-    vis = geometry_items(full, geoms["visual"], "visual")
-    by_link: dict[str, dict[str, list[GeometryItem]]] = {}
-    for it in coll + vis:
-        by_link.setdefault(it.frame, {"collision": [], "visual": []})[it.source].append(it)
+    built = BuiltModel(config=config, markers=markers, urdf=urdf, model=model,
+                       q_nominal=np.zeros(model.nq), q_lower=q_lower, q_upper=q_upper,
+                       v_max=v_max, a_max=a_max, effort_max=effort, soles={}, shapes=[],
+                       ignored=set(), geometry=by_link, full=full,
+                       package_dirs=list(package_dirs))
+    if by_link is None:
+        return built
+    built.soles, built.shapes = derive_soles_and_proxies(config, full, by_link)
+    return built
+
+
+def derive_soles_and_proxies(config: RobotConfig, full, by_link: dict
+                             ) -> tuple[dict[str, SoleRectangle], list[CollisionShape]]:
+    """The soles (robot.toml's, else derived from the foot geometry) and the primitive
+    collision proxies of a robot, from its URDF geometry per link (:func:`load_geometry`).
+
+    Raises:
+        RobotConfigError: a sole cannot be derived (naming ``soles.<side>``).
+    """
 
     def link_items(link: str, prefer_visual: bool) -> list[GeometryItem]:
         d = by_link.get(link, {"collision": [], "visual": []})
@@ -338,9 +422,4 @@ def build_model(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
         if link in config.collision.skip:
             continue
         chosen += link_items(link, prefer_visual=link in config.collision.use_visual)
-    shapes = build_proxies(chosen)
-
-    return BuiltModel(config=config, markers=markers, urdf=urdf, model=model,
-                      q_nominal=np.zeros(model.nq), q_lower=q_lower, q_upper=q_upper,
-                      v_max=v_max, a_max=a_max, effort_max=effort, soles=soles, shapes=shapes,
-                      ignored=set(), geometry=by_link)
+    return soles, build_proxies(chosen)

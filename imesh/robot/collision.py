@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from ..core.cache import read_cached, write_cached
 from ..core.lazy import optional
@@ -119,6 +118,7 @@ class GeometryItem:
         source: ``collision`` or ``visual``.
         name: the element's name (for messages).
         native: the coal geometry pinocchio loaded (for exact queries), or None.
+        mesh_path: the mesh file it was read from ("" for a primitive).
     """
 
     frame: str
@@ -129,6 +129,7 @@ class GeometryItem:
     source: str
     name: str = ""
     native: object = None
+    mesh_path: str = ""
 
     def points_in_frame(self) -> np.ndarray:
         """(P, 3) float [m] points of the element in the link frame (mesh vertices, or the
@@ -156,6 +157,8 @@ def fibonacci_directions(k: int) -> np.ndarray:
 def _extreme_subset(points: np.ndarray, k: int = 200) -> np.ndarray:
     """The points extreme along ``k`` evenly spread directions (a small stand-in for the convex
     hull, used to search shape orientations quickly; final sizes use all points)."""
+    from scipy.spatial import ConvexHull  # not at import: loading a robot needs no scipy
+
     try:
         points = points[ConvexHull(points).vertices]
     except Exception:  # flat or degenerate point sets: keep them all

@@ -81,5 +81,7 @@ def geometry_items(model, geom_model, source: str) -> list[GeometryItem]:
                         frame.name, cls)
             continue
         items.append(GeometryItem(frame=frame.name, kind=kind, dims=dims, placement=T,
-                                  vertices=verts, source=source, name=g.name, native=geo))
+                                  vertices=verts, source=source, name=g.name, native=geo,
+                                  mesh_path=(getattr(g, "meshPath", "") or "")
+                                  if kind == "mesh" else ""))
     return items

@@ -27,15 +27,21 @@ from pathlib import Path
 
 import numpy as np
 
-from .build import BuiltModel, build_model, resolve_urdf
+from ..core.cache import cache_enabled
+from . import model_cache
+from .build import (
+    BuiltModel,
+    build_model,
+    derive_soles_and_proxies,
+    load_geometry,
+    resolve_urdf,
+)
 from .capsules.model import CapsuleModel
-from .capsules.robot import build_capsule_model
 from .collision import CollisionShape, FramePairDistances, adjacent_frame_pairs, pair_key
 from .config import RobotConfig, SoleRectangle, load_robot_config
 from .configuration import Configuration
 from .dynamics import Dynamics
 from .errors import RobotConfigError, closest_first
-from .generate_files import generate_for_urdf
 from .markers_config import MarkerConfig, load_markers_config
 from .pin import _pinocchio, find_frame, frame_names
 from .registry import resolve_robot_toml
@@ -59,11 +65,10 @@ def _mtime(path: Path | None) -> int:
     return path.stat().st_mtime_ns if path is not None and path.exists() else 0
 
 
-def _build(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
-           package_dirs: list[str]) -> BuiltModel:
-    """:func:`imesh.robot.build.build_model`, completed with the nominal pose, the adjacent
-    frame pairs and the ignored collision pairs (which need a Robot to compute)."""
-    built = build_model(config, markers, urdf, package_dirs)
+def _complete(built: BuiltModel) -> None:
+    """Complete a built model with the nominal pose, the adjacent frame pairs and the ignored
+    collision pairs (which need a Robot to compute)."""
+    config = built.config
     robot = Robot(built)  # a provisional Robot to compute the nominal pose and ignored pairs
     built.q_nominal = standing_pose(robot)
     model = built.model
@@ -79,8 +84,31 @@ def _build(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
             log.debug("robot %s: ignoring %s-%s (distance %.4f m in the nominal pose)",
                       config.name, a, b, d)
     built.ignored = ignored
-    return built
 
+
+def _build(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
+           package_dirs: list[str]) -> BuiltModel:
+    """:func:`imesh.robot.build.build_model` completed with the nominal pose, the adjacent
+    frame pairs and the ignored collision pairs; what comes from the meshes is read from the
+    robot cache when it holds these files (:mod:`imesh.robot.model_cache`), else computed and
+    stored there. The pinocchio model itself is always built from the URDF (10 ms)."""
+    built = build_model(config, markers, urdf, package_dirs, geometry=False)
+    key = model_cache.robot_key(config, urdf, package_dirs) if cache_enabled() else ""
+    built.cache_key = key
+    cached = model_cache.read_robot(key, built) if key else None
+    if cached is not None:
+        built.q_nominal = cached.q_nominal
+        built.soles, built.shapes = cached.soles, cached.shapes
+        built.adjacent, built.ignored = cached.adjacent, cached.ignored
+        log.debug("robot %s: soles, proxies and nominal pose read from the robot cache",
+                  config.name)
+        return built
+    built.geometry = load_geometry(built.full, urdf, package_dirs)
+    built.soles, built.shapes = derive_soles_and_proxies(config, built.full, built.geometry)
+    _complete(built)
+    if key:
+        model_cache.write_robot(key, built)
+    return built
 
 
 def load_robot(name_or_toml: str | os.PathLike | None = None,
@@ -110,6 +138,8 @@ def load_robot(name_or_toml: str | os.PathLike | None = None,
         if urdf is None:
             name_or_toml = DEFAULT_ROBOT
         else:
+            from .generate_files import generate_for_urdf  # scipy.optimize: only here
+
             name_or_toml = generate_for_urdf(urdf)
     toml = resolve_robot_toml(name_or_toml)
     config = load_robot_config(toml)
@@ -471,12 +501,13 @@ class Robot:
         (:class:`imesh.robot.capsules.model.CapsuleModel`), built on first use and shared by the
         Robots of the same files."""
         if self._built.capsules is None:
-            self._built.capsules = build_capsule_model(self)
+            self._built.capsules = model_cache.capsule_model(self, self._built.cache_key)
         return self._built.capsules
 
     def link_geometry(self) -> dict:
-        """link -> {"collision": [GeometryItem], "visual": [GeometryItem]} of the URDF."""
-        return self._built.geometry
+        """link -> {"collision": [GeometryItem], "visual": [GeometryItem]} of the URDF (its
+        meshes read on first use when the robot came from the robot cache)."""
+        return self._built.link_geometry()
 
     def lowest_point(self, q) -> float:
         """[m] lowest z of any collision proxy (negative = below the ground z = 0)."""

@@ -7,7 +7,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from ...core.lazy import optional
 from ..collision import fibonacci_directions
@@ -77,6 +76,8 @@ def _capsule_on_axis(points: np.ndarray, axis: np.ndarray, exact: bool = False
 
 def _hull(points: np.ndarray) -> np.ndarray:
     """The convex hull's vertices of (N, 3) points (the capsule around them is the same)."""
+    from scipy.spatial import ConvexHull  # not at import: loading a robot needs no scipy
+
     try:
         return points[ConvexHull(points).vertices]
     except Exception:  # flat or degenerate point sets
