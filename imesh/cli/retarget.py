@@ -50,6 +50,7 @@ def run(args) -> int:
     try:
         bar.stage("load", detail=f"robot {args.robot}")
         robot = load_robot(args.robot, urdf=args.urdf)
+        bar.stage("prepare")  # the robot is loaded: the bar moves before the clip's filtering
         result = retarget(motion, robot, config=config, progress=bar)
         report = result.report()
         if args.plots and result.balance is not None:

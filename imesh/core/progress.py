@@ -19,7 +19,7 @@ from tqdm import tqdm
 #: Estimated cost of each stage: (fixed seconds, seconds per working frame) on the G1 walk
 #: (benchmarks/speed.py, docs/speed.md); only their ratios matter (the bar's shares).
 STAGE_COST_S: dict[str, tuple[float, float]] = {
-    "load": (3.0, 0.0),
+    "load": (0.5, 0.0),
     "prepare": (0.3, 1e-3),
     "morph": (0.0, 1.5e-3),
     "fit": (0.0, 1.5e-3),
