@@ -190,8 +190,8 @@ def test_balanced_sway_is_left_unchanged(robot):
     every key point within 1 mm of the input and the soles on their footprints. (With the
     default ZMP tracking weight the solve also pulls a ZMP farther than ``zmp_band_m`` from the
     desired ZMP towards it: JVRC-1's nominal CoM is 40 mm from the hull centre; here w_z = 0.
-    The default margin, 70 % of the soles' half sizes, puts that CoM outside the shrunk
-    polygon, so the margin here is 40 %: the sway is inside it.)"""
+    A margin of 70 % of the soles' half sizes would put that CoM outside the shrunk polygon;
+    at 40 %, the default, the sway is inside it.)"""
     q = _sway(robot)
     config = WholeBodyConfig(zmp=ZmpOptions(weight=0.0, margin=0.4))
     plan, footprints, targets = _plan(robot, q, rest_frames=0, config=config)
