@@ -231,4 +231,6 @@ def test_icub_holds_its_nominal_pose_in_dart(tmp_path, detector):
     result = simulate_motion(robot, motion, config=config)
     assert not result.fell, result.fall_reason
     assert result.base_drift_m < 0.02
-    assert result.torque_ratio_max < 0.5
+    # iCub's URDF damps every joint (1 N m s/rad) and gives its wrist pronosupination 0.45 N m:
+    # the controller pays the damping the simulator applies (0.51 of that limit at rest)
+    assert result.torque_ratio_max < 0.6
