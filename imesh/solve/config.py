@@ -81,6 +81,10 @@ class SlackPrices(NonNegative):
     elastic: float = 1e4
 
 
+#: Which contacts :class:`FootOptions` ``under_zmp`` moves.
+UNDER_ZMP = ("slides", "all", "off")
+
+
 @dataclass(frozen=True)
 class FootOptions(NonNegative):
     """Heights the swing soles keep above the ground (:mod:`.contacts`).
@@ -93,11 +97,22 @@ class FootOptions(NonNegative):
         swing_edge_m: in every other frame of such a swing the ground points stay this high
             [m]: the sole leaves and lands flat instead of rolling over its toe or heel (the
             footprint model has no rolling contact).
+        under_zmp: a foot's contact whose single-support frames ask for a ZMP outside its
+            sole is moved under it (:func:`imesh.solve.footprints.place_under_zmp`):
+            ``"slides"`` only contacts that slide (MakeHuman's in-place zombie walk: marker
+            RMS 142 -> 80 mm on G1), ``"all"`` every contact (moves footprints of the CMU
+            walks, veer and wave by up to 110 mm: not measured on them yet), ``"off"``.
     """
 
     clearance_m: float = 0.0
     swing_lift_m: float = 0.03
     swing_edge_m: float = 0.02
+    under_zmp: str = "slides"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.under_zmp not in UNDER_ZMP:
+            raise OptionError("under_zmp", self.under_zmp, UNDER_ZMP)
 
 
 @dataclass(frozen=True)

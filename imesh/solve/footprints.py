@@ -14,6 +14,7 @@ polygon (the ZMP inside the sliding sole) and the desired ZMP move with it.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -168,6 +169,146 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
                                  center_m=c, corners_m=corners,
                                  polygon_m=local @ R.T + pose[:3, 3], sliding=slide))
     return out
+
+
+def _shifted(f: Footprint, shift: np.ndarray) -> Footprint:
+    """The footprint translated by ``shift`` (2,) [m] along the ground."""
+    d = np.array([shift[0], shift[1], 0.0])
+    pose = f.frame_pose.copy()
+    pose[:3, 3] += d
+    return dataclasses.replace(f, frame_pose=pose, center_m=f.center_m + d,
+                               corners_m=f.corners_m + d, polygon_m=f.polygon_m + d)
+
+
+def _axes(f: Footprint) -> np.ndarray:
+    """(2, 2) the level sole's forward and left axes (columns) in the ground plane."""
+    R = f.frame_pose[:2, :2]
+    return R / np.linalg.norm(R, axis=0, keepdims=True)
+
+
+def _contact_groups(footprints: list[Footprint], gap_frames: int) -> list[list[int]]:
+    """Indices of each foot's consecutive footprints (a planted phase, the slides it runs into,
+    those after a swing of at most ``gap_frames``), in time order."""
+    order = sorted(range(len(footprints)), key=lambda i: (footprints[i].side,
+                                                          footprints[i].start))
+    groups: list[list[int]] = []
+    for i in order:
+        prev = groups[-1][-1] if groups else None
+        if (prev is not None and footprints[prev].side == footprints[i].side
+                and footprints[i].start - footprints[prev].stop <= gap_frames):
+            groups[-1].append(i)
+        else:
+            groups.append([i])
+    return groups
+
+
+def place_under_zmp(footprints: list[Footprint], support: np.ndarray, zmp_m: np.ndarray,
+                    min_frames: int = 3, gap_frames: int = 6, stance_m: float = 0.0,
+                    smooth_frames: int = 5, only_slides: bool = False
+                    ) -> tuple[list[Footprint], list[dict]]:
+    """Move a foot's ground contact under the ZMP it has to carry alone.
+
+    A foot that carries the body alone must hold the ZMP inside its sole. Where the initial
+    trajectory's multibody ZMP (``zmp_m``) lies outside the part of the sole the ZMP may use
+    (``Footprint.polygon_m``) in frames where this foot is the only support, the contact is
+    moved by the shortest vector that brings it inside, as a person places a foot under the
+    body: a planted footprint as a whole (by the mean over its single-support frames), a slide
+    frame by frame (smoothed over ``smooth_frames``; interpolated between single-support
+    frames, so the slide stays continuous), each foot's consecutive footprints (also across
+    swings of at most ``gap_frames``, a shuffle that barely leaves the floor) as one contact.
+    The human's own foot placement is kept wherever it balances. (MakeHuman's zombie walk is
+    an in-place cycle: it stands on one foot with the body 200-270 mm to the side of it, and
+    slides that foot 250 mm back under a body that does not move; no sole carries that, and
+    moving the trunk instead moves every upper-body key point.)
+
+    Args:
+        footprints: :func:`plan_footprints`.
+        support: (T, 2) bool planned support.
+        zmp_m: (T, 2) [m] the initial trajectory's ZMP.
+        min_frames: contacts with fewer single-support frames are kept where they are.
+        gap_frames: footprints of a foot separated by a swing this short move together (a
+            foot re-placed by different shifts would have to jump between them).
+        stance_m: in the frames where both feet support, the moves keep the sole centres at
+            least this far apart [m] (or as far as the human's, if nearer): every move is
+            scaled down by one factor until they do (the feet must not meet).
+        smooth_frames: width of the moving average of a slide's shifts.
+        only_slides: move only contacts with a slide (the human's placement of a sliding foot
+            is an animator's, not the floor's; planted feet stay where the human put them).
+
+    Returns:
+        (the footprints, one dict per moved contact: side, frames, shift_m: the largest move).
+    """
+    out = list(footprints)
+    T = len(support)
+    shift = np.zeros((len(out), 2))
+    moved: list[dict] = []
+    for group in _contact_groups(out, gap_frames):
+        if only_slides and not any(out[i].sliding for i in group):
+            continue
+        k = SIDES.index(out[group[0]].side)
+        t_mid, need = [], []  # per footprint: its middle frame and its demand (NaN: none)
+        for i in group:
+            f = out[i]
+            axes = _axes(f)
+            only = np.flatnonzero(support[f.start:f.stop, k] & ~support[f.start:f.stop, 1 - k])
+            poly = (f.polygon_m[:, :2] - f.center_m[:2]) @ axes
+            if len(only):
+                local = ((zmp_m[f.start + only] - f.center_m[:2]) @ axes).mean(axis=0)
+                excess = local - np.clip(local, poly.min(axis=0), poly.max(axis=0))
+                need.append(axes @ excess)
+            else:
+                need.append(np.full(2, np.nan))
+            t_mid.append(0.5 * (f.start + f.stop - 1))
+        demand = np.array(need)
+        n_single = sum(int((support[out[i].start:out[i].stop, k]
+                            & ~support[out[i].start:out[i].stop, 1 - k]).sum()) for i in group)
+        have = np.isfinite(demand[:, 0])
+        if n_single < min_frames or not np.any(demand[have]):
+            continue
+        t = np.array(t_mid)
+        # between single-support frames interpolated, towards the human's placement (no
+        # move) at the contact's ends
+        t_a = np.r_[out[group[0]].start - 1, t[have], out[group[-1]].stop]
+        for a in range(2):
+            demand[:, a] = np.interp(t, t_a, np.r_[0.0, demand[have, a], 0.0])
+        slides = np.array([out[i].sliding for i in group])
+        for a0, b0 in runs(slides):  # a slide's frames: a moving average
+            if b0 - a0 > 1 and smooth_frames > 1:
+                w = min(smooth_frames, b0 - a0)
+                pad = np.pad(demand[a0:b0], ((w // 2, w - 1 - w // 2), (0, 0)), mode="edge")
+                kernel = np.ones(w) / w
+                demand[a0:b0] = np.stack([np.convolve(pad[:, a], kernel, mode="valid")
+                                          for a in range(2)], axis=1)
+        shift[group] = demand
+        big = int(np.argmax(np.linalg.norm(demand, axis=1)))
+        moved.append({"side": out[group[0]].side,
+                      "frames": (out[group[0]].start, out[group[-1]].stop),
+                      "shift_m": demand[big]})
+    if not moved:
+        return out, moved
+    centre = np.full((T, 2, 2), np.nan)
+    shift_of = np.zeros((T, 2, 2))
+    for i, f in enumerate(out):
+        centre[f.start:f.stop, SIDES.index(f.side)] = f.center_m[:2]
+        shift_of[f.start:f.stop, SIDES.index(f.side)] = shift[i]
+    # where both feet support, the largest factor of both moves (per frame) that keeps them
+    # apart; each footprint takes the smallest factor of its frames
+    both = support.all(axis=1) & np.isfinite(centre).all(axis=(1, 2))
+    apart = np.linalg.norm(centre[:, 0] - centre[:, 1], axis=1)
+    need_m = np.minimum(np.where(both, apart, 0.0), stance_m)
+    factor = np.zeros(T)
+    for alpha in np.linspace(0.0, 1.0, 21):  # ascending: the largest that holds
+        c = centre + alpha * shift_of
+        ok = ~both | (np.linalg.norm(c[:, 0] - c[:, 1], axis=1) >= need_m - 1e-9)
+        factor = np.where(ok, alpha, factor)
+    for i, f in enumerate(out):
+        shift[i] *= factor[f.start:f.stop].min()
+    for m in moved:
+        a, b = m["frames"]
+        sel = [i for i, f in enumerate(out) if f.side == m["side"] and a <= f.start < b]
+        m["shift_m"] = shift[sel[int(np.argmax(np.linalg.norm(shift[sel], axis=1)))]]
+    out = [_shifted(f, shift[i]) if np.any(shift[i]) else f for i, f in enumerate(out)]
+    return out, moved
 
 
 def footprint_tracks(footprints: list[Footprint], n_frames: int, fps: float) -> SoleTracks:
