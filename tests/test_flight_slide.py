@@ -257,3 +257,68 @@ def test_footprints_go_under_the_zmp_they_carry_alone():
     out, moved = place_under_zmp(fps, support, zmp, min_frames=3, gap_frames=0,
                                  smooth_frames=1, only_slides=True)
     assert out[0] is fps[0] and [m["side"] for m in moved] == ["right"]
+
+
+def test_a_pirouette_without_a_foot_to_restep_on_pivots(robot):
+    """A left sole that turns 180 degrees in place over 1 s while the right foot is in the air
+    cannot be cut into re-steps: its frames from the turn on are pivots (one footprint per
+    frame); the same turn with the right foot down becomes re-steps; a 10 degree drift stays
+    one footprint."""
+    from imesh.solve.footprints import split_pivots
+
+    T = 40
+    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
+                                                                                   "right")])
+    yaw = np.r_[np.zeros(10), np.linspace(0.0, np.pi, 30)]
+
+    def poses(turn):
+        out = np.repeat(np.eye(4)[None], T, axis=0)
+        c, s = np.cos(turn), np.sin(turn)
+        rz = np.zeros((T, 3, 3))
+        rz[:, 0, 0], rz[:, 0, 1], rz[:, 1, 0], rz[:, 1, 1], rz[:, 2, 2] = c, -s, s, c, 1.0
+        out[:, :3, :3] = rz @ level[0]
+        return out
+
+    sole = {"left": poses(yaw), "right": poses(np.zeros(T))}
+    support = np.zeros((T, 2), dtype=bool)
+    support[:, 0] = True
+    pivots = np.zeros_like(support)
+    out = split_pivots(robot, sole, support, FPS, pivots=pivots)
+    assert out[:, 0].all()  # no re-step: nothing to stand on
+    assert not pivots[:10, 0].any() and pivots[12:, 0].all() and not pivots[:, 1].any()
+    both = support.copy()
+    both[:, 1] = True
+    pivots = np.zeros_like(support)
+    out = split_pivots(robot, sole, both, FPS, pivots=pivots)
+    assert not out[:, 0].all() and not pivots.any()  # re-steps on the right foot
+    drift = {"left": poses(np.radians(np.r_[np.zeros(10), np.linspace(0, 10, 30)])),
+             "right": sole["right"]}
+    pivots = np.zeros_like(support)
+    split_pivots(robot, drift, support, FPS, pivots=pivots)
+    assert not pivots.any()
+
+
+def test_a_slide_the_fit_did_not_follow_holds_still(robot):
+    """Slide frames whose initial sole flew up (the fit held back by the joint speeds) take the
+    footprint of the nearest frame the fit did follow."""
+    from imesh.solve.footprints import plan_footprints
+
+    T = 10
+    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
+                                                                                   "right")])
+    poses = {}
+    for k, side in enumerate(("left", "right")):
+        p = np.repeat(np.eye(4)[None], T, axis=0)
+        p[:, :3, :3] = level[k]
+        p[:, :3, 3] = -level[k] @ robot.soles[side].center  # sole centre at the origin
+        p[:, 1, 3] += 0.3 * (k - 0.5)
+        poses[side] = p
+    poses["left"][:, 0, 3] += 0.05 * np.arange(T)  # slides 5 cm per frame
+    poses["left"][4:7, 2, 3] += 0.3  # frames 4-6: the fit's sole 30 cm up
+    support = np.ones((T, 2), dtype=bool)
+    sliding = np.zeros_like(support)
+    sliding[:, 0] = True
+    fps = plan_footprints(robot, poses, support, sliding=sliding, reach_m=0.05)
+    x = {f.start: f.center_m[0] for f in fps if f.side == "left"}
+    assert [round(x[t], 3) for t in range(T)] == [0.0, 0.05, 0.1, 0.15, 0.15, 0.15, 0.35,
+                                                  0.35, 0.4, 0.45]

@@ -102,12 +102,16 @@ class FootOptions(NonNegative):
             ``"slides"`` only contacts that slide (MakeHuman's in-place zombie walk: marker
             RMS 142 -> 80 mm on G1), ``"all"`` every contact (moves footprints of the CMU
             walks, veer and wave by up to 110 mm: not measured on them yet), ``"off"``.
+        slide_reach_m: a slide frame whose initial sole is higher than this was not followed
+            by the fit (joint speed): its sole holds the nearest followed frame's footprint
+            (:func:`imesh.solve.footprints.plan_footprints`) [m].
     """
 
     clearance_m: float = 0.0
     swing_lift_m: float = 0.03
     swing_edge_m: float = 0.02
     under_zmp: str = "slides"
+    slide_reach_m: float = 0.05
 
     def __post_init__(self) -> None:
         super().__post_init__()

@@ -63,21 +63,29 @@ def _rz(yaw: float) -> np.ndarray:
 
 
 def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, fps: float,
-                 yaw_tol_rad: float = 0.15, move_tol_m: float = 0.04, gap_s: float = 0.3
-                 ) -> np.ndarray:
+                 yaw_tol_rad: float = 0.15, move_tol_m: float = 0.04, gap_s: float = 0.3,
+                 pivots: np.ndarray | None = None, pivot_rad: float = 0.8) -> np.ndarray:
     """Turn a support foot that pivots or slides into steps.
 
     A human foot turns on its heel or slides while it carries weight; a robot sole that must
     keep one footprint cannot. Where the initial trajectory's sole leaves the start of its
     support run by more than ``yaw_tol_rad`` of yaw or ``move_tol_m``, the run is cut there and
     the foot gets a swing of ``gap_s`` to re-place itself, provided the other foot supports
-    during the whole gap (otherwise the run is kept: one footprint, the mean).
+    during the whole gap. Otherwise, where the sole goes on to turn by more than ``pivot_rad``
+    (a pirouette on one foot: no other foot to stand on while this one re-steps) the foot
+    turns on the ground: the frames from there to the end of the run are marked in ``pivots``
+    (when given), which the plan makes one footprint per frame (a pivot,
+    :func:`plan_footprints`), instead of one footprint 100-180 degrees off the fitted sole
+    (CMU 05_06's pirouettes on G1); smaller turns and drifts keep one footprint.
 
     Args:
         robot: the robot (``soles``, ``q_nominal``).
         sole_poses: side -> (T, 4, 4) sole frame poses along the initial trajectory.
         support: (T, 2) bool planned support.
         fps: frame rate [1/s].
+        pivots: (T, 2) bool, filled in place with the frames that pivot on the ground
+            (None: such runs keep one footprint).
+        pivot_rad: the turn [rad] from which an unsplittable run pivots.
 
     Returns:
         (T, 2) bool support with the re-steps cut out.
@@ -100,6 +108,9 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
                         out[lo:hi, k] = False
                         a, t = hi, hi + 1
                         continue
+                    if pivots is not None and np.abs(yaw[t:stop] - yaw[a]).max() > pivot_rad:
+                        pivots[max(t - 1, a):stop, k] = True
+                        break
                 t += 1
     return out
 
@@ -116,9 +127,17 @@ def ankle_reach(robot, side: str, load: float = 1.0) -> float:
 
 def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray,
                     load: float = 1.0, margin: float = 0.0,
-                    sliding: np.ndarray | None = None) -> list[Footprint]:
+                    sliding: np.ndarray | None = None, reach_m: float = np.inf
+                    ) -> list[Footprint]:
     """One level footprint on z = 0 per support phase of each foot, and one per frame of a
     slide.
+
+    A slide frame in which the initial trajectory's sole centre is higher than ``reach_m`` is
+    one the robot's legs did not follow (the fit is held back by the joint velocity and
+    acceleration limits: CMU 60_10's right foot taps 170 mm per frame at 30 fps, and the fit's
+    sole flies 0.2-0.5 m up): its footprint is that of the nearest frame of the same slide
+    that was followed, so the sole holds still there (planted) instead of being asked for the
+    human's 5 m/s.
 
     Args:
         robot: the robot (``soles``, ``q_nominal`` give the level sole orientation).
@@ -130,6 +149,8 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         margin: fraction of the sole's half sizes kept free of the ZMP (the polygon is the
             sole rectangle shrunk about its centre by it, then clipped to the ankle's reach).
         sliding: (T, 2) bool support frames in which the sole slides or pivots (None: none).
+        reach_m: slide frames whose initial sole centre is higher than this [m] hold the
+            nearest followed frame's footprint.
 
     Returns:
         Footprints of both feet, in order of side then time.
@@ -151,7 +172,14 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         spans: list[tuple[int, int, int, int, bool]] = [
             (start, stop, *middle_half(start, stop), False)
             for start, stop in runs(support[:, k] & ~sliding[:, k])]
-        spans += [(int(t), int(t) + 1, int(t), int(t) + 1, True)
+        source = np.arange(len(poses))  # the frame whose sole places each slide frame
+        height = (poses[:, :3, :3] @ sole.center + poses[:, :3, 3])[:, 2]
+        for a0, b0 in runs(sliding[:, k]):
+            ok = np.flatnonzero(height[a0:b0] <= reach_m) + a0
+            if len(ok) and len(ok) < b0 - a0:
+                t = np.arange(a0, b0)
+                source[a0:b0] = ok[np.argmin(np.abs(t[:, None] - ok[None, :]), axis=1)]
+        spans += [(int(t), int(t) + 1, int(source[t]), int(source[t]) + 1, True)
                   for t in np.flatnonzero(sliding[:, k])]
         for start, stop, a, b, slide in sorted(spans):
             sel = poses[a:b]
@@ -204,8 +232,8 @@ def _contact_groups(footprints: list[Footprint], gap_frames: int) -> list[list[i
 
 def place_under_zmp(footprints: list[Footprint], support: np.ndarray, zmp_m: np.ndarray,
                     min_frames: int = 3, gap_frames: int = 6, stance_m: float = 0.0,
-                    smooth_frames: int = 5, only_slides: bool = False
-                    ) -> tuple[list[Footprint], list[dict]]:
+                    smooth_frames: int = 5, only_slides: bool = False,
+                    static: np.ndarray | None = None) -> tuple[list[Footprint], list[dict]]:
     """Move a foot's ground contact under the ZMP it has to carry alone.
 
     A foot that carries the body alone must hold the ZMP inside its sole. Where the initial
@@ -234,12 +262,18 @@ def place_under_zmp(footprints: list[Footprint], support: np.ndarray, zmp_m: np.
         smooth_frames: width of the moving average of a slide's shifts.
         only_slides: move only contacts with a slide (the human's placement of a sliding foot
             is an animator's, not the floor's; planted feet stay where the human put them).
+        static: (T,) bool the frames whose ZMP counts (None: all): the quasi-static ones, whose
+            ZMP is under the CoM (a dynamic frame's ZMP is the dynamics' business, and a fast
+            clip's initializer, CMU 60_10 at its header's 120 fps, has it 0.2-0.6 m away).
 
     Returns:
         (the footprints, one dict per moved contact: side, frames, shift_m: the largest move).
     """
     out = list(footprints)
     T = len(support)
+    alone = support & ~support[:, ::-1]
+    if static is not None:
+        alone &= np.asarray(static, dtype=bool)[:, None]
     shift = np.zeros((len(out), 2))
     moved: list[dict] = []
     for group in _contact_groups(out, gap_frames):
@@ -250,7 +284,7 @@ def place_under_zmp(footprints: list[Footprint], support: np.ndarray, zmp_m: np.
         for i in group:
             f = out[i]
             axes = _axes(f)
-            only = np.flatnonzero(support[f.start:f.stop, k] & ~support[f.start:f.stop, 1 - k])
+            only = np.flatnonzero(alone[f.start:f.stop, k])
             poly = (f.polygon_m[:, :2] - f.center_m[:2]) @ axes
             if len(only):
                 local = ((zmp_m[f.start + only] - f.center_m[:2]) @ axes).mean(axis=0)
@@ -260,8 +294,7 @@ def place_under_zmp(footprints: list[Footprint], support: np.ndarray, zmp_m: np.
                 need.append(np.full(2, np.nan))
             t_mid.append(0.5 * (f.start + f.stop - 1))
         demand = np.array(need)
-        n_single = sum(int((support[out[i].start:out[i].stop, k]
-                            & ~support[out[i].start:out[i].stop, 1 - k]).sum()) for i in group)
+        n_single = sum(int(alone[out[i].start:out[i].stop, k].sum()) for i in group)
         have = np.isfinite(demand[:, 0])
         if n_single < min_frames or not np.any(demand[have]):
             continue

@@ -239,6 +239,11 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
                          base_rotations=rot, torques=torques, collision=collision)
 
 
+#: A frame whose ZMP is within this of the CoM's ground projection is quasi-static [m]
+#: (:func:`~imesh.solve.footprints.place_under_zmp` judges the feet by those).
+QUASI_STATIC_M = 0.05
+
+
 def stance_width(robot) -> float:
     """[m] distance between the sole centres in the robot's nominal pose."""
     M = robot.frame_placements(robot.q_nominal, [robot.soles[s].frame for s in SIDES])
@@ -361,18 +366,25 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     support = np.asarray(support, dtype=bool)
     sliding = (np.zeros_like(support) if sliding is None
                else np.asarray(sliding, dtype=bool) & support)
-    # planted runs that pivot or slide in the fit become re-steps; detected slides stay slides
-    support = split_pivots(robot, poses, support & ~sliding, fps) | sliding
+    # planted runs that pivot or slide in the fit become re-steps, or pivots where the other
+    # foot cannot carry a re-step; detected slides stay slides
+    pivots = np.zeros_like(support)
+    support = split_pivots(robot, poses, support & ~sliding, fps, pivots=pivots) | sliding
+    if pivots.any():
+        log.info("planted frames that turn or slide in the fit without a re-step: %s (left), "
+                 "%s (right): planned as pivots", runs(pivots[:, 0]), runs(pivots[:, 1]))
+    sliding = sliding | (pivots & support)
     footprints = plan_footprints(robot, poses, support, load=config.forces.max_normal,
-                                 margin=config.zmp.margin, sliding=sliding)
+                                 margin=config.zmp.margin, sliding=sliding,
+                                 reach_m=config.feet.slide_reach_m)
     if config.feet.under_zmp != "off":
         v, a = motion_derivatives(q_init, fps)
         com, dh, _ = robot.centroidal_trajectory(q_init, v, a)
-        footprints, moved = place_under_zmp(footprints, support,
-                                            multibody_zmp(com, dh, robot.mass),
-                                            max(1, int(round(0.1 * fps))),
-                                            int(round(0.2 * fps)), stance_width(robot),
-                                            only_slides=config.feet.under_zmp == "slides")
+        zmp = multibody_zmp(com, dh, robot.mass)
+        footprints, moved = place_under_zmp(
+            footprints, support, zmp, max(1, int(round(0.1 * fps))), int(round(0.2 * fps)),
+            stance_width(robot), only_slides=config.feet.under_zmp == "slides",
+            static=np.linalg.norm(zmp - com[:, :2], axis=1) <= QUASI_STATIC_M)
         for m_ in moved:
             log.info("%s footprint over frames [%d, %d) moved by (%.0f, %.0f) mm under the ZMP "
                      "it carries alone", m_["side"], *m_["frames"], *(1e3 * m_["shift_m"]))
