@@ -296,6 +296,11 @@ def test_a_pirouette_without_a_foot_to_restep_on_pivots(robot):
     pivots = np.zeros_like(support)
     split_pivots(robot, drift, support, FPS, pivots=pivots)
     assert not pivots.any()
+    carried = {"left": poses(np.zeros(T)), "right": sole["right"]}
+    carried["left"][10:, 0, 3] += np.linspace(0.0, 0.3, 30)  # slides 30 cm, no re-step
+    pivots = np.zeros_like(support)
+    split_pivots(robot, carried, support, FPS, pivots=pivots)
+    assert pivots[14:, 0].all() and not pivots[:10, 0].any()
 
 
 def test_a_slide_the_fit_did_not_follow_holds_still(robot):

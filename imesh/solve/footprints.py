@@ -64,7 +64,8 @@ def _rz(yaw: float) -> np.ndarray:
 
 def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, fps: float,
                  yaw_tol_rad: float = 0.15, move_tol_m: float = 0.04, gap_s: float = 0.3,
-                 pivots: np.ndarray | None = None, pivot_rad: float = 0.8) -> np.ndarray:
+                 pivots: np.ndarray | None = None, pivot_rad: float = 0.8,
+                 slide_m: float = 0.1) -> np.ndarray:
     """Turn a support foot that pivots or slides into steps.
 
     A human foot turns on its heel or slides while it carries weight; a robot sole that must
@@ -72,8 +73,9 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
     support run by more than ``yaw_tol_rad`` of yaw or ``move_tol_m``, the run is cut there and
     the foot gets a swing of ``gap_s`` to re-place itself, provided the other foot supports
     during the whole gap. Otherwise, where the sole goes on to turn by more than ``pivot_rad``
-    (a pirouette on one foot: no other foot to stand on while this one re-steps) the foot
-    turns on the ground: the frames from there to the end of the run are marked in ``pivots``
+    or to move more than ``slide_m`` (a pirouette on one foot, a slide the detector took for
+    a planted foot: no other foot to stand on while this one re-steps) the foot turns or
+    slides on the ground: the frames from there to the end of the run are marked in ``pivots``
     (when given), which the plan makes one footprint per frame (a pivot,
     :func:`plan_footprints`), instead of one footprint 100-180 degrees off the fitted sole
     (CMU 05_06's pirouettes on G1); smaller turns and drifts keep one footprint.
@@ -85,7 +87,8 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
         fps: frame rate [1/s].
         pivots: (T, 2) bool, filled in place with the frames that pivot on the ground
             (None: such runs keep one footprint).
-        pivot_rad: the turn [rad] from which an unsplittable run pivots.
+        pivot_rad: the turn [rad] from which an unsplittable run pivots ...
+        slide_m: ... and the travel [m] from which it slides.
 
     Returns:
         (T, 2) bool support with the re-steps cut out.
@@ -108,7 +111,9 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
                         out[lo:hi, k] = False
                         a, t = hi, hi + 1
                         continue
-                    if pivots is not None and np.abs(yaw[t:stop] - yaw[a]).max() > pivot_rad:
+                    far = np.linalg.norm(centre[t:stop, :2] - centre[a, :2], axis=1).max()
+                    if pivots is not None and (np.abs(yaw[t:stop] - yaw[a]).max() > pivot_rad
+                                               or far > slide_m):
                         pivots[max(t - 1, a):stop, k] = True
                         break
                 t += 1
