@@ -31,7 +31,7 @@ from imesh.metrics.limits import limit_violations
 from imesh.metrics.polygon import convex_hull_2d, inside_polygon, polygon_centroid
 from imesh.metrics.skid import foot_skid
 from imesh.metrics.soles import sole_tracks
-from imesh.metrics.support import detect_support
+from imesh.metrics.support import EVALUATOR_SUPPORT, detect_support
 from imesh.robot import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -181,7 +181,8 @@ def test_support_phases_follow_the_soles(jvrc1):
     assert support[:39, 0].all() and not support[42:58, 0].any() and support[62:, 0].all()
     assert support[:78, 1].all() and not support[82:, 1].any()
     soles.corners["right"][80:, :, 2] -= np.where(heel[80:], 0.015, 0.0)  # flat: a slide
-    assert detect_support(soles).support[:, 1].all()
+    assert detect_support(soles, EVALUATOR_SUPPORT).support[:, 1].all()
+    assert not detect_support(soles).support[82:, 1].any()  # the solve's and DART's: as before
 
 
 def test_limit_violations_position_and_velocity(jvrc1):

@@ -377,7 +377,7 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     footprints = plan_footprints(robot, poses, support, load=config.forces.max_normal,
                                  margin=config.zmp.margin, sliding=sliding,
                                  reach_m=config.feet.slide_reach_m)
-    if config.feet.under_zmp != "off":
+    if config.feet.under_zmp == "all" or (config.feet.under_zmp == "slides" and sliding.any()):
         v, a = motion_derivatives(q_init, fps)
         com, dh, _ = robot.centroidal_trajectory(q_init, v, a)
         zmp = multibody_zmp(com, dh, robot.mass)
