@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     from imesh.io import load_motion
     from imesh.metrics.flight import flight_report, skid_apart_from_slides
     from imesh.metrics.soles import sole_tracks
-    from imesh.metrics.support import detect_support
+    from imesh.metrics.support import EVALUATOR_SUPPORT, detect_support
     from imesh.pipeline.retarget import retarget
 
     out = Path(args.out)
@@ -73,7 +73,8 @@ def main(argv=None) -> int:
             fr = flight_report(robot, written.q, written.fps, soles)
             sliding = (res.support.sliding if res.support.sliding is not None
                        else np.zeros_like(res.support.support))
-            skid, slide = skid_apart_from_slides(soles, detect_support(soles).support, sliding)
+            evaluated = detect_support(soles, EVALUATOR_SUPPORT).support
+            skid, slide = skid_apart_from_slides(soles, evaluated, sliding)
             moving = res.contacts.moving
             piv = (res.contacts.pivoting if res.contacts.pivoting is not None
                    else np.zeros_like(moving)) & moving

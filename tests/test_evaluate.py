@@ -31,7 +31,7 @@ from imesh.metrics.limits import limit_violations
 from imesh.metrics.polygon import convex_hull_2d, inside_polygon, polygon_centroid
 from imesh.metrics.skid import foot_skid
 from imesh.metrics.soles import sole_tracks
-from imesh.metrics.support import detect_support
+from imesh.metrics.support import EVALUATOR_SUPPORT, detect_support
 from imesh.robot import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -165,18 +165,24 @@ def test_sliding_feet_skid(jvrc1):
 
 
 def test_support_phases_follow_the_soles(jvrc1):
-    """A foot lifted 10 cm for a third of a second leaves support; a fast foot at ground height
-    is not in support either."""
+    """A foot lifted 10 cm for a third of a second leaves support; a fast foot touching the
+    ground with its toe only is not in support either; a fast foot lying flat on the ground
+    for 0.2 s or more slides: in support (it carries the body)."""
     fps, n = 60.0, 120
     q = standing_q(jvrc1, n)
     soles = sole_tracks(jvrc1, q, fps)
     soles.centers["left"][40:60, 2] += 0.1
     soles.corners["left"][40:60, :, 2] += 0.1
     soles.centers["right"][80:, 0] += np.arange(n - 80) * 2.0 / fps  # 2 m/s
+    heel = soles.corners["right"][:, :, 0] < soles.centers["right"][:1, None, 0]
+    soles.corners["right"][80:, :, 2] += np.where(heel[80:], 0.015, 0.0)  # on its toe
     support = detect_support(soles).support
     # (the instantaneous 10 cm step is a fast frame on either side of the lift)
     assert support[:39, 0].all() and not support[42:58, 0].any() and support[62:, 0].all()
     assert support[:78, 1].all() and not support[82:, 1].any()
+    soles.corners["right"][80:, :, 2] -= np.where(heel[80:], 0.015, 0.0)  # flat: a slide
+    assert detect_support(soles, EVALUATOR_SUPPORT).support[:, 1].all()
+    assert not detect_support(soles).support[82:, 1].any()  # the solve's and DART's: as before
 
 
 def test_limit_violations_position_and_velocity(jvrc1):

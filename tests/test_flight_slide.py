@@ -183,3 +183,147 @@ def test_known_hop_is_retargeted(robot, standing, tmp_path):
     # measured: 5 frames, 0.003 m/s^2 off g, landing at 0.95 m/s with 2.5 body weights
     assert report.landing_normal and all(f > 1.0 for f in report.landing_normal)
 
+
+
+def shuffle_clip(standing: MarkerMotion, gap_s: float = 0.1, step_s: float = 0.4,
+                 seconds: float = 2.5) -> MarkerMotion:
+    """The left foot dragged 30 cm forward along the floor (ankle and toe; the knee half as far)
+    over ``gap_s`` starting at 1 s, and later lifted 10 cm for ``step_s`` (a step)."""
+    s, pos = _clip(standing, seconds)
+    t = np.arange(len(pos)) / FPS
+    dx = 0.3 * np.clip((t - 1.0) / gap_s, 0.0, 1.0)
+    lift = np.where((t >= 1.6) & (t < 1.6 + step_s), 0.1, 0.0)
+    for name, share in (("ankle_l", 1.0), ("toe_l", 1.0), ("knee_l", 0.5)):
+        pos[:, s.names.index(name), 0] += share * dx
+        pos[:, s.names.index(name), 2] += share * lift
+    return _motion(s, pos, "synthetic:shuffle")
+
+
+def test_a_shuffle_slides_and_a_step_swings(standing):
+    """A foot that leaves its support for 0.1 s (3 m/s: too fast to be planted) without leaving
+    the floor is on the ground throughout, sliding; the same foot lifted 10 cm for 0.4 s
+    swings."""
+    contacts = detect_contacts(shuffle_clip(standing))
+    drag = np.arange(30, 34)
+    assert contacts.support[drag, 0].all()
+    assert contacts.moving[drag, 0].any()
+    assert not contacts.support[50:60, 0].any()
+    assert contacts.support[:, 1].all() and not contacts.moving[:, 1].any()
+
+
+def _footprint(side, start, stop, x, y, sliding=False):
+    from imesh.solve.footprints import Footprint
+
+    pose = np.eye(4)
+    pose[:2, 3] = x, y
+    c = np.array([x, y, 0.0])
+    rect = np.array([[0.05, 0.02, 0], [0.05, -0.02, 0], [-0.05, -0.02, 0], [-0.05, 0.02, 0]])
+    return Footprint(side=side, start=start, stop=stop, frame_pose=pose, center_m=c,
+                     corners_m=c + 2 * rect, polygon_m=c + rect, sliding=sliding)
+
+
+def test_footprints_go_under_the_zmp_they_carry_alone():
+    """A left foot carrying the body alone with the ZMP 150 mm to its right is moved 130 mm
+    right (to the edge of its usable 20 mm); a slide frame by frame; a balanced foot stays;
+    where both feet support, the moves keep them ``stance_m`` apart."""
+    from imesh.solve.footprints import place_under_zmp
+
+    T = 30
+    support = np.zeros((T, 2), dtype=bool)
+    support[:20, 0] = True  # left: frames 0-19 (alone from 10)
+    support[:10, 1] = True  # right: frames 0-9, at y = -0.3
+    support[20:, 1] = True  # right alone on frames 20-29: a slide along x
+    zmp = np.zeros((T, 2))
+    zmp[10:20] = (0.0, 0.15)  # left foot at y = 0.3: the ZMP 150 mm to its right
+    zmp[20:] = np.c_[np.linspace(0.0, 0.29, 10), np.full(10, -0.3)]  # over the slide
+    fps = [_footprint("left", 0, 20, 0.0, 0.3), _footprint("right", 0, 10, 0.0, -0.3)]
+    fps += [_footprint("right", t, t + 1, 0.01 * (t - 20), -0.3, sliding=True)
+            for t in range(20, 30)]  # the slide moves 10 mm per frame, the ZMP 32 mm
+    out, moved = place_under_zmp(fps, support, zmp, min_frames=3, gap_frames=0,
+                                 smooth_frames=1)
+    left = out[0]
+    assert left.center_m[1] == pytest.approx(0.3 - 0.13)
+    assert out[1].center_m[1] == pytest.approx(-0.3)  # the right foot never carries alone
+    slide_x = np.array([f.center_m[0] for f in out[2:]])
+    slide_zmp_local = zmp[20:, 0] - slide_x
+    assert np.all(np.abs(slide_zmp_local) <= 0.05 + 1e-9)  # the slide follows the body
+    assert [m["side"] for m in moved] == ["left", "right"]
+    # both feet down on frames 0-9, 600 mm apart: with stance_m = 0.5 the left moves 100 mm
+    out, _ = place_under_zmp(fps, support, zmp, min_frames=3, gap_frames=0, stance_m=0.5,
+                             smooth_frames=1)
+    assert out[0].center_m[1] - out[1].center_m[1] >= 0.5 - 1e-9
+    assert out[0].center_m[1] < 0.3
+    # only the contacts that slide
+    out, moved = place_under_zmp(fps, support, zmp, min_frames=3, gap_frames=0,
+                                 smooth_frames=1, only_slides=True)
+    assert out[0] is fps[0] and [m["side"] for m in moved] == ["right"]
+
+
+def test_a_pirouette_without_a_foot_to_restep_on_pivots(robot):
+    """A left sole that turns 180 degrees in place over 1 s while the right foot is in the air
+    cannot be cut into re-steps: its frames from the turn on are pivots (one footprint per
+    frame); the same turn with the right foot down becomes re-steps; a 10 degree drift stays
+    one footprint."""
+    from imesh.solve.footprints import split_pivots
+
+    T = 40
+    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
+                                                                                   "right")])
+    yaw = np.r_[np.zeros(10), np.linspace(0.0, np.pi, 30)]
+
+    def poses(turn):
+        out = np.repeat(np.eye(4)[None], T, axis=0)
+        c, s = np.cos(turn), np.sin(turn)
+        rz = np.zeros((T, 3, 3))
+        rz[:, 0, 0], rz[:, 0, 1], rz[:, 1, 0], rz[:, 1, 1], rz[:, 2, 2] = c, -s, s, c, 1.0
+        out[:, :3, :3] = rz @ level[0]
+        return out
+
+    sole = {"left": poses(yaw), "right": poses(np.zeros(T))}
+    support = np.zeros((T, 2), dtype=bool)
+    support[:, 0] = True
+    pivots = np.zeros_like(support)
+    out = split_pivots(robot, sole, support, FPS, pivots=pivots)
+    assert out[:, 0].all()  # no re-step: nothing to stand on
+    assert not pivots[:10, 0].any() and pivots[12:, 0].all() and not pivots[:, 1].any()
+    both = support.copy()
+    both[:, 1] = True
+    pivots = np.zeros_like(support)
+    out = split_pivots(robot, sole, both, FPS, pivots=pivots)
+    assert not out[:, 0].all() and not pivots.any()  # re-steps on the right foot
+    drift = {"left": poses(np.radians(np.r_[np.zeros(10), np.linspace(0, 10, 30)])),
+             "right": sole["right"]}
+    pivots = np.zeros_like(support)
+    split_pivots(robot, drift, support, FPS, pivots=pivots)
+    assert not pivots.any()
+    carried = {"left": poses(np.zeros(T)), "right": sole["right"]}
+    carried["left"][10:, 0, 3] += np.linspace(0.0, 0.3, 30)  # slides 30 cm, no re-step
+    pivots = np.zeros_like(support)
+    split_pivots(robot, carried, support, FPS, pivots=pivots)
+    assert pivots[14:, 0].all() and not pivots[:10, 0].any()
+
+
+def test_a_slide_the_fit_did_not_follow_holds_still(robot):
+    """Slide frames whose initial sole flew up (the fit held back by the joint speeds) take the
+    footprint of the nearest frame the fit did follow."""
+    from imesh.solve.footprints import plan_footprints
+
+    T = 10
+    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
+                                                                                   "right")])
+    poses = {}
+    for k, side in enumerate(("left", "right")):
+        p = np.repeat(np.eye(4)[None], T, axis=0)
+        p[:, :3, :3] = level[k]
+        p[:, :3, 3] = -level[k] @ robot.soles[side].center  # sole centre at the origin
+        p[:, 1, 3] += 0.3 * (k - 0.5)
+        poses[side] = p
+    poses["left"][:, 0, 3] += 0.05 * np.arange(T)  # slides 5 cm per frame
+    poses["left"][4:7, 2, 3] += 0.3  # frames 4-6: the fit's sole 30 cm up
+    support = np.ones((T, 2), dtype=bool)
+    sliding = np.zeros_like(support)
+    sliding[:, 0] = True
+    fps = plan_footprints(robot, poses, support, sliding=sliding, reach_m=0.05)
+    x = {f.start: f.center_m[0] for f in fps if f.side == "left"}
+    assert [round(x[t], 3) for t in range(T)] == [0.0, 0.05, 0.1, 0.15, 0.15, 0.15, 0.35,
+                                                  0.35, 0.4, 0.45]

@@ -360,6 +360,16 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
                          for k in range(2)], axis=1)
     unplanted = np.logical_not(planted.any(axis=1))
     support = planted | (grounded & unplanted[:, None])
+    # a foot that leaves its support for at most slide_s without ever leaving the ground
+    # slides through (a shuffle: the zombie walk's dragged feet); a step rises above it or
+    # lasts longer (a walk's swing at 30 fps: 12 frames)
+    shuffled = np.zeros_like(support)
+    gap_max = max(1, int(round(fc.slide_s * fps)))
+    for k in range(2):
+        for a, b in runs(np.logical_not(support[:, k])):
+            if 0 < a and b < len(support) and b - a <= gap_max and grounded[a:b, k].all():
+                shuffled[a:b, k] = True
+    support |= shuffled
     # frames with no foot on the ground: flight only where the body falls freely, and not in
     # the frames at its ends where the ground still pushes the trunk up (those keep the feet
     # on the ground next to them)
@@ -381,11 +391,12 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
     # planted phases where the toe travels
     vel_xy = vel[..., :2]
     fast = support & (np.linalg.norm(vel_xy, axis=2) > fc.slide_speed_fraction * height)
-    moving = support & ~planted & (fast | (np.abs(yaw_rate) > fc.pivot_rad_s))
+    moving = support & ~planted & (fast | (np.abs(yaw_rate) > fc.pivot_rad_s) | shuffled)
     min_frames = max(1, int(round(fc.slide_s * fps)))
     for k in range(2):
         for a, b in runs(fast[:, k]):
-            travel = np.linalg.norm(vel_xy[a:b, k].sum(axis=0)) / fps
+            # the farthest the toe gets from where the run starts (a slide may turn back)
+            travel = np.linalg.norm(np.cumsum(vel_xy[a:b, k], axis=0), axis=1).max() / fps
             if b - a >= min_frames and travel > fc.slide_m:
                 moving[a:b, k] = True
     pivoting = moving & (np.abs(yaw_rate) > fc.pivot_rad_s)

@@ -39,7 +39,7 @@ from ..metrics.limits import limit_violations
 from ..metrics.markers import close_pair_error, keypoint_motion, marker_rms_mm
 from ..metrics.skid import SKID_THRESHOLD_MM, foot_skid, sole_deviation
 from ..metrics.soles import SoleTracks, sole_tracks
-from ..metrics.support import SupportDetection, detect_support, planted_feet
+from ..metrics.support import EVALUATOR_SUPPORT, SupportDetection, detect_support, planted_feet
 from ..metrics.zmp import zmp_report, zmp_trajectory
 from ..physics import PhysicsConfig, simulate_motion
 from ..viz.physics import plot_physics
@@ -200,6 +200,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
 
     t0 = time.perf_counter()
     soles = sole_tracks(robot, q, fps)
+    support_config = support_config or EVALUATOR_SUPPORT  # flat sliding soles carry the body
     support = detect_support(soles, support_config).support
     out.update(_collision_metrics(robot, q, soles, support_config))
     timing["collision"] = time.perf_counter() - t0

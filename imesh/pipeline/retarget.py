@@ -455,7 +455,11 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         flight = runs(np.logical_not(plan.support.any(axis=1)))
         adapted = adapted.with_positions(
             ext.markers[:, :adapted.n_markers], source=adapted.source)
-        support_out = Contacts(support=ext.support, fps=source.fps, sliding=sliding)
+        for f in footprints:  # and the pivots the plan adds (planted runs turning in the fit)
+            if f.sliding:
+                sliding[f.start:f.stop, SIDES.index(f.side)] = True
+        support_out = Contacts(support=ext.support, fps=source.fps,
+                               sliding=sliding & ext.support)
     motion_out = dataclasses.replace(fit.motion, q=q_out,
                                      provenance=make_provenance(motion, robot, lead, __version__))
     seconds["total"] = time.perf_counter() - t0

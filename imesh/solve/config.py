@@ -86,6 +86,10 @@ class SlackPrices(NonNegative):
     elastic: float = 1e4
 
 
+#: Which contacts :class:`FootOptions` ``under_zmp`` moves.
+UNDER_ZMP = ("slides", "all", "off")
+
+
 @dataclass(frozen=True)
 class FootOptions(NonNegative):
     """Heights the swing soles keep above the ground (:mod:`.contacts`).
@@ -98,11 +102,26 @@ class FootOptions(NonNegative):
         swing_edge_m: in every other frame of such a swing the ground points stay this high
             [m]: the sole leaves and lands flat instead of rolling over its toe or heel (the
             footprint model has no rolling contact).
+        under_zmp: a foot's contact whose single-support frames ask for a ZMP outside its
+            sole is moved under it (:func:`imesh.solve.footprints.place_under_zmp`):
+            ``"slides"`` only contacts that slide (MakeHuman's in-place zombie walk: marker
+            RMS 142 -> 80 mm on G1), ``"all"`` every contact (moves footprints of the CMU
+            walks, veer and wave by up to 110 mm: not measured on them yet), ``"off"``.
+        slide_reach_m: a slide frame whose initial sole is higher than this was not followed
+            by the fit (joint speed): its sole holds the nearest followed frame's footprint
+            (:func:`imesh.solve.footprints.plan_footprints`) [m].
     """
 
     clearance_m: float = 0.0
     swing_lift_m: float = 0.03
     swing_edge_m: float = 0.02
+    under_zmp: str = "slides"
+    slide_reach_m: float = 0.05
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.under_zmp not in UNDER_ZMP:
+            raise OptionError("under_zmp", self.under_zmp, UNDER_ZMP)
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ polygon (the ZMP inside the sliding sole) and the desired ZMP move with it.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,21 +63,32 @@ def _rz(yaw: float) -> np.ndarray:
 
 
 def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, fps: float,
-                 yaw_tol_rad: float = 0.15, move_tol_m: float = 0.04, gap_s: float = 0.3
-                 ) -> np.ndarray:
+                 yaw_tol_rad: float = 0.15, move_tol_m: float = 0.04, gap_s: float = 0.3,
+                 pivots: np.ndarray | None = None, pivot_rad: float = 0.8,
+                 slide_m: float = 0.1) -> np.ndarray:
     """Turn a support foot that pivots or slides into steps.
 
     A human foot turns on its heel or slides while it carries weight; a robot sole that must
     keep one footprint cannot. Where the initial trajectory's sole leaves the start of its
     support run by more than ``yaw_tol_rad`` of yaw or ``move_tol_m``, the run is cut there and
     the foot gets a swing of ``gap_s`` to re-place itself, provided the other foot supports
-    during the whole gap (otherwise the run is kept: one footprint, the mean).
+    during the whole gap. Otherwise, where the sole goes on to turn by more than ``pivot_rad``
+    or to move more than ``slide_m`` (a pirouette on one foot, a slide the detector took for
+    a planted foot: no other foot to stand on while this one re-steps) the foot turns or
+    slides on the ground: the frames from there to the end of the run are marked in ``pivots``
+    (when given), which the plan makes one footprint per frame (a pivot,
+    :func:`plan_footprints`), instead of one footprint 100-180 degrees off the fitted sole
+    (CMU 05_06's pirouettes on G1); smaller turns and drifts keep one footprint.
 
     Args:
         robot: the robot (``soles``, ``q_nominal``).
         sole_poses: side -> (T, 4, 4) sole frame poses along the initial trajectory.
         support: (T, 2) bool planned support.
         fps: frame rate [1/s].
+        pivots: (T, 2) bool, filled in place with the frames that pivot on the ground
+            (None: such runs keep one footprint).
+        pivot_rad: the turn [rad] from which an unsplittable run pivots ...
+        slide_m: ... and the travel [m] from which it slides.
 
     Returns:
         (T, 2) bool support with the re-steps cut out.
@@ -99,6 +111,11 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
                         out[lo:hi, k] = False
                         a, t = hi, hi + 1
                         continue
+                    far = np.linalg.norm(centre[t:stop, :2] - centre[a, :2], axis=1).max()
+                    if pivots is not None and (np.abs(yaw[t:stop] - yaw[a]).max() > pivot_rad
+                                               or far > slide_m):
+                        pivots[max(t - 1, a):stop, k] = True
+                        break
                 t += 1
     return out
 
@@ -115,9 +132,17 @@ def ankle_reach(robot, side: str, load: float = 1.0) -> float:
 
 def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray,
                     load: float = 1.0, margin: float = 0.0,
-                    sliding: np.ndarray | None = None) -> list[Footprint]:
+                    sliding: np.ndarray | None = None, reach_m: float = np.inf
+                    ) -> list[Footprint]:
     """One level footprint on z = 0 per support phase of each foot, and one per frame of a
     slide.
+
+    A slide frame in which the initial trajectory's sole centre is higher than ``reach_m`` is
+    one the robot's legs did not follow (the fit is held back by the joint velocity and
+    acceleration limits: CMU 60_10's right foot taps 170 mm per frame at 30 fps, and the fit's
+    sole flies 0.2-0.5 m up): its footprint is that of the nearest frame of the same slide
+    that was followed, so the sole holds still there (planted) instead of being asked for the
+    human's 5 m/s.
 
     Args:
         robot: the robot (``soles``, ``q_nominal`` give the level sole orientation).
@@ -129,6 +154,8 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         margin: fraction of the sole's half sizes kept free of the ZMP (the polygon is the
             sole rectangle shrunk about its centre by it, then clipped to the ankle's reach).
         sliding: (T, 2) bool support frames in which the sole slides or pivots (None: none).
+        reach_m: slide frames whose initial sole centre is higher than this [m] hold the
+            nearest followed frame's footprint.
 
     Returns:
         Footprints of both feet, in order of side then time.
@@ -150,7 +177,14 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         spans: list[tuple[int, int, int, int, bool]] = [
             (start, stop, *middle_half(start, stop), False)
             for start, stop in runs(support[:, k] & ~sliding[:, k])]
-        spans += [(int(t), int(t) + 1, int(t), int(t) + 1, True)
+        source = np.arange(len(poses))  # the frame whose sole places each slide frame
+        height = (poses[:, :3, :3] @ sole.center + poses[:, :3, 3])[:, 2]
+        for a0, b0 in runs(sliding[:, k]):
+            ok = np.flatnonzero(height[a0:b0] <= reach_m) + a0
+            if len(ok) and len(ok) < b0 - a0:
+                t = np.arange(a0, b0)
+                source[a0:b0] = ok[np.argmin(np.abs(t[:, None] - ok[None, :]), axis=1)]
+        spans += [(int(t), int(t) + 1, int(source[t]), int(source[t]) + 1, True)
                   for t in np.flatnonzero(sliding[:, k])]
         for start, stop, a, b, slide in sorted(spans):
             sel = poses[a:b]
@@ -168,6 +202,151 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
                                  center_m=c, corners_m=corners,
                                  polygon_m=local @ R.T + pose[:3, 3], sliding=slide))
     return out
+
+
+def _shifted(f: Footprint, shift: np.ndarray) -> Footprint:
+    """The footprint translated by ``shift`` (2,) [m] along the ground."""
+    d = np.array([shift[0], shift[1], 0.0])
+    pose = f.frame_pose.copy()
+    pose[:3, 3] += d
+    return dataclasses.replace(f, frame_pose=pose, center_m=f.center_m + d,
+                               corners_m=f.corners_m + d, polygon_m=f.polygon_m + d)
+
+
+def _axes(f: Footprint) -> np.ndarray:
+    """(2, 2) the level sole's forward and left axes (columns) in the ground plane."""
+    R = f.frame_pose[:2, :2]
+    return R / np.linalg.norm(R, axis=0, keepdims=True)
+
+
+def _contact_groups(footprints: list[Footprint], gap_frames: int) -> list[list[int]]:
+    """Indices of each foot's consecutive footprints (a planted phase, the slides it runs into,
+    those after a swing of at most ``gap_frames``), in time order."""
+    order = sorted(range(len(footprints)), key=lambda i: (footprints[i].side,
+                                                          footprints[i].start))
+    groups: list[list[int]] = []
+    for i in order:
+        prev = groups[-1][-1] if groups else None
+        if (prev is not None and footprints[prev].side == footprints[i].side
+                and footprints[i].start - footprints[prev].stop <= gap_frames):
+            groups[-1].append(i)
+        else:
+            groups.append([i])
+    return groups
+
+
+def place_under_zmp(footprints: list[Footprint], support: np.ndarray, zmp_m: np.ndarray,
+                    min_frames: int = 3, gap_frames: int = 6, stance_m: float = 0.0,
+                    smooth_frames: int = 5, only_slides: bool = False,
+                    static: np.ndarray | None = None) -> tuple[list[Footprint], list[dict]]:
+    """Move a foot's ground contact under the ZMP it has to carry alone.
+
+    A foot that carries the body alone must hold the ZMP inside its sole. Where the initial
+    trajectory's multibody ZMP (``zmp_m``) lies outside the part of the sole the ZMP may use
+    (``Footprint.polygon_m``) in frames where this foot is the only support, the contact is
+    moved by the shortest vector that brings it inside, as a person places a foot under the
+    body: a planted footprint as a whole (by the mean over its single-support frames), a slide
+    frame by frame (smoothed over ``smooth_frames``; interpolated between single-support
+    frames, so the slide stays continuous), each foot's consecutive footprints (also across
+    swings of at most ``gap_frames``, a shuffle that barely leaves the floor) as one contact.
+    The human's own foot placement is kept wherever it balances. (MakeHuman's zombie walk is
+    an in-place cycle: it stands on one foot with the body 200-270 mm to the side of it, and
+    slides that foot 250 mm back under a body that does not move; no sole carries that, and
+    moving the trunk instead moves every upper-body key point.)
+
+    Args:
+        footprints: :func:`plan_footprints`.
+        support: (T, 2) bool planned support.
+        zmp_m: (T, 2) [m] the initial trajectory's ZMP.
+        min_frames: contacts with fewer single-support frames are kept where they are.
+        gap_frames: footprints of a foot separated by a swing this short move together (a
+            foot re-placed by different shifts would have to jump between them).
+        stance_m: in the frames where both feet support, the moves keep the sole centres at
+            least this far apart [m] (or as far as the human's, if nearer): every move is
+            scaled down by one factor until they do (the feet must not meet).
+        smooth_frames: width of the moving average of a slide's shifts.
+        only_slides: move only contacts with a slide (the human's placement of a sliding foot
+            is an animator's, not the floor's; planted feet stay where the human put them).
+        static: (T,) bool the frames whose ZMP counts (None: all): the quasi-static ones, whose
+            ZMP is under the CoM (a dynamic frame's ZMP is the dynamics' business, and a fast
+            clip's initializer, CMU 60_10 at its header's 120 fps, has it 0.2-0.6 m away).
+
+    Returns:
+        (the footprints, one dict per moved contact: side, frames, shift_m: the largest move).
+    """
+    out = list(footprints)
+    T = len(support)
+    alone = support & ~support[:, ::-1]
+    if static is not None:
+        alone &= np.asarray(static, dtype=bool)[:, None]
+    shift = np.zeros((len(out), 2))
+    moved: list[dict] = []
+    for group in _contact_groups(out, gap_frames):
+        if only_slides and not any(out[i].sliding for i in group):
+            continue
+        k = SIDES.index(out[group[0]].side)
+        t_mid, need = [], []  # per footprint: its middle frame and its demand (NaN: none)
+        for i in group:
+            f = out[i]
+            axes = _axes(f)
+            only = np.flatnonzero(alone[f.start:f.stop, k])
+            poly = (f.polygon_m[:, :2] - f.center_m[:2]) @ axes
+            if len(only):
+                local = ((zmp_m[f.start + only] - f.center_m[:2]) @ axes).mean(axis=0)
+                excess = local - np.clip(local, poly.min(axis=0), poly.max(axis=0))
+                need.append(axes @ excess)
+            else:
+                need.append(np.full(2, np.nan))
+            t_mid.append(0.5 * (f.start + f.stop - 1))
+        demand = np.array(need)
+        n_single = sum(int(alone[out[i].start:out[i].stop, k].sum()) for i in group)
+        have = np.isfinite(demand[:, 0])
+        if n_single < min_frames or not np.any(demand[have]):
+            continue
+        t = np.array(t_mid)
+        # between single-support frames interpolated, towards the human's placement (no
+        # move) at the contact's ends
+        t_a = np.r_[out[group[0]].start - 1, t[have], out[group[-1]].stop]
+        for a in range(2):
+            demand[:, a] = np.interp(t, t_a, np.r_[0.0, demand[have, a], 0.0])
+        slides = np.array([out[i].sliding for i in group])
+        for a0, b0 in runs(slides):  # a slide's frames: a moving average
+            if b0 - a0 > 1 and smooth_frames > 1:
+                w = min(smooth_frames, b0 - a0)
+                pad = np.pad(demand[a0:b0], ((w // 2, w - 1 - w // 2), (0, 0)), mode="edge")
+                kernel = np.ones(w) / w
+                demand[a0:b0] = np.stack([np.convolve(pad[:, a], kernel, mode="valid")
+                                          for a in range(2)], axis=1)
+        shift[group] = demand
+        big = int(np.argmax(np.linalg.norm(demand, axis=1)))
+        moved.append({"side": out[group[0]].side,
+                      "frames": (out[group[0]].start, out[group[-1]].stop),
+                      "shift_m": demand[big]})
+    if not moved:
+        return out, moved
+    centre = np.full((T, 2, 2), np.nan)
+    shift_of = np.zeros((T, 2, 2))
+    for i, f in enumerate(out):
+        centre[f.start:f.stop, SIDES.index(f.side)] = f.center_m[:2]
+        shift_of[f.start:f.stop, SIDES.index(f.side)] = shift[i]
+    # where both feet support, the largest factor of both moves (per frame) that keeps them
+    # apart; each footprint takes the smallest factor of its frames
+    both = support.all(axis=1) & np.isfinite(centre).all(axis=(1, 2))
+    apart = np.linalg.norm(centre[:, 0] - centre[:, 1], axis=1)
+    need_m = np.minimum(np.where(both, apart, 0.0), stance_m)
+    factor = np.zeros(T)
+    for alpha in np.linspace(0.0, 1.0, 21):  # ascending: the largest that holds
+        c = centre + alpha * shift_of
+        ok = ~both | (np.linalg.norm(c[:, 0] - c[:, 1], axis=1) >= need_m - 1e-9)
+        factor = np.where(ok, alpha, factor)
+    for i, f in enumerate(out):
+        shift[i] *= factor[f.start:f.stop].min()
+    for m in moved:
+        a, b = m["frames"]
+        sel = [i for i, f in enumerate(out) if f.side == m["side"] and a <= f.start < b]
+        m["shift_m"] = shift[sel[int(np.argmax(np.linalg.norm(shift[sel], axis=1)))]]
+    out = [_shifted(f, shift[i]) if np.any(shift[i]) else f for i, f in enumerate(out)]
+    return out, moved
 
 
 def footprint_tracks(footprints: list[Footprint], n_frames: int, fps: float) -> SoleTracks:

@@ -33,6 +33,7 @@ from .contacts import sole_errors
 from .footprints import (
     Footprint,
     footprint_tracks,
+    place_under_zmp,
     plan_footprints,
     split_pivots,
     support_halfplanes,
@@ -218,9 +219,7 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
     com, dh, ag = robot.centroidal_trajectory(q, v, a)
     m = robot.mass
     acc, ld = dh[:, :3] / m, dh[:, 3:]
-    dn = acc[:, 2] + GRAVITY
-    zmp = np.stack([com[:, 0] - (com[:, 2] * acc[:, 0] + ld[:, 1] / m) / dn,
-                    com[:, 1] - (com[:, 2] * acc[:, 1] - ld[:, 0] / m) / dn], axis=1)
+    zmp = multibody_zmp(com, dh, m)
     rot = _base_rotations(q)
     torques = None
     if support is not None:
@@ -238,6 +237,27 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
                          angular_momentum_rate=ld, centroidal_angular=ag[:, 3:5], mass=m,
                          zmp_multibody=zmp,
                          base_rotations=rot, torques=torques, collision=collision)
+
+
+#: A frame whose ZMP is within this of the CoM's ground projection is quasi-static [m]
+#: (:func:`~imesh.solve.footprints.place_under_zmp` judges the feet by those).
+QUASI_STATIC_M = 0.05
+
+
+def stance_width(robot) -> float:
+    """[m] distance between the sole centres in the robot's nominal pose."""
+    M = robot.frame_placements(robot.q_nominal, [robot.soles[s].frame for s in SIDES])
+    c = [M[k, :3, :3] @ robot.soles[s].center + M[k, :3, 3] for k, s in enumerate(SIDES)]
+    return float(np.linalg.norm(c[0][:2] - c[1][:2]))
+
+
+def multibody_zmp(com: np.ndarray, dh: np.ndarray, mass: float) -> np.ndarray:
+    """(T, 2) [m] the multibody ZMP on z = 0 from the CoM (T, 3) and the centroidal momentum's
+    rate ``dh`` (T, 6) (DESIGN.md: ``p_x = c_x - (c_z c_x'' + Ld_y / m) / (c_z'' + g)``)."""
+    acc, ld = dh[:, :3] / mass, dh[:, 3:]
+    dn = acc[:, 2] + GRAVITY
+    return np.stack([com[:, 0] - (com[:, 2] * acc[:, 0] + ld[:, 1] / mass) / dn,
+                     com[:, 1] - (com[:, 2] * acc[:, 1] - ld[:, 0] / mass) / dn], axis=1)
 
 
 def _base_rotations(q: np.ndarray) -> np.ndarray:
@@ -346,10 +366,28 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     support = np.asarray(support, dtype=bool)
     sliding = (np.zeros_like(support) if sliding is None
                else np.asarray(sliding, dtype=bool) & support)
-    # planted runs that pivot or slide in the fit become re-steps; detected slides stay slides
-    support = split_pivots(robot, poses, support & ~sliding, fps) | sliding
+    # planted runs that pivot or slide in the fit become re-steps, or pivots where the other
+    # foot cannot carry a re-step; detected slides stay slides
+    pivots = np.zeros_like(support)
+    support = split_pivots(robot, poses, support & ~sliding, fps, pivots=pivots) | sliding
+    if pivots.any():
+        log.info("planted frames that turn or slide in the fit without a re-step: %s (left), "
+                 "%s (right): planned as pivots", runs(pivots[:, 0]), runs(pivots[:, 1]))
+    sliding = sliding | (pivots & support)
     footprints = plan_footprints(robot, poses, support, load=config.forces.max_normal,
-                                 margin=config.zmp.margin, sliding=sliding)
+                                 margin=config.zmp.margin, sliding=sliding,
+                                 reach_m=config.feet.slide_reach_m)
+    if config.feet.under_zmp == "all" or (config.feet.under_zmp == "slides" and sliding.any()):
+        v, a = motion_derivatives(q_init, fps)
+        com, dh, _ = robot.centroidal_trajectory(q_init, v, a)
+        zmp = multibody_zmp(com, dh, robot.mass)
+        footprints, moved = place_under_zmp(
+            footprints, support, zmp, max(1, int(round(0.1 * fps))), int(round(0.2 * fps)),
+            stance_width(robot), only_slides=config.feet.under_zmp == "slides",
+            static=np.linalg.norm(zmp - com[:, :2], axis=1) <= QUASI_STATIC_M)
+        for m_ in moved:
+            log.info("%s footprint over frames [%d, %d) moved by (%.0f, %.0f) mm under the ZMP "
+                     "it carries alone", m_["side"], *m_["frames"], *(1e3 * m_["shift_m"]))
     flight = np.logical_not(support.any(axis=1))
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
