@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from test_errors import run  # one line per error, no traceback: the CLI's contract
 
 from imesh.errors import ImeshError, MotionFileError, UnsupportedFormatError
 from imesh.io import load_motion, read_raw
@@ -371,18 +372,6 @@ def test_matches_the_smplx_package(models, tmp_path):
 # bad input: one line naming the file and what is valid, before any work
 
 
-def run(capsys, *argv) -> tuple[int, str]:
-    """Exit status and the error line (or stdout) of ``imesh argv``; no traceback."""
-    from imesh.cli import main
-
-    status = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    assert "Traceback" not in captured.err
-    if status != 0:
-        lines = [ln for ln in captured.err.splitlines() if ln.startswith("imesh: error:")]
-        assert len(lines) == 1, captured.err
-        return status, lines[0]
-    return status, captured.out
 
 
 def _walk_file(folder: Path, frames: int = 20, **kwargs) -> Path:
