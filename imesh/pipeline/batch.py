@@ -283,10 +283,17 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
         task = ray.remote(num_cpus=1, max_retries=0)(run_clip)
         pending: dict = {}
         queue = list(jobs)
+        submitted = False
         while queue or pending:
             while queue and len(pending) < workers:
                 clip, out = queue.pop(0)
                 pending[task.remote(clip, out, settings)] = (clip, out)
+            if not submitted and main_thread and callable(ours):
+                # a SIGTERM 8 s into a batch once met Ray's C++ (absl) handler, not ours: it
+                # printed its stack and aborted (exit -6) after our message; ours again once
+                # the first task is out
+                signal.signal(signal.SIGTERM, ours)
+            submitted = True
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
                 clip, out = pending.pop(ref)
