@@ -257,6 +257,10 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
     ``quiet``: Ray logs errors only (not its start-up and token-authentication warnings). A
     SIGTERM while ``ray.init`` has its own handler installed (``sys.exit(15)``) is a
     KeyboardInterrupt as at any other moment; Ray is shut down in every case."""
+    # Ray's driver installs abseil's failure-signal handler for SIGTERM too: a SIGTERM that
+    # meets it prints a C++ stack and, after our "interrupted", aborts the process (exit -6
+    # or -11 in 6 of 8 tries on a loaded machine). Read when Ray is imported: set it first.
+    os.environ.setdefault("RAY_DISABLE_FAILURE_SIGNAL_HANDLER", "1")
     ray = optional("ray", "pip install imesh-retarget[batch] (or --backend processes)",
                    "--backend ray")
     env = {"env_vars": {"PYTHONPATH": os.pathsep.join(
@@ -283,17 +287,10 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
         task = ray.remote(num_cpus=1, max_retries=0)(run_clip)
         pending: dict = {}
         queue = list(jobs)
-        submitted = False
         while queue or pending:
             while queue and len(pending) < workers:
                 clip, out = queue.pop(0)
                 pending[task.remote(clip, out, settings)] = (clip, out)
-            if not submitted and main_thread and callable(ours):
-                # a SIGTERM 8 s into a batch once met Ray's C++ (absl) handler, not ours: it
-                # printed its stack and aborted (exit -6) after our message; ours again once
-                # the first task is out
-                signal.signal(signal.SIGTERM, ours)
-            submitted = True
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
                 clip, out = pending.pop(ref)
