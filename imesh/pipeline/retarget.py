@@ -89,6 +89,9 @@ class RetargetConfig:
         wholebody: WholeBodyConfig of the whole-body solve.
         nishiwaki: BalanceConfig of the Nishiwaki loop (``balance="nishiwaki"``).
         lead_s: standing lead-in and lead-out of the whole-body solve [s] (0: none).
+        lead_land_s: a foot in the air at the clip's first frame that lands within this
+            time [s] stands through the lead-in into its landing (the end of a swing) instead
+            of a step out of the lead-in (:func:`imesh.solve.add_lead`); alike at the end.
         allow_flight: ``balance="nishiwaki"`` only: accept flight phases (both feet up):
             those frames get no support and no ZMP constraint, and the result lists them.
             False: refuse them with FlightPhaseError before any work. The whole-body solve
@@ -116,6 +119,7 @@ class RetargetConfig:
     wholebody: WholeBodyConfig = field(default_factory=WholeBodyConfig)
     nishiwaki: BalanceConfig | None = None
     lead_s: float = 1.0
+    lead_land_s: float = 0.15
     allow_flight: bool = False
     lowpass_hz: float | None = 8.0
     foot_weight: float = 10.0
@@ -129,6 +133,8 @@ class RetargetConfig:
             raise OptionError("fps", self.fps, "a positive number or None")
         if not (np.isfinite(self.lead_s) and self.lead_s >= 0):
             raise OptionError("lead_s", self.lead_s, "a number of seconds >= 0")
+        if not (np.isfinite(self.lead_land_s) and self.lead_land_s >= 0):
+            raise OptionError("lead_land_s", self.lead_land_s, "a number of seconds >= 0")
         if self.balance == "wholebody" and self.support is None:
             raise OptionError("support", None, "a SupportConfig: the whole-body solve plans "
                               "footprints from the support phases")
@@ -421,7 +427,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         n_lead = int(round(config.lead_s * source.fps))
         q_init = smooth_initializer(robot, q_out, source.fps, config.wholebody.initial_lowpass_hz)
         ext = add_lead(q_init, fit_markers.positions_m, flat.support, n_lead, n_lead,
-                       step_frames=int(round(0.5 * source.fps)))
+                       step_frames=int(round(0.5 * source.fps)),
+                       land_frames=int(round(config.lead_land_s * source.fps)))
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")
         limits = joint_limits(robot, fit_config.limits)
