@@ -117,13 +117,13 @@ def test_pairs_file_equals_the_rule(name):
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_nominal_pose_has_no_collision(name):
-    from imesh.metrics.collision import check_capsule_collisions, check_mesh_collisions
+    from imesh.metrics.collision import check_capsule_collisions, check_self_collisions
 
     robot = load_test_robot(name)
     d = _distances(robot, robot.q_nominal)[0]
     assert d.min() >= NOMINAL_CLEARANCE_M  # every checked pair is clear
     assert check_capsule_collisions(robot, robot.q_nominal[None], 0.0).n_frames == 0
-    mesh = check_mesh_collisions(robot, robot.q_nominal[None], 0.0)
+    mesh = check_self_collisions(robot, robot.q_nominal[None], 0.0, broad_m=np.inf).mesh
     assert mesh.n_frames == 0
 
 
@@ -141,7 +141,7 @@ def test_hrp4c_is_scored_on_its_visual_meshes():
 def test_forearm_through_torso_has_the_right_depth():
     import coal
 
-    from imesh.metrics.collision import check_capsule_collisions, check_mesh_collisions
+    from imesh.metrics.collision import check_capsule_collisions, check_self_collisions
 
     robot = load_test_robot("g1")
     m = robot.capsule_model()
@@ -171,7 +171,7 @@ def test_forearm_through_torso_has_the_right_depth():
                  for _, g1, t1 in arm for _, g2, t2 in torso)
     assert coal_d == pytest.approx(-depth, abs=1e-6)
     # the URDF meshes inside the capsules collide too, less deeply
-    mesh = check_mesh_collisions(robot, q[None], 0.0)
+    mesh = check_self_collisions(robot, q[None], 0.0).mesh
     hit = {p.frames: p.max_depth_m for p in mesh.pairs}
     assert 0 < hit[("left_elbow_link", "torso_link")] <= depth + 1e-6
 
