@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..robot.capsules.mesh_check import MeshCollisionChecker
+from ..robot.capsules.pairs import capsule_source
 
 log = logging.getLogger(__name__)
 
@@ -205,11 +206,13 @@ def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
         SelfCollisions: the mesh and the capsule reports.
     """
     model = robot.capsule_model()
-    checker = MeshCollisionChecker(robot) if mesh else None
+    # built at the first pair whose capsules touch: a clean motion needs no URDF mesh (G1: 2 s
+    # to read them in a new process)
+    checker: MeshCollisionChecker | None = None
     q = np.asarray(q, dtype=float)
     T = len(q)
     cap_keys = list(dict.fromkeys(model.pair_bodies))
-    mesh_keys = list(checker.pairs) if checker is not None else []
+    mesh_keys = cap_keys  # the same body pairs (a body without geometry: never measured)
     cap_hits: list = [[], [], [], []]
     mesh_hits: list = [[], [], [], []]
     queries = 0
@@ -223,11 +226,17 @@ def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
         for acc, part in zip(cap_hits, _hits(_body_distances(model, cap, cap_keys), cap_keys,
                                              depth, a), strict=True):
             acc.append(part)
-        if checker is None:
+        if not mesh:
             continue
         d = np.full((len(qb), len(mesh_keys)), np.inf)
         near = _body_distances(model, cap, mesh_keys) < broad_m
+        if near.any() and checker is None:
+            checker = MeshCollisionChecker(robot)
+        if checker is not None:  # pairs of bodies with geometry
+            near &= np.array([a_ in checker.items and b_ in checker.items
+                              for a_, b_ in mesh_keys])
         for t in np.flatnonzero(near.any(axis=1)):
+            assert checker is not None
             placements_t = robot.frame_placements(qb[t], checker.frames)
             for k in np.flatnonzero(near[t]):
                 d[t, k] = checker.pair_distance(placements_t, mesh_keys[k])
@@ -243,7 +252,7 @@ def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
                        [k for keys in parts[1] for k in keys], np.concatenate(parts[2]),
                        np.concatenate(parts[3]))
 
-    out = SelfCollisions(mesh=merged(mesh_hits, checker.source if checker else "none"),
+    out = SelfCollisions(mesh=merged(mesh_hits, capsule_source(robot) if mesh else "none"),
                          capsules=merged(cap_hits, "capsules"), mesh_queries=queries)
     for r in (out.mesh, out.capsules):
         if r.pairs:
