@@ -9,7 +9,7 @@ For every clip x robot and mode (``off``:
 markers are written to ``--out``, read back and scored by ``imesh.evaluate.evaluate_motion``
 (``self_collision_frames`` on the capsules, ``marker_rms_mm``, ``close_pair_error`` of the
 robot's key points against the adapted markers) and by
-:func:`imesh.metrics.collision.check_mesh_collisions` (the URDF's own geometry with coal, same
+:func:`imesh.metrics.collision.check_self_collisions` (the URDF's own geometry with coal, same
 pairs: its collision elements; HRP-4C's visual meshes, docs/collision.md). Columns:
 ``cap``/``mesh`` frames with a penetration > 5 mm and the deepest [mm], marker RMS [mm],
 close-pair error, SQP iterations, whole-body solve time [s].
@@ -50,7 +50,7 @@ def main(argv=None) -> int:
     from imesh.evaluate.scoreboard import evaluate_motion, metric_values
     from imesh.io import load_motion
     from imesh.io.npz import load_marker_motion
-    from imesh.metrics.collision import check_mesh_collisions
+    from imesh.metrics.collision import check_self_collisions
     from imesh.pipeline.retarget import RetargetConfig, retarget
     from imesh.solve import CollisionOptions
 
@@ -82,7 +82,7 @@ def main(argv=None) -> int:
                 if args.no_mesh:
                     mesh_n, mesh_mm = "n/a", "n/a"
                 else:
-                    mesh = check_mesh_collisions(robot, written.q)
+                    mesh = check_self_collisions(robot, written.q).mesh
                     mesh_n = str(mesh.n_frames)
                     mesh_mm = f"{1e3 * float(mesh.max_depth_m.max(initial=0.0)):.1f}"
                 wb = res.wholebody.report() if res.wholebody is not None else {}

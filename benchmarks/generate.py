@@ -67,7 +67,7 @@ def main(argv=None) -> int:
     logging.basicConfig(level=logging.WARNING)
 
     from imesh.io import load_motion
-    from imesh.metrics.collision import check_mesh_collisions
+    from imesh.metrics.collision import check_self_collisions
     from imesh.pipeline.retarget import retarget
 
     out = Path(args.out)
@@ -97,7 +97,7 @@ def main(argv=None) -> int:
                 total = time.perf_counter() - t0
                 written, m = score_written(robot, res, motion, out, f"{key}_{name}_{kind}",
                                            args.physics)
-                mesh = check_mesh_collisions(robot, written.q).n_frames
+                mesh = check_self_collisions(robot, written.q).mesh.n_frames
                 rms = m["marker_rms_mm"]
                 if kind == "hand":
                     hand_rms = rms

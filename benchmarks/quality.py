@@ -14,6 +14,14 @@ balancing.
     python benchmarks/quality.py --robots jvrc1 --clips cmu_02_01_walk.bvh
     python benchmarks/quality.py --no-physics --json quality.json --plots plots/
     python benchmarks/quality.py --torque-limit-scale 10      # falls that are not about torque
+    python benchmarks/quality.py --motions /tmp/final40         # score written motions only
+
+With ``--motions DIR`` nothing is retargeted: every ``<clip stem>_<robot>.npz`` in DIR (as
+``imesh retarget`` writes it, adapted markers inside) is scored by ``evaluate_motion`` with its
+source clip from IMESH_DATA/mocap, and one line per motion gives self-collision on the URDF
+geometry against the capsules (frames deeper than 5 mm, deepest mm, worst pair),
+``marker_rms_mm`` and ``close_pair_error`` (on the clip's frames), and the evaluator's time.
+The key-point columns (worst body parts) are left for issue 33's second part.
 """
 
 from __future__ import annotations
@@ -234,6 +242,65 @@ def print_tables(rows: list[dict], standing: list[dict]) -> None:
               f"{r['report']['physics_fell'].get('fall_reason')}")
 
 
+def motion_rows(folder: Path, robots) -> list[dict]:
+    """Score every ``<clip>_<robot>.npz`` of ``folder`` (robots in ``robots``)."""
+    from imesh.evaluate.motion_files import read_markers
+    from imesh.evaluate.scoreboard import evaluate_motion
+    from imesh.io.robot_motion import load_robot_motion
+    from imesh.viz.scene import lead_frames
+
+    rows, loaded = [], {}
+    for path in sorted(folder.glob("*.npz")):
+        stem, _, name = path.stem.rpartition("_")
+        if name not in robots or stem.endswith("_markers"):
+            continue
+        robot = loaded.get(name) or loaded.setdefault(name, load(name))
+        robot.capsule_model()  # fitted or read once, not timed
+        motion = load_robot_motion(path, robot)
+        # the adapted markers: in the motion file, or beside it (imesh retarget --markers)
+        adapted = motion.adapted
+        for folder_ in (path.parent, path.resolve().parent):
+            beside = folder_ / f"{path.stem}_markers.npz"
+            if adapted is None and beside.is_file():
+                adapted = read_markers(str(beside))
+        t0 = time.perf_counter()
+        report = evaluate_motion(robot, motion, adapted=adapted)
+        seconds = time.perf_counter() - t0
+        if adapted is None:
+            report["marker_rms_mm"]["value"] = None  # not against the unaligned source
+        clip = data_root() / "mocap" / f"{stem}.bvh"
+        if clip.is_file():  # on the clip's frames (the adapted markers hold the lead-in/out)
+            a, b = lead_frames(adapted.positions_m) if adapted is not None else (0, 0)
+            report["close_pair_error"] = evaluate_motion(
+                robot, motion.frames(a, motion.n_frames - b), source=clip,
+                resample=True)["close_pair_error"]
+        rows.append({"robot": name, "clip": stem, "frames": motion.n_frames,
+                     "evaluate_s": seconds, "report": report})
+        print(f"{name} {stem}: done", file=sys.stderr)
+    return rows
+
+
+def print_motion_table(rows: list[dict]) -> None:
+    """One line per scored motion file (:func:`motion_rows`)."""
+    print("\nSelf-collision on the URDF geometry (mesh) and on the capsules: frames deeper than "
+          "5 mm / deepest mm; marker RMS [mm] against the adapted markers; close-pair error on "
+          "the clip's frames; kp: the worst key point (issue 33 part 2, not measured yet)")
+    print(f"{'robot':<6} {'clip':<30} {'frames':>6} {'mesh>5':>6} {'mesh mm':>7} "
+          f"{'cap>5':>5} {'cap mm':>6} {'mkRMS':>6} {'close':>7} {'kp':>4} {'eval s':>6}  "
+          "worst mesh pair")
+    for r in rows:
+        sc, rep = r["report"]["self_collision_frames"], r["report"]
+        worst = sc["worst_pairs"][0] if sc["worst_pairs"] else None
+        rms, close = rep["marker_rms_mm"]["value"], rep["close_pair_error"]["value"]
+        print(f"{r['robot']:<6} {r['clip'][:30]:<30} {r['frames']:>6} {sc['value']:>6} "
+              f"{sc['deepest_mm']:>7.1f} {sc['capsule_frames']:>5} "
+              f"{sc['capsule_deepest_mm']:>6.1f} "
+              f"{'-' if rms is None else f'{rms:.1f}':>6} "
+              f"{'-' if close is None else f'{close:.4f}':>7} {'-':>4} "
+              f"{r['evaluate_s']:>6.2f}  "
+              + (f"{'-'.join(worst['pair'])} {worst['max_depth_mm']} mm" if worst else "-"))
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", nargs="+", default=list(ROBOTS), choices=ROBOTS)
@@ -246,10 +313,22 @@ def main(argv=None) -> int:
                              "falls are not about torque)")
     parser.add_argument("--json", help="write every report here")
     parser.add_argument("--plots", help="folder for one DART figure per run")
+    parser.add_argument("--motions", help="score the written motions of this folder "
+                        "(<clip>_<robot>.npz) instead of retargeting")
     parser.add_argument("-v", "--verbose", action="store_true")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
+    if args.motions:
+        t0 = time.perf_counter()
+        rows = motion_rows(Path(args.motions), args.robots)
+        print_motion_table(rows)
+        print(f"\ntotal {time.perf_counter() - t0:.0f} s")
+        if args.json:
+            from imesh.io.atomic import write_json
+
+            write_json(args.json, {"rows": rows})
+        return 0
     from imesh.physics import ControlConfig, PhysicsConfig
 
     physics = not args.no_physics

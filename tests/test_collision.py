@@ -117,13 +117,13 @@ def test_pairs_file_equals_the_rule(name):
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_nominal_pose_has_no_collision(name):
-    from imesh.metrics.collision import check_capsule_collisions, check_mesh_collisions
+    from imesh.metrics.collision import check_capsule_collisions, check_self_collisions
 
     robot = load_test_robot(name)
     d = _distances(robot, robot.q_nominal)[0]
     assert d.min() >= NOMINAL_CLEARANCE_M  # every checked pair is clear
     assert check_capsule_collisions(robot, robot.q_nominal[None], 0.0).n_frames == 0
-    mesh = check_mesh_collisions(robot, robot.q_nominal[None], 0.0)
+    mesh = check_self_collisions(robot, robot.q_nominal[None], 0.0, broad_m=np.inf).mesh
     assert mesh.n_frames == 0
 
 
@@ -141,7 +141,7 @@ def test_hrp4c_is_scored_on_its_visual_meshes():
 def test_forearm_through_torso_has_the_right_depth():
     import coal
 
-    from imesh.metrics.collision import check_capsule_collisions, check_mesh_collisions
+    from imesh.metrics.collision import check_capsule_collisions, check_self_collisions
 
     robot = load_test_robot("g1")
     m = robot.capsule_model()
@@ -171,7 +171,7 @@ def test_forearm_through_torso_has_the_right_depth():
                  for _, g1, t1 in arm for _, g2, t2 in torso)
     assert coal_d == pytest.approx(-depth, abs=1e-6)
     # the URDF meshes inside the capsules collide too, less deeply
-    mesh = check_mesh_collisions(robot, q[None], 0.0)
+    mesh = check_self_collisions(robot, q[None], 0.0).mesh
     hit = {p.frames: p.max_depth_m for p in mesh.pairs}
     assert 0 < hit[("left_elbow_link", "torso_link")] <= depth + 1e-6
 
@@ -304,3 +304,87 @@ def test_proxy_fits_cached_bit_for_bit(tmp_path, monkeypatch):
             [(s.frame, s.kind, s.dims) for s in fresh]
         assert all(np.array_equal(a.placement, b.placement)
                    for a, b in zip(again, fresh, strict=True))
+
+
+# ------------------------------------------------------------------------------------------
+# one self-collision check: the evaluator's figure, the mesh check and the viewer (issue 33)
+
+
+@pytest.fixture(scope="module")
+def jvrc1_wave(mocap):
+    """A real motion: the first 2 s of the CMU wave retargeted to JVRC-1 (per-frame fit, two
+    morph steps, no lead-in: about 1 s), and the same motion with the left arm driven into the
+    torso over frames 20-39 (shoulder roll to -1 rad, pitch -0.6 rad at frame 30)."""
+    import dataclasses
+
+    from imesh.io import load_motion
+    from imesh.pipeline.retarget import RetargetConfig, retarget
+
+    robot = load_test_robot("jvrc1")
+    config = RetargetConfig()
+    config = dataclasses.replace(config, balance="none", lead_s=0.0,
+                                 morph=dataclasses.replace(config.morph, steps=2))
+    clip = load_motion(mocap("cmu_141_16_wave_hello.bvh"))
+    motion = retarget(clip.frames(0, 240), robot, config=config).motion
+    q = motion.q.copy()
+    s = np.zeros(len(q))
+    s[20:40] = np.sin(np.linspace(0, np.pi, 20)) ** 2
+    roll, pitch = (7 + robot.joint_index(j) for j in ("L_SHOULDER_R", "L_SHOULDER_P"))
+    q[:, roll] += (-1.0 - q[:, roll]) * s
+    q[:, pitch] += -0.6 * s
+    return robot, motion, dataclasses.replace(motion, q=q)
+
+
+def test_evaluator_counts_the_mesh_collisions(jvrc1_wave):
+    """``self_collision_frames`` is the URDF-geometry figure (coal), the capsules' beside it;
+    0 on the clean motion; the broad phase loses nothing against coal on every pair."""
+    from imesh.evaluate.scoreboard import evaluate_motion
+    from imesh.metrics.collision import check_self_collisions
+
+    robot, clean, hit = jvrc1_wave
+    assert clean.n_frames == 60
+    entry = evaluate_motion(robot, clean)["self_collision_frames"]
+    assert (entry["value"], entry["deepest_mm"], entry["capsule_frames"]) == (0, 0.0, 0)
+    assert check_self_collisions(robot, clean.q).mesh.n_frames == 0
+
+    check = check_self_collisions(robot, hit.q)
+    mesh = check.mesh
+    assert mesh.geometry == "collision" and check.capsules.geometry == "capsules"
+    assert mesh.n_frames == 13 and list(np.flatnonzero(mesh.colliding)) == list(range(24, 37))
+    assert mesh.pairs[0].frames == ("L_ELBOW_P_S", "WAIST_R_S")
+    assert mesh.deepest_mm == pytest.approx(1e3 * mesh.pairs[0].max_depth_m)
+    assert 95.0 < mesh.deepest_mm < 105.0  # 101.2 mm
+    assert mesh.pairs[0].n_frames == 10
+    assert check.capsules.n_frames >= mesh.n_frames  # the capsules enclose the geometry
+    assert check.capsules.deepest_mm >= mesh.deepest_mm
+    entry = evaluate_motion(robot, hit)["self_collision_frames"]
+    assert entry["value"] == mesh.n_frames
+    assert entry["deepest_mm"] == round(mesh.deepest_mm, 2)
+    assert entry["worst_pairs"][0]["pair"] == ["L_ELBOW_P_S", "WAIST_R_S"]
+    assert entry["capsule_frames"] == check.capsules.n_frames
+    # coal on every pair in every frame: the same frames, pairs and depths
+    full = check_self_collisions(robot, hit.q, broad_m=np.inf)
+    assert full.mesh_queries > 10 * check.mesh_queries
+    np.testing.assert_array_equal(full.mesh.colliding, mesh.colliding)
+    np.testing.assert_allclose(full.mesh.max_depth_m, mesh.max_depth_m, atol=1e-12)
+    assert full.mesh.frame_hits() == mesh.frame_hits()
+
+
+def test_viewer_marks_the_evaluators_frames(jvrc1_wave):
+    """The viewer's red bodies are the evaluator's check: the same frames and pairs."""
+    from imesh.metrics.collision import check_self_collisions
+    from imesh.viz.scene import build_scene
+
+    robot, _, hit = jvrc1_wave
+    scene = build_scene(robot, hit)
+    mesh = check_self_collisions(robot, hit.q).mesh
+    marked = [t for t, c in enumerate(scene["collisions"]) if c]
+    assert marked == list(np.flatnonzero(mesh.colliding))
+    bodies = [b["name"] for b in scene["collision_bodies"]]
+    for t, (hits, expected) in enumerate(zip(scene["collisions"], mesh.frame_hits(),
+                                             strict=True)):
+        assert [(bodies[a], bodies[b], d) for a, b, d in hits] == \
+            [(a, b, round(1e3 * d, 1)) for a, b, d in expected], t
+    # the painted links of the worst pair's bodies are the robot's links of those bodies
+    elbow = scene["collision_bodies"][bodies.index("L_ELBOW_P_S")]["links"]
+    assert [scene["links"][k] for k in elbow] == ["L_ELBOW_P_S"]

@@ -284,13 +284,15 @@ def test_evaluator_in_blocks_of_frames_gives_the_same_report(mocap, monkeypatch)
                    config=RetargetConfig(balance="none"))
     monkeypatch.setattr(ev, "EVAL_BLOCK_FRAMES", 10 ** 9)
     whole = ev.evaluate_motion(robot, res.motion, adapted=res.adapted)
-    calls = []  # frames per capsule check: one block of 50 at a time
-    check = ev.check_capsule_collisions
-    monkeypatch.setattr(ev, "check_capsule_collisions",
-                        lambda robot, q, depth: calls.append(len(q)) or check(robot, q, depth))
+    from imesh.metrics import collision
+
+    calls = []  # frames per block of capsule distances (capsule and mesh pairs): 50 at a time
+    body = collision._body_distances
+    monkeypatch.setattr(collision, "_body_distances",
+                        lambda model, cap, keys: calls.append(len(cap)) or body(model, cap, keys))
     monkeypatch.setattr(ev, "EVAL_BLOCK_FRAMES", 50)
     blocked = ev.evaluate_motion(robot, res.motion, adapted=res.adapted)
-    assert max(calls) == 50 and sum(calls) == res.motion.n_frames > 4 * 50
+    assert max(calls) == 50 and sum(calls) == 2 * res.motion.n_frames > 8 * 50
     assert whole["self_collision_frames"]["value"] > 0  # the wash: hands on the body
     for report in (whole, blocked):
         report.pop("seconds_per_frame")  # the evaluator's own timing

@@ -27,12 +27,7 @@ import numpy as np
 
 from ..core.robot_motion import RobotMotion
 from ..errors import ImeshError, _listing
-from ..metrics.collision import (
-    SELF_COLLISION_DEPTH_M,
-    PairHit,
-    check_capsule_collisions,
-    check_ground,
-)
+from ..metrics.collision import SELF_COLLISION_DEPTH_M, check_ground, check_self_collisions
 from ..metrics.derivatives import motion_derivatives
 from ..metrics.dynamics import MU, reference_dynamics
 from ..metrics.limits import limit_violations
@@ -105,32 +100,6 @@ def _missing(name: str, reason: str, **details) -> dict:
 #: Frames the evaluator's memory-hungry checks (capsule distances, inverse dynamics with the
 #: soles' Jacobians) take at a time; all frames at once took 9 GB on a 30-minute clip.
 EVAL_BLOCK_FRAMES = 2048
-
-
-def _self_collisions_blocked(robot, q: np.ndarray, depth: float):
-    """:func:`check_capsule_collisions` over blocks of :data:`EVAL_BLOCK_FRAMES` frames, merged
-    into one report (the same as one call: every figure is per frame or a max/sum/first)."""
-    B = EVAL_BLOCK_FRAMES
-    if len(q) <= B:
-        return check_capsule_collisions(robot, q, depth)
-    parts = [(a, check_capsule_collisions(robot, q[a:a + B], depth)) for a in range(0, len(q), B)]
-    stats: dict = {}
-    for a, r in parts:
-        for hit in r.pairs:
-            s = stats.get(hit.frames)
-            if s is None:
-                stats[hit.frames] = [hit.max_depth_m, hit.worst_frame + a, hit.n_frames,
-                                     hit.first_frame + a]
-                continue
-            if hit.max_depth_m > s[0]:
-                s[0], s[1] = hit.max_depth_m, hit.worst_frame + a
-            s[2] += hit.n_frames
-    pairs = sorted((PairHit(frames=k, max_depth_m=v[0], worst_frame=v[1], n_frames=v[2],
-                            first_frame=v[3]) for k, v in stats.items()),
-                   key=lambda p: -p.max_depth_m)
-    return dataclasses.replace(
-        parts[0][1], colliding=np.concatenate([r.colliding for _, r in parts]), pairs=pairs,
-        max_depth_m=np.concatenate([r.max_depth_m for _, r in parts]))
 
 
 def _reference_dynamics_blocked(robot, q, v, a, support):
@@ -274,15 +243,21 @@ def _marker_metrics(robot, motion: RobotMotion, source, adapted, resample: bool
 
 def _collision_metrics(robot, q: np.ndarray, soles: SoleTracks,
                        support_config: SupportDetection | None) -> dict[str, dict]:
-    """``self_collision_frames`` (capsule proxies) and ``ground_penetration_mm``."""
-    selfc = _self_collisions_blocked(robot, q, SELF_COLLISION_DEPTH_M)
+    """``self_collision_frames`` (the URDF's own geometry, with the capsules' figure beside it)
+    and ``ground_penetration_mm``."""
+    selfc = check_self_collisions(robot, q, SELF_COLLISION_DEPTH_M,
+                                  block_frames=EVAL_BLOCK_FRAMES)
+    mesh, caps = selfc.mesh, selfc.capsules
     ground = check_ground(robot, q, planted=planted_feet(soles, support_config))
     return {
         "self_collision_frames": _metric(
-            "self_collision_frames", selfc.n_frames, frames_total=len(q),
-            depth_threshold_mm=1e3 * selfc.depth_m, worst_pairs=selfc.summary()["worst_pairs"],
-            deepest_mm=round(1e3 * float(selfc.max_depth_m.max(initial=0.0)), 2),
-            proxies="capsules (Robot.capsule_model, robots/<name>/collision_pairs.toml)"),
+            "self_collision_frames", mesh.n_frames, frames_total=len(q),
+            depth_threshold_mm=1e3 * mesh.depth_m, worst_pairs=mesh.summary()["worst_pairs"],
+            deepest_mm=round(mesh.deepest_mm, 2),
+            geometry=f"URDF {mesh.geometry} geometry (coal), the capsules' body pairs and "
+                     "ignore list (robots/<name>/collision_pairs.toml)",
+            capsule_frames=caps.n_frames, capsule_deepest_mm=round(caps.deepest_mm, 2),
+            capsule_worst_pairs=caps.summary()["worst_pairs"]),
         "ground_penetration_mm": _metric("ground_penetration_mm", ground.penetration_mm,
                                          **{k: v for k, v in ground.summary().items()
                                             if k != "penetration_mm"}),

@@ -26,9 +26,15 @@ def _note(name: str, entry: dict) -> str:
     """The note column of a metric: why it is n/a, or its most telling detail."""
     if entry.get("value") is None:
         return entry.get("reason", "")
-    if name == "self_collision_frames" and entry.get("worst_pairs"):
-        p = entry["worst_pairs"][0]
-        return f"worst {p['pair'][0]}-{p['pair'][1]} {p['max_depth_mm']} mm"
+    if name == "self_collision_frames":
+        text = ""
+        if entry.get("worst_pairs"):
+            p = entry["worst_pairs"][0]
+            text = f"worst {p['pair'][0]}-{p['pair'][1]} {p['max_depth_mm']} mm; "
+        if entry.get("capsule_frames") is not None:
+            text += (f"capsules {entry['capsule_frames']} frames, deepest "
+                     f"{entry['capsule_deepest_mm']} mm")
+        return text.strip("; ")
     if name == "ground_penetration_mm":
         text = f"worst link {entry.get('worst_link')}" if entry.get("worst_link") else ""
         if entry.get("floating_frames"):

@@ -10,9 +10,9 @@
 - :mod:`imesh.metrics.zmp`: the multibody ZMP against the support polygon and the desired ZMP.
 - :mod:`imesh.metrics.skid`: foot skid and sole deviation of the support feet.
 - :mod:`imesh.metrics.limits`: joint position, velocity and acceleration limit violations.
-- :mod:`imesh.metrics.collision`: self-collision on the capsules the whole-body solve keeps
-  apart (``self_collision_frames``; docs/collision.md), on the URDF's own geometry (coal) and
-  on the primitive proxies (python-fcl), ground penetration / floating.
+- :mod:`imesh.metrics.collision`: self-collision on the URDF's own geometry (coal;
+  ``self_collision_frames``), with the capsules the whole-body solve keeps apart as its broad
+  phase and reported beside it (docs/collision.md); ground penetration / floating.
 
 :func:`imesh.evaluate.evaluate_motion` computes all of them for one robot motion.
 """
@@ -20,11 +20,10 @@
 from .collision import (
     SELF_COLLISION_DEPTH_M,
     GroundReport,
-    SelfCollisionChecker,
     SelfCollisionReport,
+    SelfCollisions,
     check_capsule_collisions,
     check_ground,
-    check_mesh_collisions,
     check_self_collisions,
 )
 from .derivatives import motion_derivatives
@@ -42,9 +41,9 @@ from .support import SupportDetection, detect_support
 from .zmp import desired_zmp, zmp_report, zmp_trajectory
 
 __all__ = [
-    "CLOSE_PAIR_FRACTION", "SELF_COLLISION_DEPTH_M", "GroundReport", "SelfCollisionChecker",
-    "SelfCollisionReport", "SupportDetection", "check_capsule_collisions", "check_ground",
-    "check_mesh_collisions", "check_self_collisions",
+    "CLOSE_PAIR_FRACTION", "SELF_COLLISION_DEPTH_M", "GroundReport", "SelfCollisionReport",
+    "SelfCollisions", "SupportDetection", "check_capsule_collisions", "check_ground",
+    "check_self_collisions",
     "close_pair_error", "desired_zmp", "detect_support", "foot_skid", "keypoint_motion",
     "limit_violations", "marker_rms_mm", "motion_derivatives", "non_adjacent_pairs",
     "sole_tracks", "zmp_report", "zmp_trajectory",

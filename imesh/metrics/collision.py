@@ -1,13 +1,13 @@
 """Collision and ground checks of a robot motion.
 
-- Self-collision on the capsules (:func:`check_capsule_collisions`, what the evaluator reports
-  as ``self_collision_frames``: the proxies and ignore list the whole-body solve keeps apart,
-  docs/collision.md) and on the URDF's own geometry with coal (:func:`check_mesh_collisions`,
-  to validate the capsules: its collision elements, or its visual meshes for HRP-4C).
-- Self-collision on the primitive proxies (python-fcl, :func:`check_self_collisions`; the
-  evaluator's metric before the capsules): every pair of proxies on different links not in
-  ``Robot.ignored_pairs``; a pair penetrating deeper than ``depth`` (5 mm) flags the frame;
-  a bounding sphere test skips far pairs; agrees with :meth:`imesh.robot.Robot.self_collisions`.
+- Self-collision (:func:`check_self_collisions`): scored on the URDF's own geometry (coal; the
+  geometry the capsules enclose: its collision elements, or its visual meshes for HRP-4C), for
+  the body pairs the whole-body solve keeps apart (its capsules' pairs and ignore list,
+  ``robots/<name>/collision_pairs.toml``); the capsules are the broad phase (they enclose the
+  geometry, so only pairs whose capsules touch reach coal) and their own figure is reported
+  beside the meshes' (docs/collision.md). A pair penetrating deeper than ``depth`` (5 mm) flags
+  the frame. The evaluator's ``self_collision_frames`` and the viewer's red links are this one
+  result.
 - Ground: the lowest point of all proxies per frame (penetration below z = 0), and floating:
   the lowest point more than ``float_m`` (2 cm) above the ground while a foot is planted.
 """
@@ -15,13 +15,13 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..robot.capsules.mesh_check import MeshCollisionChecker
-from ..robot.collision import _fcl as load
-from ..robot.collision import fcl_geometry, pair_key
+from ..robot.capsules.pairs import capsule_source
 
 log = logging.getLogger(__name__)
 
@@ -29,18 +29,21 @@ log = logging.getLogger(__name__)
 SELF_COLLISION_DEPTH_M = 0.005
 #: Lowest point above the ground that counts as floating while a foot is planted [m].
 FLOAT_M = 0.02
-
-
-def _fcl():
-    return load()
+#: Body pairs whose capsules are closer than this [m] in a frame are measured on the URDF
+#: geometry (coal); farther ones cannot touch: the capsules enclose the geometry, so its
+#: distance is at least theirs (measured: >= capsule distance + 0.27 mm over 20,000 samples
+#: within 2 cm on the 12 default outputs of docs/collision.md; tests/test_collision.py).
+MESH_BROAD_PHASE_M = 0.001
+#: Frames checked at a time (the capsule distances of all pairs: memory grows with it).
+BLOCK_FRAMES = 2048
 
 
 @dataclass(frozen=True)
 class PairHit:
-    """One colliding frame pair over a motion.
+    """One colliding body pair over a motion.
 
     Attributes:
-        frames: (frame_a, frame_b) link names, sorted.
+        frames: (body_a, body_b) body (link) names, sorted.
         max_depth_m: deepest penetration [m].
         worst_frame: the frame index of the deepest penetration.
         n_frames: frames where this pair penetrates deeper than the threshold.
@@ -56,211 +59,220 @@ class PairHit:
 
 @dataclass(frozen=True, eq=False)
 class SelfCollisionReport:
-    """Self-collisions of a motion.
+    """Self-collisions of a motion on one geometry.
 
     Attributes:
         colliding: (T,) bool frames with a pair penetrating deeper than ``depth_m``.
         depth_m: the threshold [m].
         pairs: colliding pairs, deepest first.
         max_depth_m: (T,) float deepest penetration per frame [m] (0 where none is found).
+        hit_frame: (H,) int frame of every (frame, pair) penetrating deeper than ``depth_m``.
+        hit_pair: the H body pairs (sorted names) of those hits.
+        hit_depth_m: (H,) float their penetration [m].
+        geometry: what was measured: ``capsules``, or ``collision``/``visual`` (the URDF's
+            collision elements or visual meshes).
     """
 
     colliding: np.ndarray
     depth_m: float
     pairs: list[PairHit] = field(default_factory=list)
     max_depth_m: np.ndarray | None = None
+    hit_frame: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    hit_pair: tuple[tuple[str, str], ...] = ()
+    hit_depth_m: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    geometry: str = "capsules"
 
     @property
     def n_frames(self) -> int:
         """Frames with a self-collision (DESIGN.md ``self_collision_frames``)."""
         return int(self.colliding.sum())
 
+    @property
+    def deepest_mm(self) -> float:
+        """[mm] the deepest penetration over the motion (0 if none)."""
+        return 1e3 * float(self.max_depth_m.max(initial=0.0)) if self.max_depth_m is not None \
+            else 0.0
+
+    def frame_hits(self) -> list[list[tuple[str, str, float]]]:
+        """Per frame the pairs deeper than ``depth_m``: (body_a, body_b, depth [m]), deepest
+        first (what the viewer paints red)."""
+        out: list[list[tuple[str, str, float]]] = [[] for _ in range(len(self.colliding))]
+        for t, key, d in zip(self.hit_frame, self.hit_pair, self.hit_depth_m, strict=True):
+            out[int(t)].append((key[0], key[1], float(d)))
+        for hits in out:
+            hits.sort(key=lambda h: -h[2])
+        return out
+
     def summary(self, top: int = 5) -> dict:
         return {
             "frames": self.n_frames,
             "depth_threshold_mm": 1e3 * self.depth_m,
+            "deepest_mm": round(self.deepest_mm, 2),
             "worst_pairs": [{"pair": list(p.frames), "max_depth_mm": round(1e3 * p.max_depth_m, 1),
                              "frames": p.n_frames, "first_frame": p.first_frame,
                              "worst_frame": p.worst_frame} for p in self.pairs[:top]],
         }
 
 
-class SelfCollisionChecker:
-    """Self-collision queries of one robot over many configurations.
+@dataclass(frozen=True, eq=False)
+class SelfCollisions:
+    """Self-collisions of a motion on the URDF's geometry and on the capsules, same body pairs.
 
-    Args:
-        robot: an :class:`imesh.robot.Robot`.
-        exclude: frame pairs not checked (default ``robot.ignored_pairs``).
+    Attributes:
+        mesh: on the URDF's own geometry (what ``self_collision_frames`` reports).
+        capsules: on the capsules the whole-body solve keeps apart.
+        mesh_queries: (frame, pair) samples measured with coal (capsules closer than the
+            broad phase).
     """
 
-    def __init__(self, robot, exclude: set[tuple[str, str]] | None = None):
-        fcl = _fcl()
-        self.robot = robot
-        shapes = robot.collision_shapes
-        exclude = robot.ignored_pairs if exclude is None else exclude
-        pairs = [(i, j) for i in range(len(shapes)) for j in range(i + 1, len(shapes))
-                 if shapes[i].frame != shapes[j].frame
-                 and pair_key(shapes[i].frame, shapes[j].frame) not in exclude]
-        self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
-        self.keys = [pair_key(shapes[i].frame, shapes[j].frame) for i, j in pairs]
-        # bounding sphere of every shape about its own centre (placement origin)
-        self.radius = np.array([np.linalg.norm(
-            s.support_points(32) - s.placement[:3, 3], axis=1).max() for s in shapes])
-        self._objects = [fcl.CollisionObject(fcl_geometry(s), fcl.Transform()) for s in shapes]
-        self._request = fcl.DistanceRequest(enable_signed_distance=True)
-
-    def penetrations(self, q: np.ndarray, margin: float = 0.0) -> dict[tuple[str, str], float]:
-        """Signed distances [m] of the frame pairs whose bounding spheres overlap at ``q``
-        (negative = penetration depth; minimum over the frames' shapes). Pairs farther apart
-        than their bounding spheres plus ``margin`` are left out."""
-        fcl = _fcl()
-        poses = self.robot.shape_poses(q)
-        centres = poses[:, :3, 3]
-        i, j = self.pairs[:, 0], self.pairs[:, 1]
-        gap = np.linalg.norm(centres[i] - centres[j], axis=1) - self.radius[i] - self.radius[j]
-        out: dict[tuple[str, str], float] = {}
-        placed: set[int] = set()
-        for k in np.flatnonzero(gap < margin):
-            a, b = int(i[k]), int(j[k])
-            for s in (a, b):
-                if s not in placed:
-                    T = poses[s]
-                    self._objects[s].setTransform(fcl.Transform(T[:3, :3], T[:3, 3]))
-                    placed.add(s)
-            d = fcl.distance(self._objects[a], self._objects[b], self._request,
-                             fcl.DistanceResult())
-            key = self.keys[k]
-            out[key] = min(out.get(key, np.inf), float(d))
-        return out
-
-    def collisions(self, q: np.ndarray, depth: float = SELF_COLLISION_DEPTH_M
-                   ) -> list[tuple[str, str, float]]:
-        """Frame pairs penetrating deeper than ``depth`` [m] at ``q``: (frame_a, frame_b,
-        depth [m]), deepest first (as :meth:`imesh.robot.Robot.self_collisions`)."""
-        hits = [(a, b, -d) for (a, b), d in self.penetrations(q).items() if -d > depth]
-        return sorted(hits, key=lambda h: -h[2])
+    mesh: SelfCollisionReport
+    capsules: SelfCollisionReport
+    mesh_queries: int = 0
 
 
-def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DEPTH_M,
-                          checker: SelfCollisionChecker | None = None) -> SelfCollisionReport:
-    """Self-collisions over a motion (DESIGN.md ``self_collision_frames``).
+def _report(n: int, depth: float, geometry: str, hit_frame: np.ndarray,
+            hit_pair: Sequence[tuple[str, str]], hit_depth: np.ndarray,
+            max_depth: np.ndarray) -> SelfCollisionReport:
+    """A report of ``n`` frames from its hits ((H,) frames, pairs, depths [m] deeper than
+    ``depth``) and the (n,) deepest penetration per frame."""
+    colliding = np.zeros(n, dtype=bool)
+    colliding[hit_frame] = True
+    stats: dict[tuple[str, str], list] = {}
+    for t, key, d in zip(hit_frame.tolist(), hit_pair, hit_depth.tolist(), strict=True):
+        s = stats.get(key)
+        if s is None:
+            stats[key] = [d, t, 1, t]
+            continue
+        if d > s[0]:
+            s[0], s[1] = d, t
+        s[2] += 1
+        s[3] = min(s[3], t)
+    pairs = sorted((PairHit(frames=k, max_depth_m=v[0], worst_frame=v[1], n_frames=v[2],
+                            first_frame=v[3]) for k, v in stats.items()),
+                   key=lambda p: -p.max_depth_m)
+    return SelfCollisionReport(colliding=colliding, depth_m=depth, pairs=pairs,
+                               max_depth_m=max_depth, hit_frame=hit_frame,
+                               hit_pair=tuple(hit_pair), hit_depth_m=hit_depth,
+                               geometry=geometry)
+
+
+def _hits(d: np.ndarray, keys: Sequence[tuple[str, str]], depth: float, offset: int
+          ) -> tuple[np.ndarray, list[tuple[str, str]], np.ndarray, np.ndarray]:
+    """(hit frames + ``offset``, hit pairs, hit depths [m], (T,) deepest penetration [m]) of
+    (T, K) signed distances [m] of the pairs ``keys``."""
+    pen = np.maximum(-d, 0.0)
+    tt, kk = np.nonzero(pen > depth)
+    deepest = pen.max(axis=1) if d.shape[1] else np.zeros(len(d))
+    return tt + offset, [keys[int(k)] for k in kk], pen[tt, kk], deepest
+
+
+def _body_distances(model, cap: np.ndarray, keys: Sequence[tuple[str, str]]) -> np.ndarray:
+    """(T, K) the least capsule distance [m] of each body pair ``keys`` from (T, P) distances
+    of the capsule pairs (``model.pair_bodies``); +inf for a body pair without capsules."""
+    col = {key: k for k, key in enumerate(keys)}
+    owner = np.array([col.get(key, -1) for key in model.pair_bodies], dtype=np.int64)
+    out = np.full((len(cap), len(keys)), np.inf)
+    keep = owner >= 0
+    if keep.any():
+        order = np.argsort(owner[keep], kind="stable")
+        cols = owner[keep][order]
+        starts = np.flatnonzero(np.r_[True, cols[1:] != cols[:-1]])
+        out[:, cols[starts]] = np.minimum.reduceat(cap[:, keep][:, order], starts, axis=1)
+    return out
+
+
+def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DEPTH_M, *,
+                          mesh: bool = True, broad_m: float = MESH_BROAD_PHASE_M,
+                          block_frames: int = BLOCK_FRAMES) -> SelfCollisions:
+    """Self-collisions over a motion, on the URDF's geometry and on the capsules
+    (DESIGN.md ``self_collision_frames``: the mesh figure).
+
+    The capsule distances of every checked pair are computed for all frames at once (numpy, in
+    blocks of ``block_frames``); the body pairs whose capsules are closer than ``broad_m`` in a
+    frame are then measured on the URDF's geometry with coal
+    (:class:`imesh.robot.capsules.mesh_check.MeshCollisionChecker`, same pairs and ignore list).
+    The rest cannot touch (the capsules enclose the geometry) and count as clear.
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
         q: (T, nq) float configurations (``RobotMotion.q``).
         depth: penetration threshold [m] (default 5 mm).
-        checker: a reusable :class:`SelfCollisionChecker` of this robot.
+        mesh: measure the URDF geometry (False: the capsules only; ``mesh`` is then an empty
+            report).
+        broad_m: the broad phase [m] (capsule distance below which coal is asked).
+        block_frames: frames per block.
 
     Returns:
-        SelfCollisionReport: colliding frames and the worst pairs.
+        SelfCollisions: the mesh and the capsule reports.
     """
-    checker = checker or SelfCollisionChecker(robot)
+    model = robot.capsule_model()
+    # built at the first pair whose capsules touch: a clean motion needs no URDF mesh (G1: 2 s
+    # to read them in a new process)
+    checker: MeshCollisionChecker | None = None
     q = np.asarray(q, dtype=float)
-    colliding = np.zeros(len(q), dtype=bool)
-    deepest = np.zeros(len(q))
-    stats: dict[tuple[str, str], list] = {}
-    for t, qt in enumerate(q):
-        for a, b, d in checker.collisions(qt, depth):
-            colliding[t] = True
-            deepest[t] = max(deepest[t], d)
-            s = stats.get((a, b))
-            if s is None:
-                stats[(a, b)] = [d, t, 1, t]
-            else:
-                if d > s[0]:
-                    s[0], s[1] = d, t
-                s[2] += 1
-    pairs = sorted((PairHit(frames=k, max_depth_m=v[0], worst_frame=v[1], n_frames=v[2],
-                            first_frame=v[3]) for k, v in stats.items()),
-                   key=lambda p: -p.max_depth_m)
-    if pairs:
-        log.info("self-collision in %d of %d frames; deepest %s-%s %.1f mm at frame %d",
-                 colliding.sum(), len(q), *pairs[0].frames, 1e3 * pairs[0].max_depth_m,
-                 pairs[0].worst_frame)
-    return SelfCollisionReport(colliding=colliding, depth_m=depth, pairs=pairs,
-                               max_depth_m=deepest)
+    T = len(q)
+    cap_keys = list(dict.fromkeys(model.pair_bodies))
+    mesh_keys = cap_keys  # the same body pairs (a body without geometry: never measured)
+    cap_hits: list = [[], [], [], []]
+    mesh_hits: list = [[], [], [], []]
+    queries = 0
+    for a in range(0, T, max(block_frames, 1)):
+        qb = q[a:a + block_frames]
+        if len(model.pairs):
+            placements = robot.trajectory_kinematics(qb, model.frames).placements
+            cap = model.distances(placements).distance  # (Tb, P)
+        else:
+            cap = np.zeros((len(qb), 0))
+        for acc, part in zip(cap_hits, _hits(_body_distances(model, cap, cap_keys), cap_keys,
+                                             depth, a), strict=True):
+            acc.append(part)
+        if not mesh:
+            continue
+        d = np.full((len(qb), len(mesh_keys)), np.inf)
+        near = _body_distances(model, cap, mesh_keys) < broad_m
+        if near.any() and checker is None:
+            checker = MeshCollisionChecker(robot)
+        if checker is not None:  # pairs of bodies with geometry
+            near &= np.array([a_ in checker.items and b_ in checker.items
+                              for a_, b_ in mesh_keys])
+        for t in np.flatnonzero(near.any(axis=1)):
+            assert checker is not None
+            placements_t = robot.frame_placements(qb[t], checker.frames)
+            for k in np.flatnonzero(near[t]):
+                d[t, k] = checker.pair_distance(placements_t, mesh_keys[k])
+        queries += int(near.sum())
+        for acc, part in zip(mesh_hits, _hits(d, mesh_keys, depth, a), strict=True):
+            acc.append(part)
+
+    def merged(parts: list, geometry: str) -> SelfCollisionReport:
+        if not parts[0]:
+            return _report(T, depth, geometry, np.zeros(0, dtype=np.int64), [], np.zeros(0),
+                           np.zeros(T))
+        return _report(T, depth, geometry, np.concatenate(parts[0]).astype(np.int64),
+                       [k for keys in parts[1] for k in keys], np.concatenate(parts[2]),
+                       np.concatenate(parts[3]))
+
+    out = SelfCollisions(mesh=merged(mesh_hits, capsule_source(robot) if mesh else "none"),
+                         capsules=merged(cap_hits, "capsules"), mesh_queries=queries)
+    for r in (out.mesh, out.capsules):
+        if r.pairs:
+            log.info("self-collision on %s in %d of %d frames; deepest %s-%s %.1f mm at frame "
+                     "%d", r.geometry, r.n_frames, T, *r.pairs[0].frames,
+                     1e3 * r.pairs[0].max_depth_m, r.pairs[0].worst_frame)
+    return out
 
 
 def check_capsule_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DEPTH_M
                              ) -> SelfCollisionReport:
-    """Self-collisions over a motion on the robot's capsules (``Robot.capsule_model``: the
-    proxies and ignore list the whole-body solve keeps apart; DESIGN.md
-    ``self_collision_frames``). Pairs are body pairs.
+    """Self-collisions over a motion on the capsules alone (``check_self_collisions(...,
+    mesh=False).capsules``: no coal).
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
         q: (T, nq) float configurations.
         depth: penetration threshold [m] (default 5 mm).
     """
-    model = robot.capsule_model()
-    q = np.asarray(q, dtype=float)
-    T = len(q)
-    if not len(model.pairs) or not T:
-        return SelfCollisionReport(colliding=np.zeros(T, bool), depth_m=depth,
-                                   max_depth_m=np.zeros(T))
-    placements = robot.trajectory_kinematics(q, model.frames).placements
-    d = model.distances(placements).distance  # (T, P)
-    return _report_from_distances(d, model.pair_bodies, depth)
-
-
-def _report_from_distances(d: np.ndarray, keys: list, depth: float) -> SelfCollisionReport:
-    """A SelfCollisionReport from (T, P) signed distances of pairs named ``keys``."""
-    T = len(d)
-    names = list(dict.fromkeys(keys))
-    col = {key: k for k, key in enumerate(names)}
-    per_key = np.full((T, len(names)), np.inf)
-    for k, key in enumerate(keys):  # a body pair: the minimum over its capsule pairs
-        per_key[:, col[key]] = np.minimum(per_key[:, col[key]], d[:, k])
-    d = per_key
-    pen = np.maximum(-d, 0.0)
-    hit = pen > depth
-    stats: dict[tuple[str, str], list] = {}
-    for k, key in enumerate(names):
-        frames = np.flatnonzero(hit[:, k])
-        if len(frames):
-            worst = int(np.argmax(pen[:, k]))
-            stats[key] = [float(pen[worst, k]), worst, len(frames), int(frames[0])]
-    pairs = sorted((PairHit(frames=k, max_depth_m=v[0], worst_frame=v[1], n_frames=v[2],
-                            first_frame=v[3]) for k, v in stats.items()),
-                   key=lambda p: -p.max_depth_m)
-    deepest = pen.max(axis=1) if d.shape[1] else np.zeros(T)
-    colliding = hit.any(axis=1) if d.shape[1] else np.zeros(T, bool)
-    if pairs:
-        log.info("self-collision in %d of %d frames; deepest %s-%s %.1f mm at frame %d",
-                 colliding.sum(), T, *pairs[0].frames, 1e3 * pairs[0].max_depth_m,
-                 pairs[0].worst_frame)
-    return SelfCollisionReport(colliding=colliding, depth_m=depth, pairs=pairs,
-                               max_depth_m=deepest)
-
-
-def check_mesh_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DEPTH_M,
-                          broad_m: float = 0.05) -> SelfCollisionReport:
-    """Self-collisions over a motion on the URDF's own geometry (coal; its collision elements,
-    or its visual meshes for a robot whose capsules are fitted to them (HRP-4C); intersecting
-    meshes as convex hulls, :class:`imesh.robot.capsules.mesh_check.MeshCollisionChecker`), for
-    the body pairs the capsules check. Only pairs whose capsules are closer than ``broad_m`` reach
-    coal (the capsules enclose the geometry, so farther pairs cannot touch).
-    """
-    checker = MeshCollisionChecker(robot)
-    model = robot.capsule_model()
-    q = np.asarray(q, dtype=float)
-    T = len(q)
-    keys = checker.pairs
-    d = np.full((T, len(keys)), np.inf)
-    if T and keys:
-        placements = robot.trajectory_kinematics(q, model.frames).placements
-        cap = model.distances(placements).distance
-        close: dict[tuple[str, str], np.ndarray] = {}
-        for k, key in enumerate(model.pair_bodies):
-            m = cap[:, k] < broad_m
-            close[key] = close[key] | m if key in close else m
-        index = {key: k for k, key in enumerate(keys)}
-        for t in range(T):
-            pairs = [key for key in keys if key in close and close[key][t]]
-            if pairs:
-                for key, dist in checker.distances(q[t], pairs).items():
-                    d[t, index[key]] = dist
-    return _report_from_distances(d, keys, depth)
+    return check_self_collisions(robot, q, depth, mesh=False).capsules
 
 
 # ----------------------------------------------------------------------------------------------

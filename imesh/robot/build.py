@@ -142,8 +142,8 @@ class BuiltModel:
     """Everything loading a robot computes once per (robot.toml, URDF) and shares between the
     Robots of the same files (:func:`imesh.robot.model.load_robot`).
 
-    :func:`build_model` fills all but ``q_nominal``, ``adjacent`` and ``ignored``, which need a
-    Robot (``load_robot`` completes them, or reads them with the soles and proxies from the
+    :func:`build_model` fills all but ``q_nominal``, which needs a
+    Robot (``load_robot`` completes it, or reads it with the soles and proxies from the
     robot cache, :mod:`imesh.robot.model_cache`); ``capsules`` is built on first use, and so is
     ``geometry`` when the soles and proxies came from the cache (:meth:`link_geometry`).
 
@@ -172,8 +172,6 @@ class BuiltModel:
     effort_max: np.ndarray
     soles: dict[str, SoleRectangle]
     shapes: list[CollisionShape]
-    ignored: set[tuple[str, str]]
-    adjacent: set[tuple[str, str]] = field(default_factory=set)
     geometry: dict | None = None
     capsules: CapsuleModel | None = None
     full: pinocchio.Model | None = None
@@ -334,7 +332,6 @@ def build_model(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
         refs += [(markers.path, k, f) for k, f in markers.frame_references()]
     refs += [(config.path, "collision.use_visual", f) for f in config.collision.use_visual]
     refs += [(config.path, "collision.skip", f) for f in config.collision.skip]
-    refs += [(config.path, "collision.ignore", f) for p in config.collision.ignore for f in p]
     for path, key, name in refs:
         if find_frame(model, name) < 0:
             raise RobotConfigError(f"unknown frame {name!r} (not a link or frame of "
@@ -377,7 +374,7 @@ def build_model(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
     built = BuiltModel(config=config, markers=markers, urdf=urdf, model=model,
                        q_nominal=np.zeros(model.nq), q_lower=q_lower, q_upper=q_upper,
                        v_max=v_max, a_max=a_max, effort_max=effort, soles={}, shapes=[],
-                       ignored=set(), geometry=by_link, full=full,
+                       geometry=by_link, full=full,
                        package_dirs=list(package_dirs))
     if by_link is None:
         return built

@@ -2,8 +2,8 @@
 
 The URDF's collision geometry (or the visual mesh where a link has none) is turned into simple
 primitives: URDF primitives are kept as they are, each link's meshes are replaced by the smallest
-of a bounding box, cylinder, sphere and capsule (fitted with trimesh). Queries (distance,
-penetration) use python-fcl, imported lazily.
+of a bounding box, cylinder, sphere and capsule (fitted with trimesh): the ground check and
+DART's bodies use them (self-collision: :mod:`imesh.robot.capsules` and the URDF geometry).
 
 Shape conventions (``CollisionShape.dims``, metres; the shape's own frame is ``placement``):
 
@@ -11,14 +11,14 @@ Shape conventions (``CollisionShape.dims``, metres; the shape's own frame is ``p
 - ``cylinder``: (radius, length), axis = local z, centred.
 - ``sphere``: (radius,).
 - ``capsule``: (radius, length), segment of ``length`` along local z between the two hemisphere
-  centres, centred (python-fcl's ``Capsule(radius, length)``).
+  centres, centred.
 """
 
 from __future__ import annotations
 
 import hashlib
 import logging
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -388,121 +388,6 @@ def derive_sole(items: Sequence[GeometryItem], frame: str, normal: np.ndarray | 
     return SoleRectangle(frame=frame, center=center, half_extents=half, normal=n)
 
 
-# ----------------------------------------------------------------------------------------------
-# fcl queries
-
-
-def _fcl():
-    return optional("fcl", "pip install python-fcl", "a collision query")
-
-
-def fcl_geometry(shape: CollisionShape):
-    """The python-fcl geometry of a shape (in its own frame)."""
-    fcl = _fcl()
-    d = shape.dims
-    if shape.kind == "box":
-        return fcl.Box(*d)
-    if shape.kind == "sphere":
-        return fcl.Sphere(d[0])
-    if shape.kind == "cylinder":
-        return fcl.Cylinder(d[0], d[1])
-    if shape.kind == "capsule":
-        return fcl.Capsule(d[0], d[1])
-    raise ValueError(f"unknown shape kind {shape.kind!r}; valid: {', '.join(KINDS)}")
-
-
-class CollisionWorld:
-    """python-fcl objects for a list of shapes, re-posed per configuration.
-
-    Args:
-        shapes: the proxies.
-        pairs: index pairs (i, j) of shapes to check.
-    """
-
-    def __init__(self, shapes: Sequence[CollisionShape], pairs: Sequence[tuple[int, int]]):
-        fcl = _fcl()
-        self.shapes = list(shapes)
-        self.pairs = list(pairs)
-        self._objects = [fcl.CollisionObject(fcl_geometry(s), fcl.Transform())
-                         for s in self.shapes]
-        self._req = fcl.DistanceRequest(enable_signed_distance=True)
-
-    def set_poses(self, world_from_shape: np.ndarray) -> None:
-        """Args: world_from_shape: (S, 4, 4) float world poses of the shapes."""
-        fcl = _fcl()
-        for obj, T in zip(self._objects, world_from_shape, strict=True):
-            obj.setTransform(fcl.Transform(T[:3, :3], T[:3, 3]))
-
-    def distances(self) -> np.ndarray:
-        """(P,) float [m] signed distances of ``pairs`` (negative = penetration depth)."""
-        fcl = _fcl()
-        out = np.empty(len(self.pairs))
-        for k, (i, j) in enumerate(self.pairs):
-            res = fcl.DistanceResult()
-            out[k] = fcl.distance(self._objects[i], self._objects[j], self._req, res)
-        return out
-
-
-class FramePairDistances:
-    """Signed distances between the proxies of frame pairs (the minimum over each pair's
-    shapes), on a :class:`CollisionWorld`.
-
-    The world of the last set of pairs asked for is kept: asked again with the same exclusions
-    (the usual case), its fcl objects are re-posed instead of built again.
-
-    Args:
-        shapes: the proxies.
-    """
-
-    def __init__(self, shapes: Sequence[CollisionShape]):
-        self.shapes = list(shapes)
-        self._world: CollisionWorld | None = None
-        self._pairs: tuple | None = None
-
-    def _checked_pairs(self, exclude: set[tuple[str, str]]) -> tuple:
-        """Index pairs (i, j) of shapes on different frames whose frame pair is not excluded."""
-        shapes = self.shapes
-        return tuple((i, j) for i in range(len(shapes)) for j in range(i + 1, len(shapes))
-                     if shapes[i].frame != shapes[j].frame
-                     and pair_key(shapes[i].frame, shapes[j].frame) not in exclude)
-
-    def _world_for(self, pairs: tuple) -> CollisionWorld:
-        if self._world is None or self._pairs != pairs:
-            self._world = CollisionWorld(self.shapes, list(pairs))
-            self._pairs = pairs
-        return self._world
-
-    def distances(self, poses: np.ndarray, exclude: set[tuple[str, str]]
-                  ) -> dict[tuple[str, str], float]:
-        """Signed distance [m] (negative = penetration depth) of every frame pair not in
-        ``exclude``, keyed by sorted frame-name pairs, with the shapes at ``poses`` (S, 4, 4)."""
-        world = self._world_for(self._checked_pairs(exclude))
-        world.set_poses(poses)
-        out: dict[tuple[str, str], float] = {}
-        for (i, j), d in zip(world.pairs, world.distances(), strict=True):
-            key = pair_key(self.shapes[i].frame, self.shapes[j].frame)
-            out[key] = min(out.get(key, np.inf), float(d))
-        return out
-
-
-def adjacent_frame_pairs(frame_joint: Mapping[str, int], joint_parent: Sequence[int]
-                         ) -> set[tuple[str, str]]:
-    """Frame pairs that are rigidly attached to the same joint or to a joint and its parent.
-
-    Args:
-        frame_joint: frame name -> index of the joint that moves it (in the reduced model).
-        joint_parent: parent joint index of every joint.
-    """
-    out = set()
-    names = sorted(frame_joint)
-    for a_i, a in enumerate(names):
-        for b in names[a_i + 1:]:
-            ja, jb = frame_joint[a], frame_joint[b]
-            if ja == jb or joint_parent[ja] == jb or joint_parent[jb] == ja:
-                out.add((a, b))
-    return out
-
-
 def pair_key(a: str, b: str) -> tuple[str, str]:
-    """The canonical (sorted) key of a frame pair as stored in ``Robot.ignored_pairs``."""
+    """The canonical (sorted) key of a link or body pair (the capsules' ignore list)."""
     return (a, b) if a <= b else (b, a)

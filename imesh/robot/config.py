@@ -118,8 +118,6 @@ class CollisionConfig:
         use_visual: links whose proxy is fitted to the visual mesh instead of the URDF collision
             geometry (e.g. feet whose collision geometry is only contact points).
         skip: links that get no proxy.
-        ignore: extra link pairs never checked against each other.
-        touch_margin: [m] pairs closer than this in the nominal pose are ignored.
         in_solve: the whole-body solve keeps the self-collision capsules apart
             (``WholeBodyConfig.collision.enabled``, docs/collision.md); false for a robot whose
             capsules are not yet validated against its geometry.
@@ -127,8 +125,6 @@ class CollisionConfig:
 
     use_visual: tuple[str, ...] = ()
     skip: tuple[str, ...] = ()
-    ignore: tuple[tuple[str, str], ...] = ()
-    touch_margin: float = 0.002
     in_solve: bool = True
 
 
@@ -192,7 +188,7 @@ _SOURCES = ("package", "user")
 _FRAME_KEYS = ("waist", "left_foot", "right_foot")
 _SOLE_KEYS = ("frame", "center", "half_extents", "normal")
 _LIMIT_KEYS = ("acceleration_default", "acceleration", "velocity", "effort", "position", "source")
-_COLLISION_KEYS = ("use_visual", "skip", "ignore", "touch_margin", "in_solve")
+_COLLISION_KEYS = ("use_visual", "skip", "in_solve")
 
 
 def load_robot_config(path: str | os.PathLike) -> RobotConfig:
@@ -292,8 +288,6 @@ def load_robot_config(path: str | os.PathLike) -> RobotConfig:
     collision = CollisionConfig(
         use_visual=toml.name_list(path, col.get("use_visual", []), "collision.use_visual"),
         skip=toml.name_list(path, col.get("skip", []), "collision.skip"),
-        ignore=toml.name_pairs(path, col.get("ignore", []), "collision.ignore"),
-        touch_margin=toml.number(path, col.get("touch_margin", 0.002), "collision.touch_margin"),
         in_solve=toml.flag(path, col.get("in_solve", True), "collision.in_solve"),
     )
 

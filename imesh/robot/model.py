@@ -37,7 +37,7 @@ from .build import (
     resolve_urdf,
 )
 from .capsules.model import CapsuleModel
-from .collision import CollisionShape, FramePairDistances, adjacent_frame_pairs, pair_key
+from .collision import CollisionShape
 from .config import RobotConfig, SoleRectangle, load_robot_config
 from .configuration import Configuration
 from .dynamics import Dynamics
@@ -66,32 +66,16 @@ def _mtime(path: Path | None) -> int:
 
 
 def _complete(built: BuiltModel) -> None:
-    """Complete a built model with the nominal pose, the adjacent frame pairs and the ignored
-    collision pairs (which need a Robot to compute)."""
-    config = built.config
-    robot = Robot(built)  # a provisional Robot to compute the nominal pose and ignored pairs
-    built.q_nominal = standing_pose(robot)
-    model = built.model
-    frame_joint = {s.frame: int(model.frames[robot.frame_id(s.frame)].parentJoint)
-                   for s in built.shapes}
-    built.adjacent = adjacent_frame_pairs(frame_joint, list(model.parents))
-    ignored = set(built.adjacent)
-    ignored |= {pair_key(a, b) for a, b in config.collision.ignore}
-    margin = config.collision.touch_margin
-    for (a, b), d in robot.shape_pair_distances(built.q_nominal, exclude=ignored).items():
-        if d < margin:
-            ignored.add((a, b))
-            log.debug("robot %s: ignoring %s-%s (distance %.4f m in the nominal pose)",
-                      config.name, a, b, d)
-    built.ignored = ignored
+    """Complete a built model with the nominal pose (which needs a Robot to compute)."""
+    built.q_nominal = standing_pose(Robot(built))
 
 
 def _build(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
            package_dirs: list[str]) -> BuiltModel:
-    """:func:`imesh.robot.build.build_model` completed with the nominal pose, the adjacent
-    frame pairs and the ignored collision pairs; what comes from the meshes is read from the
-    robot cache when it holds these files (:mod:`imesh.robot.model_cache`), else computed and
-    stored there. The pinocchio model itself is always built from the URDF (10 ms)."""
+    """:func:`imesh.robot.build.build_model` completed with the nominal pose; what comes from
+    the meshes is read from the robot cache when it holds these files
+    (:mod:`imesh.robot.model_cache`), else computed and stored there. The pinocchio model
+    itself is always built from the URDF (10 ms)."""
     built = build_model(config, markers, urdf, package_dirs, geometry=False)
     key = model_cache.robot_key(config, urdf, package_dirs) if cache_enabled() else ""
     built.cache_key = key
@@ -99,7 +83,6 @@ def _build(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
     if cached is not None:
         built.q_nominal = cached.q_nominal
         built.soles, built.shapes = cached.soles, cached.shapes
-        built.adjacent, built.ignored = cached.adjacent, cached.ignored
         log.debug("robot %s: soles, proxies and nominal pose read from the robot cache",
                   config.name)
         return built
@@ -190,9 +173,9 @@ class Robot:
         soles: ``"left"``/``"right"`` -> SoleRectangle.
         waist_frame: the waist (root link) frame name.
         foot_frames: ``"left"``/``"right"`` -> foot frame name.
-        collision_shapes: primitive proxies (frame, kind, dims, placement in frame).
-        ignored_pairs: sorted frame-name pairs never checked for self-collision (adjacent in
-            the tree, rigidly attached, listed in robot.toml, or touching in the nominal pose).
+        collision_shapes: primitive proxies (frame, kind, dims, placement in frame): the
+            ground check and DART (self-collision is scored on the URDF geometry with the
+            capsules, :meth:`capsule_model`).
     """
 
     def __init__(self, built: BuiltModel):
@@ -219,9 +202,7 @@ class Robot:
         self.waist_frame: str = built.config.waist_frame
         self.foot_frames: dict[str, str] = dict(built.config.foot_frames)
         self.collision_shapes: list[CollisionShape] = list(built.shapes)
-        self.ignored_pairs: set[tuple[str, str]] = set(built.ignored)
         self._frame_cache: dict[str, int] = {}
-        self._proxy_distances = FramePairDistances(self.collision_shapes)
 
     def __repr__(self) -> str:
         return (f"Robot({self.name!r}, dof={self.nv - 6}, mass={self.mass:.1f} kg, "
@@ -478,23 +459,6 @@ class Robot:
         oMf = self.configuration.data.oMf
         return np.array([oMf[self.frame_id(s.frame)].homogeneous @ s.placement
                          for s in self.collision_shapes])
-
-    def shape_pair_distances(self, q, exclude: set[tuple[str, str]] | None = None
-                             ) -> dict[tuple[str, str], float]:
-        """Signed distances [m] between the proxies of every frame pair not in ``exclude``
-        (default: ``ignored_pairs``); negative = penetration depth; minimum over the frames'
-        shapes; keys are sorted frame-name pairs."""
-        exclude = self.ignored_pairs if exclude is None else exclude
-        return self._proxy_distances.distances(self.shape_poses(q), exclude)
-
-    def self_collisions(self, q, depth: float = 0.005) -> list[tuple[str, str, float]]:
-        """Non-ignored frame pairs penetrating deeper than ``depth`` [m] at ``q``.
-
-        Returns:
-            (frame_a, frame_b, penetration [m] > 0), deepest first.
-        """
-        hits = [(a, b, -d) for (a, b), d in self.shape_pair_distances(q).items() if -d > depth]
-        return sorted(hits, key=lambda h: -h[2])
 
     def capsule_model(self) -> CapsuleModel:
         """The self-collision capsules and the pairs checked

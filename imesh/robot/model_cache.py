@@ -45,7 +45,7 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
 log = logging.getLogger(__name__)
 
 #: Bump when what the robot cache stores, or how it is computed, changes.
-ROBOT_CACHE_VERSION = 1
+ROBOT_CACHE_VERSION = 2
 
 #: Cache folder kinds (``<cache>/<kind>/<key>.npz``).
 MODELS_KIND = "models"
@@ -145,15 +145,11 @@ class CachedRobot:
         q_nominal: (nq,) float nominal standing pose.
         soles: ``"left"``/``"right"`` -> SoleRectangle.
         shapes: the primitive collision proxies.
-        adjacent: frame pairs adjacent in the tree.
-        ignored: frame pairs never checked for self-collision.
     """
 
     q_nominal: np.ndarray
     soles: dict[str, SoleRectangle]
     shapes: list[CollisionShape]
-    adjacent: set[tuple[str, str]]
-    ignored: set[tuple[str, str]]
 
 
 def write_robot(key: str, built: BuiltModel) -> None:
@@ -182,7 +178,6 @@ def write_robot(key: str, built: BuiltModel) -> None:
         shape_kinds=np.array([s.kind for s in shapes], dtype=str),
         shape_dims=dims, shape_ndims=np.array([len(s.dims) for s in shapes], dtype=np.int64),
         shape_poses=np.array([s.placement for s in shapes], dtype=float).reshape(-1, 4, 4),
-        adjacent=_pairs(built.adjacent), ignored=_pairs(built.ignored),
         mesh_paths=np.array(meshes, dtype=str), mesh_sizes=sizes, mesh_mtimes=mtimes)
 
 
@@ -217,8 +212,7 @@ def read_robot(key: str, built: BuiltModel) -> CachedRobot | None:
                                            data["shape_dims"], data["shape_ndims"],
                                            data["shape_poses"], strict=True)]
         return CachedRobot(q_nominal=data["q_nominal"].astype(float), soles=soles,
-                           shapes=shapes, adjacent=_pair_set(data["adjacent"]),
-                           ignored=_pair_set(data["ignored"]))
+                           shapes=shapes)
     except READ_ERRORS as exc:
         log.warning("robot cache %s unreadable (%s): building again", path, exc)
         return None

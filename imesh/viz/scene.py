@@ -27,12 +27,13 @@ from ..evaluate.motion_files import arranged_source
 from ..evaluate.scoreboard import metric_values
 from ..human.markerset import STANDARD_BONE_NAMES
 from ..mesh.interaction import tetrahedralize
-from ..metrics.collision import SELF_COLLISION_DEPTH_M, SelfCollisionChecker
+from ..metrics.collision import SelfCollisions, check_self_collisions
 from ..metrics.derivatives import motion_derivatives
 from ..metrics.polygon import support_polygons
 from ..metrics.soles import sole_tracks
 from ..metrics.support import detect_support
 from ..metrics.zmp import zmp_report, zmp_trajectory
+from ..robot.capsules.bodies import robot_bodies
 from ..robot.visuals import visual_elements
 
 log = logging.getLogger(__name__)
@@ -198,7 +199,8 @@ def _mesh_edges(positions: np.ndarray) -> dict:
 
 
 def build_scene(robot, motion, *, markers=None, source=None, title: str | None = None,
-                metrics: Mapping | None = None) -> dict:
+                metrics: Mapping | None = None, collisions: SelfCollisions | None = None
+                ) -> dict:
     """Everything the viewer draws for a robot motion, JSON-ready.
 
     Args:
@@ -210,13 +212,19 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
             the robot's size, resampled to the motion's fps and shifted by the lead-in.
         title: page title.
         metrics: an :func:`imesh.evaluate.evaluate_motion` report, shown in the page.
+        collisions: the motion's :func:`imesh.metrics.collision.check_self_collisions` result
+            if already computed; None: computed here (the evaluator's check: same geometry,
+            pairs and threshold, so the page marks the frames ``self_collision_frames``
+            counts).
 
     Returns:
         dict (see the module docstring): ``fps``, ``frames``, ``links``, ``link_poses`` (T, L, 7:
         position [m], quaternion x y z w), ``meshes``, ``markers``, ``source``, ``mesh_edges``,
         ``soles`` (T, 2, 4, 3), ``support`` (T, 2), ``polygons`` (T, 8, 2) with ``polygon_sizes``
-        (T,), ``zmp`` and ``zmp_desired`` (T, 2), ``collisions`` (per frame a list of link index
-        pairs), ``limits`` (per frame the joints outside a limit), ``ground``.
+        (T,), ``zmp`` and ``zmp_desired`` (T, 2), ``collision_bodies`` (the bodies of the
+        self-collision check: name and link indices), ``collisions`` (per frame the body pairs
+        penetrating deeper than 5 mm on the URDF geometry: [body a, body b, depth mm]),
+        ``limits`` (per frame the joints outside a limit), ``ground``.
     """
     q = np.asarray(motion.q, dtype=float)
     T, fps = len(q), float(motion.fps)
@@ -276,15 +284,16 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
     scene["zmp_desired"] = encode(np.nan_to_num(zmp.desired_m))
     scene["zmp_inside"] = encode(zmp.inside.astype(np.uint8), "uint8")
 
-    # collisions and limits per frame
-    checker = SelfCollisionChecker(robot)
-    index = {n: i for i, n in enumerate(links)}
-    collisions = []
-    for t in range(T):
-        hits = checker.collisions(q[t], SELF_COLLISION_DEPTH_M)
-        collisions.append([[index.get(a_, -1), index.get(b_, -1), round(1e3 * d, 1)]
-                           for a_, b_, d in hits])
-    scene["collisions"] = collisions
+    # self-collisions (the evaluator's check) and limits per frame
+    if collisions is None:
+        collisions = check_self_collisions(robot, q)
+    members, _ = robot_bodies(robot)
+    bodies = sorted(members)
+    body_index = {b: i for i, b in enumerate(bodies)}
+    scene["collision_bodies"] = [{"name": b, "links": [links.index(m) for m in members[b]
+                                                       if m in links]} for b in bodies]
+    scene["collisions"] = [[[body_index[a_], body_index[b_], round(1e3 * d, 1)]
+                            for a_, b_, d in hits] for hits in collisions.mesh.frame_hits()]
     scene["limits"] = _limit_frames(robot, q, fps)
     if metrics is not None:
         scene["metrics"] = {k: v for k, v in metric_values(metrics).items()}

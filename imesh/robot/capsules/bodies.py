@@ -44,21 +44,26 @@ def _triangles(geo) -> np.ndarray | None:
     return np.array([[geo.tri_indices(i)[k] for k in range(3)] for i in range(n)], dtype=int)
 
 
+def link_items(robot: Robot, link: str) -> list:
+    """The URDF geometry of ``link`` the capsules enclose and the mesh check scores
+    (:class:`imesh.robot.collision.GeometryItem` list): its visual elements when the robot's
+    capsules are fitted to them (``source = "visual"``) or the link is in
+    ``collision.use_visual``, else its collision elements, else (a link without any, e.g. G1's
+    waist) its visual ones."""
+    d = robot.link_geometry()[link]
+    visual = (link in robot.config.collision.use_visual or capsule_source(robot) == "visual")
+    return list(d["visual"] if visual and d["visual"] else d["collision"] or d["visual"])
+
+
 def body_points(robot: Robot, body: str, links: list[str]) -> tuple[np.ndarray, np.ndarray | None]:
     """The body's geometry points in its frame, and its surface triangles (F, 3, 3) when it is
     all meshes (None when it has URDF primitives: such a body gets one capsule)."""
-    geometry = robot.link_geometry()
-    use_visual = set(robot.config.collision.use_visual)
-    if capsule_source(robot) == "visual":
-        use_visual |= set(links)
     placements = robot.frame_placements(robot.q_nominal, [body, *links])
     inv = np.linalg.inv(placements[0])
     pts: list[np.ndarray] = []
     tris: list[np.ndarray] | None = []
     for link, M in zip(links, placements[1:], strict=True):
-        d = geometry[link]
-        items = (d["visual"] if link in use_visual and d["visual"] else
-                 d["collision"] or d["visual"])
+        items = link_items(robot, link)
         T = inv @ M
         for it in items:
             p = it.points_in_frame() @ T[:3, :3].T + T[:3, 3]

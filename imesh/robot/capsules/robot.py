@@ -90,7 +90,7 @@ def capsule_ignore_rule(robot: Robot, capsules: Sequence[Capsule] | None = None
         feet += [b for b, members in bodies.items() if foot in members]
     nominal = robot.frame_placements(robot.q_nominal, model.frames)[None]
     rule = ignore_rule(model, parent, feet, nominal)
-    # the URDF's own geometry (as check_mesh_collisions scores it) touching in the nominal
+    # the URDF's own geometry (as check_self_collisions scores it) touching in the nominal
     # pose: never checked either, on either geometry
     mesh = MeshCollisionChecker(robot, ignored=set(rule))
     for key, d in sorted(mesh.distances(robot.q_nominal).items()):

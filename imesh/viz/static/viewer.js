@@ -228,8 +228,12 @@
       t = Math.max(0, Math.min(T - 1, Math.round(t)));
       current = t;
       slider.value = t;
-      var hits = {}, coll = S.collisions[t] || [];
-      coll.forEach(function (c) { hits[c[0]] = 1; hits[c[1]] = 1; });
+      var hits = {}, coll = S.collisions[t] || [], bodies = S.collision_bodies || [];
+      coll.forEach(function (c) {  // [body a, body b, depth mm]: paint both bodies' links
+        [c[0], c[1]].forEach(function (b) {
+          ((bodies[b] || {}).links || []).forEach(function (l) { hits[l] = 1; });
+        });
+      });
       for (var l = 0; l < L; l++) {
         var b = (t * L + l) * 7, g = linkGroups[l];
         g.position.set(poses[b], poses[b + 1], poses[b + 2]);
@@ -303,7 +307,7 @@
       lines.push(ns ? "support: " + ["left", "right"].filter(function (_, q) {
         return support[2 * t + q]; }).join(" + ") + (zin[t] ? "" : "  ZMP OUTSIDE") : "flight");
       if (coll.length) lines.push("self-collision: " + coll.map(function (c) {
-        return S.links[c[0]] + "-" + S.links[c[1]] + " " + c[2] + " mm"; }).join(", "));
+        return bodies[c[0]].name + "-" + bodies[c[1]].name + " " + c[2] + " mm"; }).join(", "));
       if (lim.length) lines.push("limits exceeded: " + lim.join(", "));
       info.textContent = lines.join("\n");
       info.className = coll.length || lim.length ? "warn" : "";
