@@ -11,8 +11,8 @@ degenerate (a point mass: iCub's head and neck) gets a solid sphere's, so no joi
 effective inertia. Collision: the robot's
 primitive proxies (``Robot.collision_shapes``), except on the feet, which get one box per sole
 (``GroundConfig.sole_thickness_m`` thick, its bottom face on the sole rectangle).
-Self-collision is off in DART (checked separately on the URDF geometry with coal, imesh.metrics.collision). The ground
-is a large box whose top face is z = 0, with Coulomb friction.
+Self-collision is off in DART (checked separately on the URDF geometry with coal,
+:mod:`imesh.metrics.collision`). The ground is a large box whose top face is z = 0, with Coulomb friction.
 
 State conventions: DART (6.20) orders a floating base's positions as (rotation vector,
 translation) and its velocities as (angular, linear) velocity in the *world* frame; pinocchio
