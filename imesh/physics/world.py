@@ -12,7 +12,8 @@ effective inertia. Collision: the robot's
 primitive proxies (``Robot.collision_shapes``), except on the feet, which get one box per sole
 (``GroundConfig.sole_thickness_m`` thick, its bottom face on the sole rectangle).
 Self-collision is off in DART (checked separately on the URDF geometry with coal,
-:mod:`imesh.metrics.collision`). The ground is a large box whose top face is z = 0, with Coulomb friction.
+:mod:`imesh.metrics.collision`). The ground is a large box whose top face is z = 0, with
+Coulomb friction.
 
 State conventions: DART (6.20) orders a floating base's positions as (rotation vector,
 translation) and its velocities as (angular, linear) velocity in the *world* frame; pinocchio
