@@ -185,3 +185,34 @@ def test_ray_error_messages_are_plain_text(tmp_path):
     raw = {**record, "error": str(error)}  # a log line of an older version
     assert "\x1b" not in BatchReport((raw,), 1.0).table()
 
+
+
+def test_a_sigterm_during_ray_init_is_held_until_it_returns():
+    """ray.init installs a handler that raises SystemExit(15) wherever the start-up is: in a
+    fork callback it was swallowed and the batch ran on to exit 0. Inside _sigterm_held Ray
+    cannot install it, a SIGTERM is only recorded, and the handler set before (here one like
+    the CLI's) runs once the block is left; the handlers are as before afterwards."""
+    ray = pytest.importorskip("ray")
+    from imesh.pipeline.batch import _sigterm_held
+
+    install = ray._private.utils.set_sigterm_handler
+    calls = []
+
+    def cli_like(signum, frame):
+        calls.append(signum)
+        raise KeyboardInterrupt
+
+    before = signal.signal(signal.SIGTERM, cli_like)
+    try:
+        reached = False
+        with pytest.raises(KeyboardInterrupt):
+            with _sigterm_held(ray, main_thread=True):
+                ray._private.utils.set_sigterm_handler(lambda s, f: sys.exit(s))  # as ray.init
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.05)  # the Python handler runs at the next bytecode
+                reached = True
+        assert reached and calls == [signal.SIGTERM]
+        assert signal.getsignal(signal.SIGTERM) is cli_like
+        assert ray._private.utils.set_sigterm_handler is install
+    finally:
+        signal.signal(signal.SIGTERM, before)

@@ -24,6 +24,7 @@ the table are plain text: the colour codes of Ray's errors are removed (:func:`p
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import glob
 import hashlib
@@ -41,6 +42,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from threadpoolctl import threadpool_limits
 from tqdm import tqdm
@@ -255,8 +257,8 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
     """Run the jobs as Ray tasks, at most ``workers`` at a time; yield records as they end.
 
     ``quiet``: Ray logs errors only (not its start-up and token-authentication warnings). A
-    SIGTERM while ``ray.init`` has its own handler installed (``sys.exit(15)``) is a
-    KeyboardInterrupt as at any other moment; Ray is shut down in every case."""
+    SIGTERM during ``ray.init`` is held until it returns (:func:`_sigterm_held`), then ends
+    the batch as at any other moment; Ray is shut down in every case."""
     # Ray's driver installs abseil's failure-signal handler for SIGTERM too: a SIGTERM that
     # meets it prints a C++ stack and, after our "interrupted", aborts the process (exit -6
     # or -11 in 6 of 8 tries on a loaded machine). Read when Ray is imported: set it first.
@@ -268,22 +270,14 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
         if p)}}
     level = logging.ERROR if quiet else logging.WARNING
     main_thread = threading.current_thread() is threading.main_thread()
-    ours = signal.getsignal(signal.SIGTERM) if main_thread else None
     try:
-        try:
+        with _sigterm_held(ray, main_thread):
             if address:
                 ray.init(address=address, runtime_env=env, log_to_driver=False,
                          logging_level=level)
             else:
                 ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
                          logging_level=level, runtime_env=env)
-        except SystemExit as exc:  # Ray's SIGTERM handler during ray.init
-            if exc.code == signal.SIGTERM:
-                raise KeyboardInterrupt from None
-            raise
-        finally:
-            if main_thread and callable(ours):
-                signal.signal(signal.SIGTERM, ours)  # ray.init installs its own
         task = ray.remote(num_cpus=1, max_retries=0)(run_clip)
         pending: dict = {}
         queue = list(jobs)
@@ -300,6 +294,44 @@ def _ray_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, worke
                     yield error_record(clip, out, exc)
     finally:
         ray.shutdown()
+
+
+@contextlib.contextmanager
+def _sigterm_held(ray, main_thread: bool) -> Iterator[None]:
+    """``ray.init`` with SIGTERM held: a SIGTERM that arrives during it is recorded and acted
+    on once it returned, as the handler installed before would have (the CLI's raises
+    KeyboardInterrupt; the default terminates).
+
+    ``ray.init`` installs its own SIGTERM handler (``sys.exit(15)``) for its duration. Raised
+    at an arbitrary point of the start-up, that exit was swallowed when it landed in a fork
+    callback ("Exception ignored in: _pin_fork_objects"): the batch then ran to its end and
+    exited 0 (2 s into a batch on a loaded machine); or it left Ray half started for
+    ``ray.shutdown``. So Ray's handler is not installed (``ray._private.utils
+    .set_sigterm_handler``, when this Ray has it) and ours only records the signal."""
+    if not main_thread:  # signals are delivered to the main thread only
+        yield
+        return
+    received: list[int] = []
+    before = signal.signal(signal.SIGTERM, lambda signum, frame: received.append(signum))
+    utils: Any = getattr(getattr(ray, "_private", None), "utils", None)
+    install = getattr(utils, "set_sigterm_handler", None)
+    if install is not None:
+        utils.set_sigterm_handler = lambda handler: None
+    try:
+        yield
+    except SystemExit as exc:  # a Ray without that hook: its handler ran
+        if exc.code != signal.SIGTERM:
+            raise
+        received.append(signal.SIGTERM)
+    finally:
+        if install is not None:
+            utils.set_sigterm_handler = install
+        signal.signal(signal.SIGTERM, before if before is not None else signal.SIG_DFL)
+    if received:  # what the SIGTERM would have done without Ray
+        if callable(before):
+            before(signal.SIGTERM, None)  # the CLI's raises KeyboardInterrupt
+        elif before != signal.SIG_IGN:
+            signal.raise_signal(signal.SIGTERM)  # the default action: terminate
 
 
 def _process_results(jobs: Sequence[tuple[str, str]], settings: BatchSettings, workers: int
