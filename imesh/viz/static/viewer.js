@@ -148,9 +148,8 @@
         // the info line of frame t
         var E2 = this.entry, name = "DART simulation (" + E2.controller + ")";
         if (!this.simulated[t]) {
-          return name + (E2.fell ? ": FELL at " + E2.survived_s.toFixed(2) + " s (" +
-                         E2.fall_reason + "); showing where it lay"
-                                 : ": ended, last pose held");
+          return name + (E2.fell ? ": FELL at " + E2.survived_s.toFixed(2) +
+                                   " s; showing where it lay" : ": ended, last pose held");
         }
         var e = this.kpErr ? this.kpErr[t] : NaN;
         return name + (isFinite(e) ? ": key points " + e.toFixed(0) + " mm from the reference"
