@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..api import demo_clip
 from ..core.progress import retarget_bar
-from ..errors import VerificationError
+from ..errors import ImeshError, VerificationError
 from ..evaluate.motion_files import load_motion_file
 from ..evaluate.scoreboard import evaluate_motion, physics_entries
 from ..evaluate.table import format_table, physics_line
@@ -46,7 +46,7 @@ def run(args) -> int:
     check = not args.no_physics
     bar = retarget_bar(args.quiet, "demo", motion, config,
                        extra=(("physics",) if check else ()) + ("viewer", "report"))
-    physics, physics_s = None, 0.0
+    physics, physics_s, not_run = None, 0.0, ""
     try:
         bar.stage("load", detail=f"robot {args.robot}")
         robot = load_robot(args.robot, urdf=args.urdf)
@@ -65,17 +65,22 @@ def run(args) -> int:
         if check:  # the figures `imesh evaluate motion.npz --physics` prints
             bar.stage("physics", result.motion.n_frames)
             t0 = time.perf_counter()
-            physics = simulate_motion(robot, written, config=PhysicsConfig())
+            try:
+                physics = simulate_motion(robot, written, config=PhysicsConfig())
+            except ImeshError as exc:  # e.g. dartpy missing: the retarget is still the demo's
+                not_run = f"physics check: not run ({exc})"
+            else:
+                run_metrics.update(physics_entries(physics))
             physics_s = time.perf_counter() - t0
-            run_metrics.update(physics_entries(physics))
         report = result.report()
         report["metrics"] = run_metrics
         report["verification"] = {"passed": not failed,
                                   "failed": {k: {"value": v[0], "gate": v[1]}
                                              for k, v in failed.items()}}
         report["physics_check"] = {  # its figures are the physics_* metrics
-            "ran": check, "verdict": physics_line(run_metrics) if check else None,
-            "seconds": round(physics_s, 2) if check else None,
+            "ran": physics is not None,
+            "verdict": physics_line(run_metrics) if physics is not None else not_run or None,
+            "seconds": round(physics_s, 2) if physics is not None else None,
             "gated": False, "note": "a fall is reported, not a failed gate, in the demo "
                                     "(imesh retarget --physics gates on it)"}
         write_json(json_path, report)
@@ -92,7 +97,7 @@ def run(args) -> int:
                      f"{k} {v:.1f} s" for k, v in seconds.items() if k != "total") + ")",
                  "data": "CMU Graphics Lab Motion Capture Database (mocap.cs.cmu.edu), "
                          "funded by NSF EIA-0196217" if not args.clip else str(clip)}
-        if check:
+        if physics is not None:
             facts["physics check time"] = f"{physics_s:.1f} s"
         report_path = write_report(out / "report.html", robot, motion_path, source=clip,
                                    facts=facts, scene=scene, physics=physics)
@@ -103,17 +108,17 @@ def run(args) -> int:
     print(f"demo: retargeted {clip.name} ({motion.n_frames / motion.fps:.1f} s) to "
           f"{robot.name}: {result.motion.n_frames} frames in {seconds['total']:.1f} s "
           f"(demo {elapsed:.1f} s" + (f", of which the physics check {physics_s:.1f} s)"
-                                       if check else ")"))
+                                       if physics is not None else ")"))
     print(format_table(run_metrics))
     print(f"verification: {'passed every gate' if not failed else 'FAILED ' + ', '.join(failed)}")
-    print(physics_line(run_metrics) if check else
+    print(physics_line(run_metrics) if physics is not None else not_run or
           "physics check: skipped (--no-physics); imesh evaluate --physics runs it")
     print(f"  robot motion  {motion_path}")
     print(f"  report        {report_path}   (open in a browser)")
     print(f"  viewer page   {viewer_path}   (open in a browser; no server needed)")
     print(f"  metrics JSON  {json_path}")
     print(f"live viewer:    imesh view {motion_path} --robot {robot.name} --source {clip}"
-          + (" --physics" if check else ""))
+          + (" --physics" if physics is not None else ""))
     if failed:
         raise VerificationError(f"demo motion of {clip} for {robot.name} (written with its "
                                 "report)", failed)
