@@ -1,8 +1,10 @@
-"""The demo, the HTML report, the 3D viewer (served and self-contained) and the video.
+"""The demo, the HTML report, the 3D viewer (served and self-contained) and the video, with the
+DART check's simulated robot beside the reference.
 
-The demo runs once per session (the real retarget of the shipped CMU walk to JVRC-1); the other
-tests use its output. Browser tests drive Debian's Chromium with Playwright; they skip only when
-Chromium or Playwright is not installed (CI installs both: .ci/run).
+The demo runs once per module (the real retarget of the shipped CMU walk to JVRC-1, with its
+DART check); the other tests use its output. Browser tests drive Debian's Chromium with
+Playwright; they skip only when Chromium or Playwright is not installed (CI installs both:
+.ci/run).
 """
 
 from __future__ import annotations
@@ -35,6 +37,18 @@ def demo(tmp_path_factory):
     return out, proc.stdout, seconds
 
 
+@pytest.fixture(scope="module")
+def physics(demo):
+    """(robot, written motion, PhysicsResult) of the DART check of the demo's motion.npz."""
+    from imesh.evaluate.motion_files import load_motion_file
+    from imesh.physics import simulate_motion
+    from imesh.robot import load_robot
+
+    robot = load_robot("jvrc1")
+    motion = load_motion_file(demo[0] / "motion.npz", robot)
+    return robot, motion, simulate_motion(robot, motion)
+
+
 def _browser():
     """Skip when the browser stack is not installed."""
     pytest.importorskip("playwright.sync_api", reason="pip install 'imesh[viz]'")
@@ -53,12 +67,18 @@ def test_demo_writes_motion_report_and_viewer(demo):
     for name in ("motion.npz", "report.html", "viewer.html", "report.json"):
         assert (out / name).is_file() and str(out / name) in stdout, name
     assert "passed every gate" in stdout and "imesh view" in stdout
+    # the DART check ran and is reported plainly, whether the robot fell or not (exit 0 above)
+    line = next(s for s in stdout.splitlines() if s.startswith("physics check (wbc): "))
+    assert ("FELL at" in line or "stood through" in line) and "mm RMS" in line, line
+    assert "of which the physics check" in stdout and "--physics" in stdout
     with np.load(out / "motion.npz") as f:
         assert str(f["robot"]) == "jvrc1"
         # the shipped 2.9 s clip at 30 fps and 1 s of standing lead-in and lead-out
         assert f["joint_positions"].shape == (86 + 60, 32)
     report = json.loads((out / "report.json").read_text())
     assert report["wholebody"]["converged"] and report["verification"]["passed"]
+    assert report["physics_check"]["ran"] and report["physics_check"]["verdict"] == line
+    assert report["metrics"]["physics_fell"]["value"] is not None
     assert seconds < 120  # the acceptance (<= 60 s) is measured alone: docs/viewer.md
 
 
@@ -74,22 +94,33 @@ def test_demo_clip_is_shipped_with_its_terms():
 
 
 def test_report_table_equals_evaluate_json(demo, tmp_path):
-    """The numbers of the demo's report and of ``evaluate --report`` are those ``imesh evaluate
-    --json`` writes for the same file."""
+    """The numbers of the demo's report (table and report.json's physics figures) and of
+    ``evaluate --report`` are those ``imesh evaluate --physics --json`` writes for the same
+    file."""
     from imesh.viz.report import table_values
 
     out = demo[0]
     js, html_path = tmp_path / "e.json", tmp_path / "e.html"
-    assert main(["-q", "evaluate", str(out / "motion.npz"), "--json", str(js),
+    assert main(["-q", "evaluate", str(out / "motion.npz"), "--physics", "--json", str(js),
                  "--report", str(html_path)]) == 0
-    expected = {k: v["value"] for k, v in json.loads(js.read_text()).items()}
+    evaluated = json.loads(js.read_text())
+    expected = {k: v["value"] for k, v in evaluated.items()}
+    assert expected["physics_fell"] is not None
     for report in (out / "report.html", html_path):
         got = table_values(report)
         assert list(got) == list(expected)
         assert got == expected, report
+    # report.json: the same physics entries, details too (but the wall-clock speed)
+    demo_metrics = json.loads((out / "report.json").read_text())["metrics"]
+    for name in ("physics_fell", "physics_survived_s", "tracking_rms_rad", "torque_ratio_max"):
+        a, b = ({k: v for k, v in e[name].items() if k != "real_time_factor"}
+                for e in (demo_metrics, evaluated))
+        assert a == b, name
+    assert demo_metrics["physics_fell"]["keypoint_rms_mm"] > 0
     text = (out / "report.html").read_text()
-    assert text.count('src="data:image/png;base64,') == 5  # the five figures
+    assert text.count('src="data:image/png;base64,') == 6  # the five figures and DART's
     assert "passes every gate" in text and "<iframe" in text
+    assert 'id="physics-verdict"' in text and "--physics --json" in text
 
 
 def test_retarget_writes_a_report(mocap, tmp_path):
@@ -133,6 +164,8 @@ def _check_page(page, errors, url: str) -> None:
     requests: list[str] = []
     page.on("request", lambda r: requests.append(r.url))
     open_viewer(page, url)
+    page.evaluate("() => { const el = document.getElementById('opt-sim'); "
+                  "if (el.offsetParent && el.checked) el.click(); }")  # the reference alone
     frames = page.evaluate("window.imeshViewer.frames")
     assert frames == 146
     first = page.locator("#view").screenshot()
@@ -167,11 +200,104 @@ def test_html_viewer_is_self_contained_and_shows_the_robot(demo, tmp_path):
         page.screenshot(path=str(tmp_path / "viewer.png"))
 
 
+def _sim_pixels(png: bytes) -> np.ndarray:
+    """(H, W) bool: pixels of the simulated copy's blue tint (the background is grey)."""
+    import io
+
+    from PIL import Image
+
+    img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    return (b > r + 25) & (b > g + 10)
+
+
+def test_viewer_shows_and_hides_the_simulation(demo):
+    """The demo page draws the DART simulation beside the reference; the checkbox and the key s
+    hide and show it; "go to the fall" jumps to the fall, after which the last pose is held."""
+    _browser()
+    from imesh.viz.browser import chromium_page, open_viewer
+
+    with chromium_page() as (page, errors):
+        open_viewer(page, (demo[0] / "viewer.html").as_uri())
+        page.evaluate("window.imeshViewer.setFrame(20)")
+        sim = page.evaluate("window.imeshViewer.simulation()")
+        assert sim["visible"] and not sim["held"] and sim["banner"].startswith("DART check")
+        assert page.locator("#banner").is_visible()
+        assert page.locator("#legend-sim").is_visible()
+        shown = _sim_pixels(page.locator("#view").screenshot()).sum()
+        page.locator("#opt-sim").click()  # the checkbox hides it
+        assert not page.evaluate("window.imeshViewer.simulation()")["visible"]
+        hidden = _sim_pixels(page.locator("#view").screenshot()).sum()
+        assert shown - hidden > 800, (shown, hidden)
+        page.locator("#view").click()
+        page.keyboard.press("s")  # the key shows it again
+        assert page.evaluate("window.imeshViewer.simulation()")["visible"]
+        if sim["fallFrame"] >= 0:
+            page.locator("#to-fall").click()
+            assert page.evaluate("window.imeshViewer.frame()") == sim["fallFrame"]
+            assert page.evaluate("window.imeshViewer.simulation()")["held"]
+            assert "FELL at" in page.locator("#info").inner_text()
+        assert not errors, errors
+
+
 def test_view_html_command(demo, tmp_path):
     page_path = tmp_path / "v.html"
     assert main(["-q", "view", str(demo[0] / "motion.npz"), "--html", str(page_path)]) == 0
     text = page_path.read_text()
     assert "window.imeshViewer" in text and '"frames":146' in text
+    assert '"simulation":' not in text  # no DART check asked
+
+
+def test_demo_page_has_the_simulation_and_its_toggle(demo):
+    text = (demo[0] / "viewer.html").read_text()
+    assert '"simulation":{' in text and 'id="opt-sim"' in text and 'id="legend-sim"' in text
+
+
+def test_view_physics_command(demo, tmp_path, capsys):
+    page_path = tmp_path / "v.html"
+    assert main(["-q", "view", str(demo[0] / "motion.npz"), "--physics", "--html",
+                 str(page_path)]) == 0
+    assert "physics check (wbc): " in capsys.readouterr().out
+    assert '"simulation":{"controller":"wbc"' in page_path.read_text()
+
+
+def test_scene_simulation_is_the_forward_kinematics_of_the_check(physics):
+    """The page's simulated links are the robot's forward kinematics of the PhysicsResult's q at
+    the motion's frames; frames after the fall or the end hold the last simulated pose."""
+    from scipy.spatial.transform import Rotation
+
+    from imesh.viz.scene import build_scene, decode
+
+    robot, motion, res = physics
+    scene = build_scene(robot, motion, physics=res)
+    sim = scene["simulation"]
+    poses = decode(sim["link_poses"])
+    T = motion.n_frames
+    assert poses.shape == (T, len(scene["links"]), 7)
+    simulated = decode(sim["simulated"]).astype(bool)
+    assert simulated[0] and (simulated == np.isfinite(res.q[:, 0])).all()
+    assert sim["fell"] == res.fell and sim["survived_s"] == res.survived_s
+    last = int(np.flatnonzero(simulated)[-1])
+    ids = [robot.frame_id(n) for n in scene["links"]]
+    for t in (0, last // 2, T - 1):  # the last frame is held after a fall
+        M = robot.frame_placements(res.q[min(t, last)], ids)
+        assert np.abs(poses[t, :, :3] - M[:, :3, 3]).max() < 1e-5, t
+        R = Rotation.from_quat(poses[t, :, 3:]).as_matrix()
+        assert np.abs(R - M[:, :3, :3]).max() < 1e-5, t
+    err = decode(sim["keypoint_error_mm"])
+    assert np.isfinite(err[simulated]).all() and np.isnan(err[~simulated]).all()
+    assert np.sqrt(np.mean(err[simulated] ** 2)) == pytest.approx(res.keypoint_rms_mm, rel=1e-4)
+    assert sim["keypoint_rms_mm"] == res.keypoint_rms_mm
+
+
+def test_held_frames_hold_the_last_simulated_pose():
+    from imesh.viz.scene import held_frames
+
+    q = np.arange(12.0).reshape(6, 2)
+    q[[0, 3, 4, 5]] = np.nan
+    held, simulated = held_frames(q)
+    assert simulated.tolist() == [False, True, True, False, False, False]
+    assert (held[:, 0] == [2, 2, 4, 4, 4, 4]).all()
 
 
 def test_served_viewer_shows_the_robot(demo):
@@ -199,9 +325,9 @@ def test_video_has_the_motions_duration(demo, tmp_path):
     pytest.importorskip("imageio_ffmpeg", reason="pip install 'imesh[viz]'")
     import imageio_ffmpeg
 
-    video = tmp_path / "walk.mp4"
+    video = tmp_path / "walk.mp4"  # with the simulated robot beside the reference
     assert main(["-q", "view", str(demo[0] / "motion.npz"), "--video", str(video),
-                 "--video-fps", "10"]) == 0
+                 "--video-fps", "10", "--physics"]) == 0
     reader = imageio_ffmpeg.read_frames(str(video))
     meta = reader.__next__()
     frames = [np.frombuffer(f, np.uint8) for f in reader]

@@ -357,6 +357,11 @@ def add_view(sub) -> argparse.ArgumentParser:
     p.add_argument("--video", help="render the whole motion to a video (.mp4), headless: robot "
                    "with the markers and the human beside it (needs chromium)")
     p.add_argument("--video-fps", type=float, help="video frame rate (default: the motion's)")
+    p.add_argument("--physics", action="store_true",
+                   help="run the DART check first and draw the simulated robot beside the "
+                        "reference, with its fall time (docs/checking.md)")
+    p.add_argument("--controller", choices=("wbc", "kinematic", "spd", "pid"), default="wbc",
+                   help="controller of the DART check (--physics; default wbc)")
     p.add_argument("--port", type=int, default=8765, help="server port (default 8765; 0: any)")
     p.add_argument("--no-browser", action="store_true", help="serve without opening a browser")
     return p
@@ -364,12 +369,14 @@ def add_view(sub) -> argparse.ArgumentParser:
 
 def add_demo(sub) -> argparse.ArgumentParser:
     """``imesh demo [-o DIR]``."""
-    p = sub.add_parser("demo", help="retarget the built-in CMU walk to JVRC-1 and write the "
-                       "motion, an HTML report and a 3D viewer page")
+    p = sub.add_parser("demo", help="retarget the built-in CMU walk to JVRC-1, check it in "
+                       "DART and write the motion, an HTML report and a 3D viewer page")
     p.add_argument("-o", "--output", default="imesh-demo", help="output folder (default "
                    "imesh-demo)")
     p.add_argument("--clip", help=f"another clip instead of the built-in {DEMO_CLIP}")
     add_robot_arguments(p)
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
+    p.add_argument("--no-physics", action="store_true",
+                   help="skip the DART check (a fall is reported, never an error)")
     return p
 

@@ -1,5 +1,6 @@
 """``imesh view MOTION``: a robot motion in 3D, served to the browser, as one self-contained page
-(``--html``) or as a video (``--video``); the library is :mod:`imesh.viz`."""
+(``--html``) or as a video (``--video``); with ``--physics`` the DART check runs first and the
+simulated robot is drawn beside the reference. The library is :mod:`imesh.viz`."""
 
 from __future__ import annotations
 
@@ -8,7 +9,10 @@ import webbrowser
 from pathlib import Path
 
 from ..evaluate.motion_files import load_motion_file
+from ..evaluate.scoreboard import physics_entries
+from ..evaluate.table import physics_line
 from ..io.formats import robot_for_motion_file
+from ..physics import ControlConfig, PhysicsConfig, simulate_motion
 from ..viz.html import write_viewer
 from ..viz.scene import build_scene
 from ..viz.server import ViewerServer
@@ -20,7 +24,12 @@ def run(args) -> int:
     status."""
     robot = robot_for_motion_file(args.motion, args.robot, args.urdf)  # default: the file's
     motion = load_motion_file(args.motion, robot, fps=args.fps)
-    scene = build_scene(robot, motion, source=args.source,
+    physics = None
+    if args.physics:
+        physics = simulate_motion(robot, motion, config=PhysicsConfig(
+            control=ControlConfig(controller=args.controller)))
+        print(physics_line(physics_entries(physics)))
+    scene = build_scene(robot, motion, source=args.source, physics=physics,
                         title=f"{Path(args.motion).name} ({robot.name})")
     if args.html or args.video:
         if args.html:

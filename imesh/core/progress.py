@@ -34,7 +34,8 @@ STAGE_COST_S: dict[str, tuple[float, float]] = {
 #: How the bar names each stage.
 STAGE_LABELS = {"load": "load", "prepare": "prepare", "morph": "morph", "fit": "fit",
                 "plan": "plan", "wholebody": "whole-body solve", "verify": "verify",
-                "write": "write", "viewer": "viewer page", "report": "report"}
+                "write": "write", "physics": "DART check", "viewer": "viewer page",
+                "report": "report"}
 
 
 @dataclass(frozen=True)

@@ -127,7 +127,8 @@ def _reference_dynamics_blocked(robot, q, v, a, support):
 def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = False, *,
                     adapted=None, seconds: Mapping[str, float] | None = None,
                     physics_config=None, support_config: SupportDetection | None = None,
-                    plot: str | os.PathLike | None = None, resample: bool = False) -> dict:
+                    plot: str | os.PathLike | None = None, resample: bool = False,
+                    physics_result=None) -> dict:
     """Every DESIGN.md quality metric of a robot motion.
 
     Args:
@@ -149,6 +150,9 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         resample: compare ``source``/``adapted`` markers whose frame rate or frame count differ
             from the motion's (resampled to its fps, first common frames); by default such a
             mismatch raises SourceMismatchError.
+        physics_result: a :class:`imesh.physics.PhysicsResult` of this motion already
+            computed (``simulate_motion``): its figures are reported (:func:`physics_entries`)
+            without running the check again, whatever ``physics`` says.
 
     Returns:
         dict: exactly the keys :data:`METRIC_NAMES`; each a dict with ``value``, ``unit`` and
@@ -178,7 +182,11 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
     out.update(_kinematics_metrics(robot, q, fps, soles, support, support_config))
     timing["kinematics"] = time.perf_counter() - t0
 
-    if physics:
+    if physics_result is not None:
+        out.update(physics_entries(physics_result))
+        if plot is not None:
+            plot_physics(physics_result, plot)
+    elif physics:
         physics_metrics, timing["physics"] = _physics_metrics(robot, motion, physics_config,
                                                               plot)
         out.update(physics_metrics)
@@ -357,10 +365,22 @@ def _physics_metrics(robot, motion: RobotMotion, config, plot: str | os.PathLike
     t0 = time.perf_counter()
     res = simulate_motion(robot, motion, config=config or PhysicsConfig())
     seconds = time.perf_counter() - t0
+    out = physics_entries(res)
+    if plot is not None:
+        plot_physics(res, plot)
+    return out, seconds
+
+
+def physics_entries(res) -> dict[str, dict]:
+    """The report entries of a DART check (``physics_fell``, ``physics_survived_s``,
+    ``tracking_rms_rad``, ``torque_ratio_max``, JSON-ready) from its
+    :class:`imesh.physics.PhysicsResult`; ``physics_fell`` carries the other figures as details
+    (fall reason, base drift [m], key-point error RMS and max [mm], controller...)."""
     summary = res.summary()
     m = res.metrics()
     details = {k: summary[k] for k in ("fall_reason", "real_time_factor", "base_drift_m",
-                                       "base_height_drift_m", "zmp_contact_error_mm",
+                                       "base_height_drift_m", "keypoint_rms_mm",
+                                       "keypoint_max_mm", "zmp_contact_error_mm",
                                        "saturation_fraction", "controller")}
     out = {
         "physics_fell": _metric("physics_fell", m["physics_fell"], **details),
@@ -370,9 +390,7 @@ def _physics_metrics(robot, motion: RobotMotion, config, plot: str | os.PathLike
         "torque_ratio_max": _metric("torque_ratio_max", m["torque_ratio_max"],
                                     note="demanded torque before clamping / limit"),
     }
-    if plot is not None:
-        plot_physics(res, plot)
-    return out, seconds
+    return {name: _clean(entry) for name, entry in out.items()}
 
 
 def _seconds_metric(seconds: Mapping[str, float] | None, timing: Mapping[str, float],

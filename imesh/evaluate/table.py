@@ -58,3 +58,27 @@ def format_table(report: Mapping[str, dict]) -> str:
     rows = [(name, _fmt(e["value"]), e["unit"], _note(name, e)) for name, e in report.items()]
     w = [max(len(r[k]) for r in rows) for k in range(3)]
     return "\n".join(f"{a:<{w[0]}}  {b:>{w[1]}}  {c:<{w[2]}}  {d}".rstrip() for a, b, c, d in rows)
+
+
+def physics_line(report: Mapping[str, dict]) -> str:
+    """One line of the DART check's verdict from a report's physics entries
+    (:func:`imesh.evaluate.scoreboard.physics_entries`): fell or stood with the time, key-point
+    tracking error RMS/max, base drift and torque ratio; "" when the check did not run."""
+    fell = report.get("physics_fell", {})
+    if fell.get("value") is None:
+        return ""
+    survived = report["physics_survived_s"]
+    duration = survived.get("duration_s")
+    of = f" of {duration:.1f} s" if duration is not None else ""
+    verdict = (f"FELL at {survived['value']:.1f} s{of} ({fell.get('fall_reason')})"
+               if fell["value"] else f"stood through the {survived['value']:.1f} s")
+
+    def mm(key: str) -> str:
+        return "n/a" if fell.get(key) is None else f"{fell[key]:.0f}"
+
+    drift = fell.get("base_drift_m")
+    ratio = report["torque_ratio_max"]["value"]
+    return (f"physics check ({fell.get('controller')}): {verdict}; key points "
+            f"{mm('keypoint_rms_mm')} mm RMS, {mm('keypoint_max_mm')} mm max; base drift "
+            f"{'n/a' if drift is None else f'{1e3 * drift:.0f} mm'}; torque ratio "
+            f"{_fmt(ratio)} (docs/checking.md)")

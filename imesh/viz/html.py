@@ -37,6 +37,9 @@ body {{ display: flex; flex-direction: column; }}
            border-radius: 4px; pointer-events: none; }}
 #legend span {{ display: inline-block; width: 10px; height: 10px; margin: 0 3px 0 8px; }}
 button {{ min-width: 56px; }}
+#banner {{ padding: 3px 10px; font-weight: 600; }}
+#banner.fell {{ background: #fbe1e1; color: #a00; }}
+#banner.stood {{ background: #dff3e4; color: #12632a; }}
 </style>
 </head>
 <body>
@@ -53,13 +56,19 @@ button {{ min-width: 56px; }}
   <label><input id="opt-beside" type="checkbox"> markers beside</label>
   <label><input id="opt-floor" type="checkbox" checked> soles, support, ZMP</label>
   <label><input id="opt-follow" type="checkbox" checked> follow</label>
+  <label title="key s"><input id="opt-sim" type="checkbox" checked> DART simulation</label>
+  <label><input id="opt-sim-over" type="checkbox"> overlaid</label>
+  <button id="to-fall" style="display:none">go to the fall</button>
 </div>
+<div id="banner"></div>
 <div id="view"><div id="info"></div>
 <div id="legend"><span style="background:#1a5af2"></span>adapted markers
 <span style="background:#8c33bf"></span>human source
 <span style="background:#1aa64d"></span>support polygon
 <span style="background:#d91a1a"></span>ZMP <span style="background:#1a73e6"></span>desired ZMP
-<span style="background:#f21a1a"></span>self-collision</div></div>
+<span style="background:#f21a1a"></span>self-collision<i id="legend-sim" style="font-style:normal">
+<span style="background:#5b8ef0;opacity:0.7"></span>DART simulation
+<span style="background:#d94a4a;opacity:0.7"></span>fallen</i></div></div>
 <script type="application/json" id="imesh-scene">{scene}</script>
 <script>{three}</script>
 <script>{viewer}</script>

@@ -5,7 +5,11 @@ One self-contained file: the evaluator's metrics table with pass/fail against th
 support polygon, sole heights and skid, joints against their position and velocity limits as in Kim
 2005 Fig. 4, torques against effort limits, marker errors per body part), and the 3D viewer
 embedded. Each metrics row carries its exact value (``data-metric``/``data-value``), the number
-``imesh evaluate --json`` writes for the same file.
+``imesh evaluate --json`` writes for the same file. When the metrics carry a DART check
+(``imesh evaluate --physics``, ``imesh demo``) the page states its verdict in one line (fell or
+stood, key-point tracking error, base drift, torque ratio) and, given the
+:class:`~imesh.physics.PhysicsResult`, adds its figure; the embedded viewer then shows the
+simulated robot beside the reference.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import json
 import logging
 import os
 import re
+import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -26,7 +31,7 @@ from ..contacts.phases import SIDES
 from ..evaluate.motion_files import load_motion_file
 from ..evaluate.scoreboard import evaluate_motion
 from ..evaluate.table import _fmt as fmt
-from ..evaluate.table import _note
+from ..evaluate.table import _note, physics_line
 from ..evaluate.verify import Gates, failed_gates
 from ..io.atomic import atomic_path
 from ..metrics.derivatives import motion_derivatives
@@ -37,6 +42,7 @@ from ..metrics.soles import sole_tracks
 from ..metrics.support import detect_support
 from ..metrics.zmp import zmp_report, zmp_trajectory
 from .html import viewer_html
+from .physics import plot_physics
 from .pyplot import pyplot
 from .scene import build_scene
 
@@ -232,6 +238,14 @@ def figure_markers(t: np.ndarray, keypoints, markers) -> str:
     return _png(fig)
 
 
+def figure_physics(result) -> str:
+    """The DART run's figure (:func:`imesh.viz.physics.plot_physics`) as base64 PNG."""
+    with tempfile.TemporaryDirectory(prefix="imesh-report-") as tmp:
+        path = Path(tmp) / "physics.png"
+        plot_physics(result, path)
+        return base64.b64encode(path.read_bytes()).decode("ascii")
+
+
 # ----------------------------------------------------------------------------------------------
 # the page
 
@@ -309,6 +323,7 @@ def report_html(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str, 
         "joints": "Joints against their position and velocity limits",
         "torques": "Torques against effort limits, and friction",
         "markers": "Marker errors per body part",
+        "physics": "DART check: joint error, base height, torque ratio, ZMP (contact vs planned)",
     }
     figs = "\n".join(f'<h2>{html.escape(captions.get(k, k))}</h2>'
                      f'<img alt="{html.escape(k)}" src="data:image/png;base64,{v}">'
@@ -322,17 +337,32 @@ def report_html(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str, 
     return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>'
             f'{html.escape(title)}</title><link rel="icon" href="data:,"><style>{STYLE}</style>'
             f'</head><body><h1>{html.escape(title)}</h1><table class="meta">{meta}</table>'
-            f'<h2>Metrics</h2><p>{verdict}</p><p>The numbers <code>imesh evaluate '
-            f'{html.escape(Path(motion_path).name)} --robot {html.escape(robot.name)} --json'
+            f'<h2>Metrics</h2><p>{verdict}</p>{_physics_verdict(metrics)}<p>The numbers '
+            f'<code>imesh evaluate {html.escape(Path(motion_path).name)} --robot '
+            f'{html.escape(robot.name)}{" --physics" if _has_physics(metrics) else ""} --json'
             f'</code> writes for this file; gates of <code>imesh.evaluate.verify.Gates</code>.</p>'
             f'{_table(rows)}{figs}{view}</body></html>')
+
+
+def _has_physics(metrics: Mapping[str, dict]) -> bool:
+    return metrics.get("physics_fell", {}).get("value") is not None
+
+
+def _physics_verdict(metrics: Mapping[str, dict]) -> str:
+    """The DART check's verdict line (:func:`imesh.evaluate.table.physics_line`), or ""."""
+    line = physics_line(metrics)
+    if not line:
+        return ""
+    fell = metrics["physics_fell"]["value"]
+    return (f'<p id="physics-verdict" class="verdict {"bad" if fell else "ok"}">'
+            f'{html.escape(line)}</p>')
 
 
 def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike, *,
                  metrics: Mapping[str, dict] | None = None, source=None,
                  facts: Mapping[str, str] | None = None, viewer: bool = True,
                  scene: dict | None = None, balanced: bool = True,
-                 fps: float | None = None) -> Path:
+                 fps: float | None = None, physics=None) -> Path:
     """Write the HTML report of a written robot motion file.
 
     Everything is computed from the file as written (:func:`imesh.evaluate.load_motion_file`).
@@ -350,13 +380,17 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
             already built.
         balanced: judge the ZMP gate (False for ``--balance none`` motions).
         fps: frame rate of motion files that store none.
+        physics: the :class:`~imesh.physics.PhysicsResult` of this file's DART check: its
+            figures in the table and the verdict line (when ``metrics`` is None, else those of
+            ``metrics``), its figure, and the simulated robot in the viewer (unless ``scene``
+            is given).
 
     Returns:
         the path written.
     """
     motion = load_motion_file(motion_path, robot, fps=fps)
     if metrics is None:
-        metrics = evaluate_motion(robot, motion)
+        metrics = evaluate_motion(robot, motion, physics_result=physics)
     q, fps = motion.q, motion.fps
     t = np.arange(motion.n_frames) / fps
     soles = sole_tracks(robot, q, fps)
@@ -371,10 +405,12 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
     adapted = motion.adapted
     if adapted is not None:
         figures["markers"] = figure_markers(t, keypoint_motion(robot, q, fps), adapted)
+    if physics is not None:
+        figures["physics"] = figure_physics(physics)
     page = None
     if viewer:
         if scene is None:
-            scene = build_scene(robot, motion, source=source,
+            scene = build_scene(robot, motion, source=source, physics=physics,
                                 title=f"{Path(motion_path).name} ({robot.name})")
         page = viewer_html(scene)
     info = {"motion": str(motion_path), "robot": robot.name,

@@ -4,7 +4,9 @@
 visual meshes (from its URDF, in link frames), the world pose of every link at every frame, the
 human markers (the adapted markers the robot fitted, and optionally the source clip beside it),
 the interaction mesh edges per frame, the soles, support polygons, desired and actual ZMP, and
-the self-collisions and joint-limit violations per frame. The page only plays it back.
+the self-collisions and joint-limit violations per frame, and, given a DART check
+(:class:`imesh.physics.PhysicsResult`), the simulated robot's link poses beside the reference
+(:func:`simulation_entry`). The page only plays it back.
 
 Arrays are sent as base64 of little-endian float32/uint16/uint8 (``{"b64": ..., "dtype": ...,
 "shape": ...}``), so a 5 s motion of JVRC-1 is about 1 MB of JSON.
@@ -29,6 +31,7 @@ from ..human.markerset import STANDARD_BONE_NAMES
 from ..mesh.interaction import tetrahedralize
 from ..metrics.collision import SelfCollisions, check_self_collisions
 from ..metrics.derivatives import motion_derivatives
+from ..metrics.markers import keypoint_motion
 from ..metrics.polygon import support_polygons
 from ..metrics.soles import sole_tracks
 from ..metrics.support import detect_support
@@ -198,9 +201,20 @@ def _mesh_edges(positions: np.ndarray) -> dict:
     return encode(out, "uint16")
 
 
+def link_poses(robot, q: np.ndarray, link_ids: list[int]) -> np.ndarray:
+    """(T, L, 7) float32 world poses of the frames ``link_ids`` at every row of ``q`` (T, nq):
+    position [m] and quaternion (x, y, z, w)."""
+    poses = np.empty((len(q), len(link_ids), 7), dtype=np.float32)
+    for t in range(len(q)):
+        M = robot.frame_placements(q[t], link_ids)
+        poses[t, :, :3] = M[:, :3, 3]
+        poses[t, :, 3:] = Rotation.from_matrix(M[:, :3, :3]).as_quat()
+    return poses
+
+
 def build_scene(robot, motion, *, markers=None, source=None, title: str | None = None,
-                metrics: Mapping | None = None, collisions: SelfCollisions | None = None
-                ) -> dict:
+                metrics: Mapping | None = None, collisions: SelfCollisions | None = None,
+                physics=None) -> dict:
     """Everything the viewer draws for a robot motion, JSON-ready.
 
     Args:
@@ -216,6 +230,9 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
             if already computed; None: computed here (the evaluator's check: same geometry,
             pairs and threshold, so the page marks the frames ``self_collision_frames``
             counts).
+        physics: a :class:`imesh.physics.PhysicsResult` of this motion (``simulate_motion``):
+            the simulated robot is drawn beside the reference (``simulation``,
+            :func:`simulation_entry`); None: not drawn.
 
     Returns:
         dict (see the module docstring): ``fps``, ``frames``, ``links``, ``link_poses`` (T, L, 7:
@@ -224,18 +241,15 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
         (T,), ``zmp`` and ``zmp_desired`` (T, 2), ``collision_bodies`` (the bodies of the
         self-collision check: name and link indices), ``collisions`` (per frame the body pairs
         penetrating deeper than 5 mm on the URDF geometry: [body a, body b, depth mm]),
-        ``limits`` (per frame the joints outside a limit), ``ground``.
+        ``limits`` (per frame the joints outside a limit), ``ground``, and with ``physics`` the
+        ``simulation`` entry.
     """
     q = np.asarray(motion.q, dtype=float)
     T, fps = len(q), float(motion.fps)
     meshes = visual_meshes(robot)
     links = sorted({m.link for m in meshes})
     link_ids = [robot.frame_id(n) for n in links]
-    poses = np.empty((T, len(links), 7), dtype=np.float32)
-    for t in range(T):
-        M = robot.frame_placements(q[t], link_ids)
-        poses[t, :, :3] = M[:, :3, 3]
-        poses[t, :, 3:] = Rotation.from_matrix(M[:, :3, :3]).as_quat()
+    poses = link_poses(robot, q, link_ids)
     scene: dict = {
         "version": 1, "title": title or f"{robot.name} motion", "robot": robot.name,
         "fps": fps, "frames": T, "links": links, "link_poses": encode(poses),
@@ -297,6 +311,10 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
     scene["limits"] = _limit_frames(robot, q, fps)
     if metrics is not None:
         scene["metrics"] = {k: v for k, v in metric_values(metrics).items()}
+    if physics is not None:
+        sim = simulation_entry(robot, physics, link_ids, T)
+        if sim is not None:
+            scene["simulation"] = sim
     return scene
 
 
@@ -322,3 +340,79 @@ def _source_entry(source, robot, fps: float, T: int, lead: tuple[int, int]) -> d
     pos = src.positions_m
     idx = np.clip(np.arange(T) - lead[0], 0, len(pos) - 1)
     return _marker_entry(pos[idx], src.names, "human source (arranged to the robot's size)")
+
+
+def held_frames(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The simulated configurations with every frame the simulation did not reach (NaN rows:
+    after a fall, or past its end) holding the last simulated one.
+
+    Args:
+        q: (T, nq) float configurations, NaN rows where not simulated.
+
+    Returns:
+        (q_held (T, nq) float, simulated (T,) bool: the row is the simulation's own). Before the
+        first simulated frame (none simulated at all) the first finite row is used; with no
+        finite row at all, q_held is all NaN.
+    """
+    q = np.asarray(q, dtype=float)
+    simulated = np.all(np.isfinite(q), axis=1)
+    if not simulated.any():
+        return q.copy(), simulated
+    idx = np.where(simulated, np.arange(len(q)), 0)
+    idx = np.maximum.accumulate(idx)
+    first = int(np.argmax(simulated))
+    idx[:first] = first
+    return q[idx], simulated
+
+
+def simulation_entry(robot, physics, link_ids: list[int], n_frames: int) -> dict | None:
+    """The simulated motion of a DART check for the viewer, frame-aligned with the motion.
+
+    Args:
+        robot: the :class:`imesh.robot.Robot` of the motion.
+        physics: its :class:`imesh.physics.PhysicsResult` (one row per motion frame).
+        link_ids: the frame ids of the scene's ``links``.
+        n_frames: T, the motion's frames.
+
+    Returns:
+        None when the result does not fit the motion (other robot or frame count: logged), else
+        a dict: ``controller``, ``fell``, ``fall_reason``, ``survived_s`` [s] (the fall time,
+        or the motion's duration), ``duration_s`` [s], ``keypoint_rms_mm`` and
+        ``keypoint_max_mm`` (the result's figures, None when NaN), ``ground_offset_m``,
+        ``link_poses`` (T, L, 7) float32 world poses of the simulated links at the motion's
+        frame times (position [m], quaternion x y z w; a frame the simulation did not reach
+        holds the last simulated pose), ``simulated`` (T,) uint8 (1: the simulation's own
+        frame, 0: held), ``keypoint_error_mm`` (T,) float32 RMS over the key points of the
+        distance between the simulated and the reference key points of each frame [mm] (NaN
+        on held frames; absent without markers.toml).
+    """
+    if physics.robot != robot.name or len(physics.q) != n_frames:
+        log.warning("viewer: the DART result (%s, %d frames) does not fit the motion (%s, %d "
+                    "frames): not drawn", physics.robot, len(physics.q), robot.name, n_frames)
+        return None
+    q_held, simulated = held_frames(physics.q)
+    if not simulated.any():
+        log.warning("viewer: the DART result has no simulated frame: not drawn")
+        return None
+
+    def number(x: float) -> float | None:
+        return float(x) if np.isfinite(x) else None
+
+    entry: dict = {
+        "controller": physics.config.control.controller, "fell": bool(physics.fell),
+        "fall_reason": physics.fall_reason, "survived_s": float(physics.survived_s),
+        "duration_s": float(physics.duration_s),
+        "keypoint_rms_mm": number(physics.keypoint_rms_mm),
+        "keypoint_max_mm": number(physics.keypoint_max_mm),
+        "ground_offset_m": float(physics.ground_offset_m),
+        "link_poses": encode(link_poses(robot, q_held, link_ids)),
+        "simulated": encode(simulated.astype(np.uint8), "uint8"),
+    }
+    if robot.markers is not None:
+        ok = np.flatnonzero(simulated)
+        err = np.full(n_frames, np.nan, dtype=np.float32)
+        sim = keypoint_motion(robot, physics.q[ok], physics.fps).positions_m
+        ref = keypoint_motion(robot, physics.q_reference[ok], physics.fps).positions_m
+        err[ok] = 1e3 * np.sqrt(np.mean(np.sum((sim - ref) ** 2, axis=-1), axis=-1))
+        entry["keypoint_error_mm"] = encode(err)
+    return entry

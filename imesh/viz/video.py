@@ -3,6 +3,10 @@ encoded to H.264 mp4 by ffmpeg (the binary of the PyPI package ``imageio-ffmpeg`
 
 The video shows the robot with the adapted markers beside it (and the human source on the other
 side when the scene has it), the soles, support polygon and ZMP; the camera follows the robot.
+A scene with a DART check (``build_scene(..., physics=result)``) shows the simulated robot
+instead, a blue-tinted copy 1 m to the robot's right (the adapted markers then stay on the
+robot, the human source on its left), with the check's verdict and each frame's key-point error
+written in the corner; after a fall the copy holds where it lay, tinted red.
 """
 
 from __future__ import annotations
@@ -36,6 +40,21 @@ def video_frames(n_motion: int, motion_fps: float, video_fps: float) -> np.ndarr
                       n_motion - 1)
 
 
+#: The page's options for a video (argument: the scene has a DART simulation): the simulated
+#: robot takes the side the adapted markers take without it.
+_VIDEO_OPTIONS = """(simulation) => {
+    const on = ['opt-follow', 'opt-floor', 'opt-human'];
+    const off = ['opt-sim-over'];
+    if (simulation) { on.push('opt-sim'); off.push('opt-beside'); } else on.push('opt-beside');
+    for (const id of on.concat(off)) {
+        const el = document.getElementById(id);
+        if (el.checked !== on.includes(id)) el.click();
+    }
+    for (const id of ['bar', 'banner']) document.getElementById(id).style.display = 'none';
+    window.dispatchEvent(new Event('resize'));
+}"""
+
+
 def _ffmpeg_writer(path: Path, size: tuple[int, int], fps: float):
     imageio_ffmpeg = optional("imageio_ffmpeg", "pip install 'imesh-retarget[viz]'", "a video")
     writer = imageio_ffmpeg.write_frames(str(path), size, fps=fps, codec="libx264",
@@ -52,7 +71,9 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
 
     Args:
         path: the ``.mp4`` file to write (atomically).
-        scene: the viewer scene.
+        scene: the viewer scene; with a ``simulation`` (``build_scene(..., physics=result)``
+            of a :class:`imesh.physics.PhysicsResult`) the simulated robot is drawn beside the
+            reference.
         fps: video frame rate [1/s] (default: the motion's).
         size: (width, height) [px] of the video (even numbers).
         progress: a tqdm description to show a bar, or None.
@@ -76,14 +97,7 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
         with chromium_page(size[0], size[1]) as (page, errors), \
                 atomic_path(path) as tmp:
             open_viewer(page, page_path.as_uri())
-            page.evaluate("""() => {
-                for (const id of ['opt-beside', 'opt-follow', 'opt-floor', 'opt-human']) {
-                    const el = document.getElementById(id);
-                    if (!el.checked) el.click();
-                }
-                document.getElementById('bar').style.display = 'none';
-                window.dispatchEvent(new Event('resize'));
-            }""")
+            page.evaluate(_VIDEO_OPTIONS, "simulation" in scene)
             writer = _ffmpeg_writer(tmp, size, fps)
             try:
                 for k in frames:

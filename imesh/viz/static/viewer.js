@@ -1,6 +1,9 @@
 /* imesh viewer: plays back a scene built by imesh.viz.scene.build_scene with three.js.
  * The scene comes inline (script#imesh-scene, the self-contained page) or from scene.json (the
- * local server). window.imeshViewer exposes setFrame/play/pause for tests and scripts. */
+ * local server). window.imeshViewer exposes setFrame/play/pause for tests and scripts.
+ * With a DART check (S.simulation) the simulated robot is drawn as a blue-tinted translucent
+ * copy 1 m to the reference's right (or overlaid); frames after its fall or its end hold the
+ * last simulated pose (tinted red after a fall); "s" or the checkbox shows/hides it. */
 (function () {
   "use strict";
   var Z_UP = new THREE.Vector3(0, 0, 1);
@@ -106,6 +109,63 @@
     };
   }
 
+  var SIM_TINT = new THREE.Color(0.23, 0.51, 0.96), FALL_TINT = new THREE.Color(0.85, 0.2, 0.2);
+
+  function simulationCopy(S, linkGroups, scene3) {
+    // the simulated robot: the reference's meshes (shared geometry) in tinted translucent
+    // materials; after a fall it holds where it lay, tinted red
+    var E = S.simulation, L = S.links.length;
+    var groups = S.links.map(function () { var g = new THREE.Group(); scene3.add(g); return g; });
+    var mats = [];
+    linkGroups.forEach(function (g, l) {
+      g.children.forEach(function (mesh) {
+        var base = mesh.material.userData.base;
+        var mat = new THREE.MeshPhongMaterial({color: base.clone().lerp(SIM_TINT, 0.65),
+                                               shininess: 30, transparent: true, opacity: 0.6});
+        mat.userData.tint = mat.color.clone();
+        mat.userData.fallen = base.clone().lerp(FALL_TINT, 0.7);
+        mats.push(mat);
+        groups[l].add(new THREE.Mesh(mesh.geometry, mat));
+      });
+    });
+    return {
+      entry: E, groups: groups, mats: mats, L: L, poses: decode(E.link_poses),
+      simulated: decode(E.simulated),
+      kpErr: E.keypoint_error_mm ? decode(E.keypoint_error_mm) : null,
+      offset: new THREE.Vector3(),
+      fallFrame: E.fell ? Math.min(Math.round(E.survived_s * S.fps), S.frames - 1) : -1,
+      set: function (t, visible) {
+        var P = this.poses, o = this.offset, down = !this.simulated[t] && this.entry.fell;
+        for (var l = 0; l < L; l++) {
+          var b = (t * L + l) * 7, g = groups[l];
+          g.visible = visible;
+          g.position.set(P[b] + o.x, P[b + 1] + o.y, P[b + 2] + o.z);
+          g.quaternion.set(P[b + 3], P[b + 4], P[b + 5], P[b + 6]);
+        }
+        mats.forEach(function (m) { m.color.copy(down ? m.userData.fallen : m.userData.tint); });
+      },
+      line: function (t, fps) {
+        // the info line of frame t
+        var E2 = this.entry, name = "DART simulation (" + E2.controller + ")";
+        if (!this.simulated[t]) {
+          return name + (E2.fell ? ": FELL at " + E2.survived_s.toFixed(2) +
+                                   " s; showing where it lay" : ": ended, last pose held");
+        }
+        var e = this.kpErr ? this.kpErr[t] : NaN;
+        return name + (isFinite(e) ? ": key points " + e.toFixed(0) + " mm from the reference"
+                                   : "");
+      },
+      banner: function () {
+        var E2 = this.entry, dur = E2.duration_s.toFixed(2);
+        var kp = E2.keypoint_rms_mm === null ? "" : "; key points " +
+          E2.keypoint_rms_mm.toFixed(0) + " mm RMS, " + E2.keypoint_max_mm.toFixed(0) + " mm max";
+        return "DART check (" + E2.controller + "): " + (E2.fell ? "FELL at " +
+          E2.survived_s.toFixed(2) + " s of " + dur + " s (" + E2.fall_reason + ")"
+          : "stood through the " + dur + " s") + kp;
+      }
+    };
+  }
+
   function build(S) {
     var T = S.frames, fps = S.fps;
     var host = document.getElementById("view");
@@ -152,6 +212,9 @@
       linkGroups[m.link].add(mesh);
       linkMats[m.link].push(mat);
     });
+
+    // the DART simulation (S.simulation): a second, blue-tinted translucent copy of the meshes
+    var sim = S.simulation ? simulationCopy(S, linkGroups, scene3) : null;
 
     var human = S.markers ? markerSet(S.markers, 0x1a5af2, scene3) : null;
     var source = S.source ? markerSet(S.source, 0x8c33bf, scene3) : null;
@@ -209,7 +272,8 @@
     var speedSel = document.getElementById("speed");
     slider.max = T - 1;
     var opts = {};
-    ["human", "source", "edges", "floor", "beside", "follow"].forEach(function (k) {
+    ["human", "source", "edges", "floor", "beside", "follow", "sim", "sim-over"].forEach(
+        function (k) {
       var el = document.getElementById("opt-" + k);
       opts[k] = el;
       el.addEventListener("change", function () { setFrame(current); });
@@ -218,6 +282,19 @@
     if (!source && !human) opts.beside.parentNode.style.display = "none";
     if (!human) { opts.human.parentNode.style.display = "none";
                   opts.edges.parentNode.style.display = "none"; }
+    var banner = document.getElementById("banner"), toFall = document.getElementById("to-fall");
+    if (sim) {
+      banner.textContent = sim.banner();
+      banner.className = sim.entry.fell ? "fell" : "stood";
+      if (sim.fallFrame >= 0) {
+        toFall.style.display = "";
+        toFall.addEventListener("click", function () { play(false); setFrame(sim.fallFrame); });
+      }
+    } else {
+      ["sim", "sim-over"].forEach(function (k) { opts[k].parentNode.style.display = "none"; });
+      document.getElementById("legend-sim").style.display = "none";
+      banner.style.display = "none";
+    }
 
     var target = new THREE.Vector3(poses[0], poses[1], 0.8);
     var controls = new OrbitControl(camera, renderer.domElement, target);
@@ -249,6 +326,12 @@
         source.group.visible = opts.source.checked;
         source.offset.set(0, opts.beside.checked ? -1.0 : 1.0, 0);
         source.set(t);
+      }
+      if (sim) {
+        // beside: on the robot's right (1 m; 2 m when the human source takes that side)
+        sim.offset.set(0, opts["sim-over"].checked ? 0 : (opts.beside.checked && source ? -2.0
+                                                                                     : -1.0), 0);
+        sim.set(t, opts.sim.checked);
       }
       edgeLines.visible = !!(human && opts.edges.checked);
       if (edgesArr) {
@@ -309,8 +392,10 @@
       if (coll.length) lines.push("self-collision: " + coll.map(function (c) {
         return bodies[c[0]].name + "-" + bodies[c[1]].name + " " + c[2] + " mm"; }).join(", "));
       if (lim.length) lines.push("limits exceeded: " + lim.join(", "));
+      var fallen = sim && sim.entry.fell && !sim.simulated[t];
+      if (sim && opts.sim.checked) lines.push(sim.line(t, fps));
       info.textContent = lines.join("\n");
-      info.className = coll.length || lim.length ? "warn" : "";
+      info.className = coll.length || lim.length || (fallen && opts.sim.checked) ? "warn" : "";
       label.textContent = t + " / " + (T - 1);
       renderer.render(scene3, camera);
     }
@@ -336,6 +421,8 @@
       if (ev.key === " ") { ev.preventDefault(); play(); }
       if (ev.key === "ArrowRight") setFrame(current + 1);
       if (ev.key === "ArrowLeft") setFrame(current - 1);
+      if ((ev.key === "s" || ev.key === "S") && sim) { opts.sim.checked = !opts.sim.checked;
+                                                       setFrame(current); }
     });
     function tick(now) {
       if (playing) {
@@ -364,8 +451,11 @@
       g.drawImage(src, 0, 0);
       g.font = (13 * k) + "px sans-serif";
       var lines = info.textContent.split("\n");
+      if (sim && opts.sim.checked) lines.unshift(banner.textContent);
+      var w = 420 * k;
+      lines.forEach(function (s2) { w = Math.max(w, g.measureText(s2).width + 12 * k); });
       g.fillStyle = "rgba(255,255,255,0.8)";
-      g.fillRect(6 * k, 6 * k, 420 * k, (lines.length * 17 + 8) * k);
+      g.fillRect(6 * k, 6 * k, w, (lines.length * 17 + 8) * k);
       g.fillStyle = info.className === "warn" ? "#b00" : "#222";
       lines.forEach(function (s2, i) { g.fillText(s2, 12 * k, (22 + 17 * i) * k); });
       return c.toDataURL(type || "image/png", quality);
@@ -373,6 +463,14 @@
     window.imeshViewer = {
       snapshot: snapshot,
       frames: T, fps: fps, setFrame: function (t) { play(false); setFrame(t); return current; },
+      simulation: function () {
+        // what the page shows of the DART simulation (tests): null without one
+        if (!sim) return null;
+        var g = sim.groups[S.links.indexOf(S.root_link)] || sim.groups[0];
+        return {visible: opts.sim.checked && g.visible, fallFrame: sim.fallFrame,
+                root: [g.position.x, g.position.y, g.position.z],
+                held: !sim.simulated[current], banner: banner.textContent};
+      },
       play: function () { play(true); }, pause: function () { play(false); },
       frame: function () { return current; }, ready: true
     };
