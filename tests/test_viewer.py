@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,15 +25,14 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def demo(tmp_path_factory):
-    """Run ``imesh demo`` once: (output folder, its standard output, seconds)."""
+    """Run ``imesh demo`` once: (output folder, its standard output). Its time is measured
+    in benchmarks, not here."""
     out = tmp_path_factory.mktemp("demo")
-    t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", "import sys; from imesh.cli import main; "
                            "sys.exit(main())", "-q", "demo", "-o", str(out)],
                           capture_output=True, text=True, cwd=ROOT, timeout=600)
-    seconds = time.perf_counter() - t0
     assert proc.returncode == 0, proc.stderr
-    return out, proc.stdout, seconds
+    return out, proc.stdout
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +61,7 @@ def _browser():
 
 
 def test_demo_writes_motion_report_and_viewer(demo):
-    out, stdout, seconds = demo
+    out, stdout = demo
     for name in ("motion.npz", "report.html", "viewer.html", "report.json"):
         assert (out / name).is_file() and str(out / name) in stdout, name
     assert "passed every gate" in stdout and "imesh view" in stdout
@@ -79,7 +77,6 @@ def test_demo_writes_motion_report_and_viewer(demo):
     assert report["wholebody"]["converged"] and report["verification"]["passed"]
     assert report["physics_check"]["ran"] and report["physics_check"]["verdict"] == line
     assert report["metrics"]["physics_fell"]["value"] is not None
-    assert seconds < 120  # the acceptance (<= 60 s) is measured alone: docs/viewer.md
 
 
 def test_demo_clip_is_shipped_with_its_terms():
