@@ -481,8 +481,3 @@ def run_batch(inputs: str | Sequence[str | os.PathLike], out_dir: str | os.PathL
         log_file.close()
         remove_stale_temporaries(out_dir)
 
-
-def interrupt(signum, frame):
-    """A SIGTERM handler ending a batch like Ctrl-C (KeyboardInterrupt: workers stop, temporary
-    files are removed); ``imesh batch`` installs one at its start (:mod:`imesh.cli.app`)."""
-    raise KeyboardInterrupt
