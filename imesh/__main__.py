@@ -1,7 +1,5 @@
 """``python -m imesh ...``: the ``imesh`` command."""
 
-import sys
+from .cli.app import entry_point
 
-from .cli import main
-
-sys.exit(main())
+entry_point()
