@@ -117,6 +117,9 @@ def test_report_table_equals_evaluate_json(demo, tmp_path):
     text = (out / "report.html").read_text()
     assert text.count('src="data:image/png;base64,') == 6  # the five figures and DART's
     assert "passes every gate" in text and "<iframe" in text
+    # the demo's walk falls in the check: the verdict says so beside the passed gates
+    fell = demo_metrics["physics_fell"]["value"]
+    assert ("fell in the DART check" in text) == bool(fell)
     assert 'id="physics-verdict"' in text and "--physics --json" in text
 
 
