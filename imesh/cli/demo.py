@@ -23,6 +23,7 @@ from ..evaluate.verify import failed_gates
 from ..io import load_motion
 from ..io.atomic import write_json
 from ..io.robot_motion import save_robot_motion
+from ..metrics.collision import check_self_collisions
 from ..physics import PhysicsConfig, simulate_motion
 from ..pipeline.retarget import RetargetConfig, retarget
 from ..robot import load_robot
@@ -53,8 +54,12 @@ def run(args) -> int:
         result = retarget(motion, robot, config=config, progress=bar)
 
         bar.stage("verify", result.motion.n_frames)
+        # one self-collision check for the table, the viewer and the report (the file holds
+        # these joint positions as they are)
+        collisions = check_self_collisions(robot, result.motion.q)
         run_metrics = evaluate_motion(robot, result.motion, source=motion,
-                                      adapted=result.adapted, seconds=result.seconds)
+                                      adapted=result.adapted, seconds=result.seconds,
+                                      collisions=collisions)
         failed = failed_gates(run_metrics)
 
         bar.stage("write", result.motion.n_frames)
@@ -87,7 +92,7 @@ def run(args) -> int:
 
         bar.stage("viewer", result.motion.n_frames)
         scene = build_scene(robot, written, source=clip, physics=physics,
-                            title=f"{clip.name} -> {robot.name}")
+                            collisions=collisions, title=f"{clip.name} -> {robot.name}")
         viewer_path = write_viewer(out / "viewer.html", scene)
 
         bar.stage("report", result.motion.n_frames)
@@ -100,7 +105,8 @@ def run(args) -> int:
         if physics is not None:
             facts["physics check time"] = f"{physics_s:.1f} s"
         report_path = write_report(out / "report.html", robot, motion_path, source=clip,
-                                   facts=facts, scene=scene, physics=physics)
+                                   facts=facts, scene=scene, physics=physics,
+                                   collisions=collisions)
         bar.finish()
     finally:
         bar.close()

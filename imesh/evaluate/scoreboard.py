@@ -27,7 +27,12 @@ import numpy as np
 
 from ..core.robot_motion import RobotMotion
 from ..errors import ImeshError, _listing
-from ..metrics.collision import SELF_COLLISION_DEPTH_M, check_ground, check_self_collisions
+from ..metrics.collision import (
+    SELF_COLLISION_DEPTH_M,
+    SelfCollisions,
+    check_ground,
+    check_self_collisions,
+)
 from ..metrics.derivatives import motion_derivatives
 from ..metrics.dynamics import MU, reference_dynamics
 from ..metrics.limits import limit_violations
@@ -128,7 +133,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
                     adapted=None, seconds: Mapping[str, float] | None = None,
                     physics_config=None, support_config: SupportDetection | None = None,
                     plot: str | os.PathLike | None = None, resample: bool = False,
-                    physics_result=None) -> dict:
+                    physics_result=None, collisions: SelfCollisions | None = None) -> dict:
     """Every DESIGN.md quality metric of a robot motion.
 
     Args:
@@ -153,6 +158,8 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         physics_result: a :class:`imesh.physics.PhysicsResult` of this motion already
             computed (``simulate_motion``): its figures are reported (:func:`physics_entries`)
             without running the check again, whatever ``physics`` says.
+        collisions: the :func:`~imesh.metrics.collision.check_self_collisions` result of this
+            motion already computed (e.g. for the viewer's scene): reported, not computed again.
 
     Returns:
         dict: exactly the keys :data:`METRIC_NAMES`; each a dict with ``value``, ``unit`` and
@@ -175,7 +182,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
     soles = sole_tracks(robot, q, fps)
     support_config = support_config or EVALUATOR_SUPPORT  # flat sliding soles carry the body
     support = detect_support(soles, support_config).support
-    out.update(_collision_metrics(robot, q, soles, support_config))
+    out.update(_collision_metrics(robot, q, soles, support_config, collisions))
     timing["collision"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -250,11 +257,13 @@ def _marker_metrics(robot, motion: RobotMotion, source, adapted, resample: bool
 
 
 def _collision_metrics(robot, q: np.ndarray, soles: SoleTracks,
-                       support_config: SupportDetection | None) -> dict[str, dict]:
+                       support_config: SupportDetection | None,
+                       selfc: SelfCollisions | None = None) -> dict[str, dict]:
     """``self_collision_frames`` (the URDF's own geometry, with the capsules' figure beside it)
-    and ``ground_penetration_mm``."""
-    selfc = check_self_collisions(robot, q, SELF_COLLISION_DEPTH_M,
-                                  block_frames=EVAL_BLOCK_FRAMES)
+    and ``ground_penetration_mm``; ``selfc``: the self-collision check, if already made."""
+    if selfc is None:
+        selfc = check_self_collisions(robot, q, SELF_COLLISION_DEPTH_M,
+                                      block_frames=EVAL_BLOCK_FRAMES)
     mesh, caps = selfc.mesh, selfc.capsules
     ground = check_ground(robot, q, planted=planted_feet(soles, support_config))
     return {

@@ -370,7 +370,7 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
                  metrics: Mapping[str, dict] | None = None, source=None,
                  facts: Mapping[str, str] | None = None, viewer: bool = True,
                  scene: dict | None = None, balanced: bool = True,
-                 fps: float | None = None, physics=None) -> Path:
+                 fps: float | None = None, physics=None, collisions=None) -> Path:
     """Write the HTML report of a written robot motion file.
 
     Everything is computed from the file as written (:func:`imesh.evaluate.load_motion_file`).
@@ -392,13 +392,15 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
             figures in the table and the verdict line (when ``metrics`` is None, else those of
             ``metrics``), its figure, and the simulated robot in the viewer (unless ``scene``
             is given).
+        collisions: the file's :func:`~imesh.metrics.collision.check_self_collisions` result,
+            if already computed (used for ``metrics`` and ``scene`` when they are computed here).
 
     Returns:
         the path written.
     """
     motion = load_motion_file(motion_path, robot, fps=fps)
     if metrics is None:
-        metrics = evaluate_motion(robot, motion, physics_result=physics)
+        metrics = evaluate_motion(robot, motion, physics_result=physics, collisions=collisions)
     q, fps = motion.q, motion.fps
     t = np.arange(motion.n_frames) / fps
     soles = sole_tracks(robot, q, fps)
@@ -419,6 +421,7 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
     if viewer:
         if scene is None:
             scene = build_scene(robot, motion, source=source, physics=physics,
+                                collisions=collisions,
                                 title=f"{Path(motion_path).name} ({robot.name})")
         page = viewer_html(scene)
     info = {"motion": str(motion_path), "robot": robot.name,
