@@ -14,26 +14,15 @@ markers are arranged per the robot's ``markers.toml``:
    is, the rigid pelvis triangle would pitch the robot's base by the difference and its waist
    joint would have to bend the torso back by as much (the offset problem of sec. IV-A, which
    the paper solves for the collar with an added marker).
-5. each segment of markers.toml (markers the robot carries on one rigid body, e.g. its torso:
-   chest, shoulders, neck) takes the robot's shape: the robot's key points of the segment,
-   turned by the rotation that best fits them to the human's markers (Kabsch), hung from the
-   segment's parent marker at the robot's bone length along the human's bone; the markers
-   below the segment (arms, head) move with it. The scale comes from the legs, so a robot
-   whose trunk is long for its legs (G1: hip to shoulder 400 mm, the scaled human's 366)
-   would otherwise leave the morph a trunk too short by centimetres, which it closes the
-   cheapest way: by turning the pelvis marker about the hip axis (G1 walk: to 80 degrees
-   from the vertical), so the robot's pelvis pitched and its waist hit its limit.
 
-Every pair of markers in one segment is length-constrained (the segment stays rigid in the
-morph). Target lengths of every length-constrained pair come from the robot's nominal pose:
-the distance between the two markers' robot key points. The human is first scaled (about the
-floor point under its pelvis) so that its size matches the robot's; the morph then takes every
-pair from the scaled human length to the robot length.
+Target lengths of every length-constrained pair come from the robot's nominal pose: the distance
+between the two markers' robot key points. The human is first scaled (about the floor point under
+its pelvis) so that its size matches the robot's; the morph then takes every pair from the
+scaled human length to the robot length.
 """
 
 from __future__ import annotations
 
-import itertools
 import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -46,10 +35,6 @@ from ..mesh.bones import bone_lengths
 
 log = logging.getLogger(__name__)
 
-
-#: How much the distances within a segment may change with the robot's joints [m]: G1's three
-#: shoulder axes miss each other, so its shoulder key point moves 15 mm against its head.
-RIGID_TOLERANCE_M = 0.02
 
 #: Children of the leg bones (thigh, shank): their lengths set the human-to-robot scale.
 LEG_MARKERS = ("knee_l", "ankle_l", "knee_r", "ankle_r")
@@ -145,83 +130,6 @@ def _align_pelvis(pos: np.ndarray, robot_pts: np.ndarray, pelvis: int, hip_l: in
     return out, turn
 
 
-def _check_rigid(robot, segment: tuple[str, ...], frames: list[int], offsets: np.ndarray,
-                 idx: list[int], path) -> None:
-    """Raise ArrangementError unless the robot carries the segment's key points rigidly: their
-    distances may change by at most :data:`RIGID_TOLERANCE_M` over three random configurations
-    within the joint limits (a point where a joint's axes meet, as a shoulder key point, counts
-    as fixed)."""
-    rng = np.random.default_rng(0)
-    lo, hi = robot.q_lower, robot.q_upper
-    finite = np.isfinite(lo) & np.isfinite(hi)
-    f = [frames[i] for i in idx]
-    off = offsets[idx]
-
-    def distances(q):
-        pts = robot.frame_positions(q, f, off)
-        return np.linalg.norm(pts[:, None] - pts[None], axis=-1)
-
-    d0 = distances(robot.q_nominal)
-    for _ in range(3):
-        q = robot.q_nominal.copy()
-        q[7:][finite] = rng.uniform(lo[finite], hi[finite])
-        change = np.abs(distances(q) - d0)
-        if change.max() > RIGID_TOLERANCE_M:
-            a, b = np.unravel_index(int(np.argmax(change)), change.shape)
-            raise ArrangementError(
-                f"{path}: segment {list(segment)} is not rigid on {robot.name}: the distance of "
-                f"{segment[a]} and {segment[b]} changes by {1e3 * change.max():.0f} mm with the "
-                "joints between their frames (a segment's key points must sit on one body)")
-
-
-def _place_segment(pos: np.ndarray, robot_pts: np.ndarray, idx: list[int],
-                   tree: list[tuple[str, str]], index: Mapping[str, int], path) -> np.ndarray:
-    """Step 5 of the module: the segment's markers ``idx`` take the robot's shape.
-
-    Per frame t, R_t is the rotation best fitting the robot's centred key points to the human's
-    centred markers (Kabsch: the SVD ``U S V^T`` of ``sum_k h_k r_k^T``,
-    ``R = U diag(1, 1, det(U V^T)) V^T``); the segment's root (its marker whose tree parent
-    p is outside it) goes to ``x_p + L u`` with u the human's unit bone p -> root and L the
-    robot's length; the other markers to ``root + R_t (r_k - r_root)``. Markers below the
-    segment move by the displacement of their segment ancestor.
-
-    Args:
-        pos: (T, M, 3) arranged markers [m]; robot_pts: (M, 3) their robot key points.
-
-    Returns:
-        (T, M, 3) the new positions.
-    """
-    names = list(index)
-    parent = {c: p for p, c in tree}
-    inside = {names[i] for i in idx}
-    roots = [names[i] for i in idx if parent.get(names[i]) not in inside]
-    if len(roots) != 1 or roots[0] not in parent:
-        raise ArrangementError(f"{path}: segment {sorted(inside)} must hang from the marker tree "
-                               f"at one marker with a parent outside it (found {roots})")
-    r, p = index[roots[0]], index[parent[roots[0]]]
-    human = pos[:, idx] - pos[:, idx].mean(axis=1, keepdims=True)
-    shape = robot_pts[idx] - robot_pts[idx].mean(axis=0)
-    U, _, Vt = np.linalg.svd(np.einsum("tki,kj->tij", human, shape))
-    flip = np.ones((len(pos), 3))
-    flip[:, 2] = np.sign(np.linalg.det(U @ Vt))
-    R = np.einsum("tij,tj,tjk->tik", U, flip, Vt)
-    bone = pos[:, r] - pos[:, p]
-    root = pos[:, p] + bone / np.linalg.norm(bone, axis=1, keepdims=True) * np.linalg.norm(
-        robot_pts[r] - robot_pts[p])
-    new = root[:, None] + np.einsum("tij,kj->tki", R, robot_pts[idx] - robot_pts[r])
-    moved = dict(zip((names[i] for i in idx), np.transpose(new - pos[:, idx], (1, 0, 2)),
-                     strict=True))
-    out = pos.copy()
-    out[:, idx] = new
-    for name, i in index.items():
-        a = parent.get(name)
-        while name not in inside and a is not None and a not in inside:
-            a = parent.get(a)
-        if name not in inside and a is not None:
-            out[:, i] += moved[a]
-    return out
-
-
 def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
     """Arrange a standard human motion for ``robot`` per its markers.toml (paper sec. IV-A).
 
@@ -233,8 +141,8 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
         The Arrangement: scaled, arranged markers and the robot target lengths.
 
     Raises:
-        ArrangementError: a marker named by markers.toml is not in the motion, a bone joins
-            two markers on the same robot point, or a segment is not rigid on the robot.
+        ArrangementError: a marker named by markers.toml is not in the motion, or a bone joins
+            two markers on the same robot point.
     """
     model = robot.markers
     names = motion.names
@@ -267,12 +175,8 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
         pos = np.concatenate([pos, np.einsum("km,tmc->tkc", w, motion.positions_m)], axis=1)
     index = {n: i for i, n in enumerate(all_names)}
     tree_idx = np.array([[index[a], index[b]] for a, b in tree], dtype=np.int64).reshape(-1, 2)
-    extra = (list(model.rigid) + [p for a in model.add for p in a.bones]
-             + [p for seg in model.segments for p in itertools.combinations(seg, 2)])
-    pair_names = list(tree)
-    for p in extra:
-        if p not in pair_names and p[::-1] not in pair_names:
-            pair_names.append(p)
+    extra = list(model.rigid) + [p for a in model.add for p in a.bones]
+    pair_names = list(tree) + [p for p in extra if p not in tree and p[::-1] not in tree]
     pairs = np.array([[index[a], index[b]] for a, b in pair_names], dtype=np.int64)
 
     # robot lengths in the nominal pose
@@ -305,9 +209,6 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
                                   index["hip_r"])
         log.info("pelvis marker turned by %.1f deg about the hip axis to the robot's waist "
                  "point", np.degrees(turn))
-    for seg in model.segments:
-        _check_rigid(robot, seg, frames, offsets, [index[m] for m in seg], model.path)
-        pos = _place_segment(pos, robot_pts, [index[m] for m in seg], tree, index, model.path)
     arranged = MarkerMotion(positions_m=pos, fps=motion.fps, names=tuple(all_names),
                             valid=np.ones(pos.shape[:2], dtype=bool), bones=tree_idx,
                             source=motion.source, meta=motion.meta)

@@ -109,9 +109,6 @@ class MarkerConfig:
         directions: orientation key vectors.
         remove: standard markers dropped for this robot.
         rigid: extra bones (pairs of surviving markers) that make segments rigid.
-        segments: groups of markers the robot carries on one rigid body (its torso: chest,
-            shoulders, neck): the arrangement gives each group the robot's own shape
-            (:func:`imesh.human.arrange.arrange_for_robot`, step 5).
         add: added markers.
         arms: ``"left"``/``"right"`` -> hand points of the arm imitation (may be empty).
     """
@@ -122,7 +119,6 @@ class MarkerConfig:
     remove: tuple[str, ...]
     rigid: tuple[tuple[str, str], ...]
     add: tuple[AddedMarker, ...]
-    segments: tuple[tuple[str, ...], ...] = ()
     arms: Mapping[str, ArmHand] = field(default_factory=dict)
 
     @property
@@ -140,7 +136,7 @@ class MarkerConfig:
 
 _KEYPOINT_KEYS = ("frame", "offset", "weight")
 _DIRECTION_KEYS = ("frame", "axis", "from", "to", "weight")
-_ARRANGEMENT_KEYS = ("remove", "rigid", "add", "segments")
+_ARRANGEMENT_KEYS = ("remove", "rigid", "add")
 _ADD_KEYS = ("name", "frame", "offset", "weight", "human", "bones")
 _ARM_KEYS = ("frame", "wrist", "hand", "thumb", "joints")
 
@@ -164,30 +160,6 @@ def _arms(path: Path, data: Mapping[str, Any]) -> dict[str, ArmHand]:
     return out
 
 
-def _segments(path: Path, value: Any, known: list[str]) -> tuple[tuple[str, ...], ...]:
-    """``arrangement.segments``: lists of >= 3 known markers, no marker in two lists."""
-    if not isinstance(value, list):
-        raise RobotConfigError(f"must be a list of marker lists, got {value!r}", path=path,
-                               key="arrangement.segments")
-    out: list[tuple[str, ...]] = []
-    seen: set[str] = set()
-    for i, group in enumerate(value):
-        key = f"arrangement.segments[{i}]"
-        names = toml.name_list(path, group, key)
-        if len(set(names)) < 3:
-            raise RobotConfigError(f"a segment needs three different markers (its shape fixes "
-                                   f"a rotation), got {list(names)}", path=path, key=key)
-        for n in names:
-            if n not in known:
-                raise RobotConfigError(f"unknown or removed marker {n!r}", path=path, key=key,
-                                       valid=closest_first(n, known))
-            if n in seen:
-                raise RobotConfigError(f"marker {n!r} is in two segments", path=path, key=key)
-        seen.update(names)
-        out.append(tuple(dict.fromkeys(names)))
-    return tuple(out)
-
-
 def _keypoint(path: Path, tab: Any, key: str) -> Keypoint:
     """The key point table ``tab`` ({frame, offset, weight}) at dotted key ``key``."""
     if not isinstance(tab, dict):
@@ -204,9 +176,8 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
 
     Checks: keys and types; removed markers are standard markers; every surviving standard marker
     has a keypoint; added markers have new names, human weights summing to 1 over surviving
-    standard markers, and bones between known markers; rigid bones, segments and directions name
-    surviving markers; a segment has at least three markers and no marker is in two. Frame names
-    (and that a segment is rigid on the robot) are checked later against the model.
+    standard markers, and bones between known markers; rigid bones and directions name surviving
+    markers. Frame names are checked later against the model.
 
     Raises:
         RobotConfigError: naming the key and listing the valid names.
@@ -273,7 +244,6 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
         check_pairs(a.bones, f"arrangement.add[{i}].bones")
     rigid = toml.name_pairs(path, arr.get("rigid", []), "arrangement.rigid")
     check_pairs(rigid, "arrangement.rigid")
-    segments = _segments(path, arr.get("segments", []), known)
 
     directions = []
     for key, tab in toml.table_array(path, data.get("directions", []), "directions",
@@ -295,4 +265,4 @@ def load_markers_config(path: str | os.PathLike) -> MarkerConfig:
                                                        f"{key}.weight")))
     return MarkerConfig(path=path, keypoints=MappingProxyType(keypoints),
                         directions=tuple(directions), remove=remove, rigid=rigid, add=tuple(adds),
-                        segments=segments, arms=MappingProxyType(_arms(path, data)))
+                        arms=MappingProxyType(_arms(path, data)))
