@@ -105,6 +105,11 @@ class WbcConfig:
             over this time, stays within its position limits and below its velocity limit [s]
             (without them the swing leg reached its foot targets with JVRC-1's knee bent 0.66
             rad backwards).
+        toe_roll_frames: over the last this many frames of a double support that ends in a
+            lift-off, the lifting sole rolls over its toe edge (:mod:`imesh.physics.wbc`); 0:
+            it stays flat until it leaves.
+        toe_cop_fraction: in that roll the centre of pressure stays in the front
+            ``1 - toe_cop_fraction`` of the sole's half length.
     """
 
     gains: WbcGains = field(default_factory=WbcGains)
@@ -116,10 +121,16 @@ class WbcConfig:
     min_normal_force_n: float = 1.0
     contact_height_m: float = 0.005
     limit_horizon_s: float = 0.1
+    toe_roll_frames: int = 2
+    toe_cop_fraction: float = 0.8
 
     def __post_init__(self) -> None:
         require_finite(self, ("rate_hz", "friction_fraction", "torque_fraction",
                               "limit_horizon_s"), positive=True)
+        if not (isinstance(self.toe_roll_frames, int) and self.toe_roll_frames >= 0):
+            raise OptionError("toe_roll_frames", self.toe_roll_frames, "an integer >= 0")
+        if not 0.0 <= self.toe_cop_fraction < 1.0:
+            raise OptionError("toe_cop_fraction", self.toe_cop_fraction, "a fraction in [0, 1)")
         require_finite(self, ("min_normal_force_n", "contact_height_m"), positive=False)
         if not 0.0 <= self.cop_margin < 1.0:
             raise OptionError("cop_margin", self.cop_margin, "a fraction in [0, 1)")

@@ -42,6 +42,14 @@ The contact wrench cone of a rectangular sole of half sizes X, Y with friction c
 <= mu (X + Y) fz - |Y fx + mu mx| - |X fy + mu my|`` (yaw). X and Y are shrunk by
 ``WbcConfig.cop_margin`` so that the centre of pressure stays off the edge.
 
+A sole that the plan lifts within ``WbcConfig.toe_roll_frames`` frames, at the end of a double
+support, rolls over its toe edge: its six contact rows become the toe edge's linear
+acceleration (3), the angular acceleration about the sole's normal and forward axes (2) and its
+pitch following the reference sole's (1), and its centre of pressure stays in the front of the
+sole (``WbcConfig.toe_cop_fraction``). A human foot rolls over its toes while the other foot
+takes the weight; a sole held flat to the last frame made the QP unload it early (1-6 N in the
+last 40 ms on the G1 walk) and lose the capture point at every lift-off.
+
 A sole is in contact when the reference plans it in support and the simulated sole is within
 ``WbcConfig.contact_height_m`` of the ground; a planned support whose sole is still in the air
 is tracked as a swing sole (it lands), and a sole that leaves its support early is too. When no
@@ -196,6 +204,43 @@ class WholeBodyController:
         err[5] = 0.0
         return err
 
+    def rolling(self, t: float) -> np.ndarray:
+        """(2,) bool soles that roll over their toes at time ``t``: planned in support now,
+        in a double support, and lifted by the plan within ``toe_roll_frames`` frames."""
+        n = self.config.toe_roll_frames
+        support = self.track.ref.support
+        f = self.track.frame(t)
+        if n == 0 or support[f].sum() != 2:
+            return np.zeros(2, dtype=bool)
+        ahead = np.asarray(support[f + 1:f + n + 1], dtype=bool)
+        if not len(ahead):
+            return np.zeros(2, dtype=bool)
+        return np.logical_not(ahead.all(axis=0))
+
+    def _toe_rows(self, dyn, s: int, ref: TrackPoint) -> tuple[np.ndarray, np.ndarray]:
+        """(6, nv) rows and (6,) right-hand side of a sole rolling over its toe edge: the
+        toe-edge centre's linear acceleration 0 (with damping), the angular acceleration about
+        the sole's forward and normal axes 0, the pitch following the reference sole's."""
+        g = self.config.gains
+        Rc = dyn.poses[s, :3, :3] @ self.contact_R[s]  # contact frame in the world
+        r = Rc[:, 0] * self.half_extents[s, 0]  # sole centre -> toe edge
+        J_lin, J_ang = dyn.jacobians[s, :3], dyn.jacobians[s, 3:]
+        w = dyn.twists[s, 3:]
+        skew = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+        # classical acceleration of the toe point: a + alpha x r + omega x (omega x r)
+        drift = dyn.drifts[s, :3] + np.cross(dyn.drifts[s, 3:], r) + w * (w @ r) - r * (w @ w)
+        v_toe = dyn.twists[s, :3] + np.cross(w, r)
+        fixed = np.stack([Rc[:, 0], Rc[:, 2]])
+        lateral = Rc[:, 1]
+        pitch = (ref.sole_alpha[s] + g.sole_kp * _rotation_error(ref.sole_rotations[s],
+                                                                 dyn.poses[s, :3, :3])
+                 + g.sole_kd * (ref.sole_omega[s] - w))
+        rows = np.vstack([J_lin - skew @ J_ang, fixed @ J_ang, lateral @ J_ang])
+        rhs = np.r_[-drift - g.contact_kd * v_toe,
+                    -fixed @ dyn.drifts[s, 3:] - g.contact_kd * (fixed @ w),
+                    lateral @ (pitch - dyn.drifts[s, 3:])]
+        return rows, rhs
+
     def step(self, t: float, q: np.ndarray, v: np.ndarray) -> ControlStep:
         """Torques for the state (q, v) at reference time ``t``.
 
@@ -288,8 +333,13 @@ class WholeBodyController:
         e[:6] = -h[:6]
         # generalized torque rows of the contact wrenches: J_c^T w_c
         Jt = np.zeros((nv, 6 * k))
+        rolling = self.rolling(t)
         for j, s in enumerate(active):
             Jt[:, 6 * j:6 * j + 6] = dyn.jacobians[s].T
+            if rolling[s]:
+                E[6 + 6 * j:12 + 6 * j, :nv], e[6 + 6 * j:12 + 6 * j] = self._toe_rows(
+                    dyn, int(s), ref)
+                continue
             E[6 + 6 * j:12 + 6 * j, :nv] = dyn.jacobians[s]
             flat = self._flat_error(dyn.poses[s], int(s))
             e[6 + 6 * j:12 + 6 * j] = (-dyn.drifts[s] - cfg.gains.contact_kd * dyn.twists[s]
@@ -304,6 +354,10 @@ class WholeBodyController:
             block[:3, :3] = Rc.T
             block[3:, 3:] = Rc.T
             C = self.cones[s] @ block
+            if rolling[s]:  # centre of pressure x >= a: my + a fz <= 0 (sole frame); the
+                # cone's last row stays -fz (its bound is the minimum normal force)
+                a = cfg.toe_cop_fraction * self.half_extents[s, 0]
+                C = np.vstack([C[:-1], np.array([0.0, 0.0, a, 0.0, 1.0, 0.0]) @ block, C[-1:]])
             G = np.zeros((len(C), n))
             G[:, nv + 6 * j:nv + 6 * j + 6] = C
             upper = np.zeros(len(C))
