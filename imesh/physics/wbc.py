@@ -45,10 +45,11 @@ The contact wrench cone of a rectangular sole of half sizes X, Y with friction c
 A sole that the plan lifts within ``WbcConfig.toe_roll_frames`` frames, at the end of a double
 support, rolls over its toe edge: its six contact rows become the toe edge's linear
 acceleration (3), the angular acceleration about the sole's normal and forward axes (2) and its
-pitch following the reference sole's (1), and its centre of pressure stays in the front of the
-sole (``WbcConfig.toe_cop_fraction``). A human foot rolls over its toes while the other foot
-takes the weight; a sole held flat to the last frame made the QP unload it early (1-6 N in the
-last 40 ms on the G1 walk) and lose the capture point at every lift-off.
+pitch following the reference sole's (1), and its centre of pressure stays in the front fifth of
+the sole's half length (``WbcConfig.toe_cop_fraction``). A human foot rolls over its toes
+while the other foot takes the weight; a sole held flat to the last frame made the QP unload
+it early (1-6 N in the last 40 ms on the G1 walk) and lose the capture point at every
+lift-off.
 
 A sole is in contact when the reference plans it in support and the simulated sole is within
 ``WbcConfig.contact_height_m`` of the ground; a planned support whose sole is still in the air
@@ -226,7 +227,6 @@ class WholeBodyController:
         r = Rc[:, 0] * self.half_extents[s, 0]  # sole centre -> toe edge
         J_lin, J_ang = dyn.jacobians[s, :3], dyn.jacobians[s, 3:]
         w = dyn.twists[s, 3:]
-        skew = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
         # classical acceleration of the toe point: a + alpha x r + omega x (omega x r)
         drift = dyn.drifts[s, :3] + np.cross(dyn.drifts[s, 3:], r) + w * (w @ r) - r * (w @ w)
         v_toe = dyn.twists[s, :3] + np.cross(w, r)
@@ -235,7 +235,8 @@ class WholeBodyController:
         pitch = (ref.sole_alpha[s] + g.sole_kp * _rotation_error(ref.sole_rotations[s],
                                                                  dyn.poses[s, :3, :3])
                  + g.sole_kd * (ref.sole_omega[s] - w))
-        rows = np.vstack([J_lin - skew @ J_ang, fixed @ J_ang, lateral @ J_ang])
+        # the toe's alpha x r, column by column of the angular Jacobian
+        rows = np.vstack([J_lin + np.cross(J_ang.T, r).T, fixed @ J_ang, lateral @ J_ang])
         rhs = np.r_[-drift - g.contact_kd * v_toe,
                     -fixed @ dyn.drifts[s, 3:] - g.contact_kd * (fixed @ w),
                     lateral @ (pitch - dyn.drifts[s, 3:])]
