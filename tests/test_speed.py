@@ -211,10 +211,11 @@ def _assert_quality(m) -> None:
     assert m["self_collision_frames"] == 0
     assert m["zmp_inside_fraction"] == 1.0
     assert m["sole_deviation_mm"] <= 1.0 and m["foot_skid_mm_per_frame"] <= 0.1
-    # since the walk's first landing foot stands through the lead-in: markers 48.05 and 48.2 mm
-    # (46.5 before), ZMP error 56.4 and 56.5 mm (the desired ZMP is the centre of a double
-    # support with the feet 0.49 m apart, where the lead-in accelerates the CoM)
-    assert m["marker_rms_mm"] <= 49.0 and m["zmp_error_mm"] <= 58.0
+    # with the ZMP in the inner 30 % of the soles and the soles flat through the double
+    # supports: markers 52.2 mm in windows, 51.9 in one (48.2 before); the ZMP error is
+    # measured from the desired ZMP, the centre of a double support with the feet 0.49 m apart
+    # where the lead-in accelerates the CoM
+    assert m["marker_rms_mm"] <= 53.5 and m["zmp_error_mm"] <= 62.0
 
 
 def test_windows_hold_soles_limits_and_zmp_across_their_borders(mocap, tmp_path):

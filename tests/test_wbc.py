@@ -252,11 +252,12 @@ def test_a_fall_in_the_dart_check_fails_verification(jvrc1):
     assert not failed and report["physics_fell"]["value"] is False
 
 
-def test_a_slowed_walk_planned_with_margin_stands_with_the_toe_roll(tmp_path):
-    """The CMU walk at half speed, planned with the ZMP in the inner 30 % of the soles and a
-    low swing clearance, stands to its end in DART on G1 with key points within 30 mm RMS and
-    80 mm max (measured 9.3 / 54); with its soles held flat to the lift-off (no toe roll) it is
-    lost (at 5.2 of 7.7 s): the QP unloads the rear sole before it lifts."""
+def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(tmp_path):
+    """The CMU walk retargeted to G1 with default settings and read back from its file stands
+    to its end in DART at the clip's own speed: key points within 25 mm RMS and 130 mm max of
+    the reference (measured 19.1 / 110), the base within 50 mm at the end (1 mm); with its
+    soles held flat to the lift-off (no toe roll) it is lost within 2 s: the QP unloads the
+    rear sole before it lifts and the capture point is lost at the lift-off."""
     import dataclasses
 
     from conftest import mocap_path
@@ -265,26 +266,19 @@ def test_a_slowed_walk_planned_with_margin_stands_with_the_toe_roll(tmp_path):
     from imesh.io import load_motion
     from imesh.io.robot_motion import save_robot_motion
     from imesh.physics import PhysicsConfig, simulate_motion
-    from imesh.pipeline.retarget import RetargetConfig, retarget
+    from imesh.pipeline.retarget import retarget
 
-    if not package_available(load_robot_config(ROBOTS_DIR / "g1" / "robot.toml")):
-        pytest.skip("example-robot-data not installed (pip install imesh-retarget[g1])")
-    robot = load_test_robot("g1")
-    clip = load_motion(mocap_path("cmu_02_01_walk.bvh"))
-    clip = clip.replace(fps=clip.fps * 0.5)
-    base = RetargetConfig()
-    wb = base.wholebody
-    config = dataclasses.replace(base, wholebody=dataclasses.replace(
-        wb, zmp=dataclasses.replace(wb.zmp, margin=0.7),
-        feet=dataclasses.replace(wb.feet, swing_edge_m=0.003, swing_lift_m=0.01)))
+    robot = _robot("g1")
     path = tmp_path / "walk.npz"
-    save_robot_motion(path, retarget(clip, robot, config=config).motion)
+    save_robot_motion(path, retarget(load_motion(mocap_path("cmu_02_01_walk.bvh")),
+                                     robot).motion)
     motion = load_motion_file(path, robot)
     physics = PhysicsConfig()
     res = simulate_motion(robot, motion, config=physics)
     assert not res.fell and res.survived_s == pytest.approx(res.duration_s)
-    assert res.keypoint_rms_mm <= 30.0 and res.keypoint_max_mm <= 80.0
+    assert res.keypoint_rms_mm <= 25.0 and res.keypoint_max_mm <= 130.0
+    assert res.base_drift_m <= 0.05
     flat = dataclasses.replace(physics, control=dataclasses.replace(
         physics.control, wbc=dataclasses.replace(physics.control.wbc, toe_roll_frames=0)))
     held = simulate_motion(robot, motion, config=flat)
-    assert held.fell and held.survived_s < held.duration_s - 1.0
+    assert held.fell and held.survived_s < 2.5

@@ -50,10 +50,17 @@ class FlatFootConfig:
             only the flat part) leaves the robot on one foot where the person stands on two
             (CMU wave: the right foot rests on its toes for a second; flat part only: key
             points 190 mm RMS on G1 after the whole-body solve, whole phase: 73 mm).
+        double_support: the foot is also held flat through the source's double support at
+            either end of its phase (and from there to its flat part): the weight passes from
+            one foot to the other in double support, which a human spends on a heel and a
+            toe (neither foot flat). Cut to the flat parts, the CMU walk's 3-4 frames of
+            double support became 0-2 at 30 fps, and a controller had one frame to move the
+            robot's weight from the rear sole to the front one.
     """
 
     pitch_deg: float = 20.0
     stand_s: float = 1.5
+    double_support: bool = True
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.pitch_deg) and 0 < self.pitch_deg <= 90):
@@ -168,9 +175,13 @@ def flat_support(motion: MarkerMotion, contacts: Contacts,
             q1, q3 = middle_half(start, stop)
             ref = np.median(pitch[q1:q3])
             ok = np.abs(pitch[start:stop] - ref) <= config.flat.pitch_deg
-            best = max(((a + start, b + start) for a, b in runs(ok)),
+            a, b = max(((a + start, b + start) for a, b in runs(ok)),
                        key=lambda r: r[1] - r[0], default=(q1, q3))
-            flat[best[0]:best[1], k] = True
+            if config.flat.double_support:
+                other = contacts.support[:, 1 - k]
+                a = start if other[start] else a  # lands while the other foot still stands
+                b = stop if other[stop - 1] else b  # leaves after the other foot landed
+            flat[a:b, k] = True
     # the human stands on a toe or a heel only (no flat part in either foot): the robot stands
     # flat there, where a cut would make a flight the human never had
     bare = contacts.support.any(axis=1) & ~flat.any(axis=1)

@@ -53,9 +53,13 @@ class WbcWeights(NonNegative):
     rad/s^2), and the regularization of the unknowns.
 
     Attributes:
-        com: centre of mass.
+        com: centre of mass: the heaviest task, ten times the angular momentum's. Both come
+            from the same contact wrenches; when the centres of pressure bind, the CoM (the
+            capture point) keeps the robot up and the angular momentum gives way (at equal
+            weights the walks were lost 1-2 s into the clips, their CoM 40-90 mm behind).
         momentum: centroidal angular momentum rate, in ZMP-equivalent units (``Ldot / m z``).
-        base: base orientation.
+        base: base orientation (heavier than the posture: with the CoM first, a light base
+            task let the trunk swing to help it and the head left its reference by 0.25 m).
         swing: swing soles (6 rows each).
         joints: joint posture of the legs (the joints between the base and a sole: they move
             the CoM over the feet, so they yield to the CoM).
@@ -73,9 +77,9 @@ class WbcWeights(NonNegative):
             behind the reference for good, at 1e-4 0.2 mm.
     """
 
-    com: float = 100.0
+    com: float = 1000.0
     momentum: float = 100.0
-    base: float = 10.0
+    base: float = 100.0
     swing: float = 30.0
     joints: float = 0.05
     upper_body: float = 1.0
@@ -104,7 +108,8 @@ class WbcConfig:
         limit_horizon_s: the joint accelerations are bounded so that every joint, braking
             over this time, stays within its position limits and below its velocity limit [s]
             (without them the swing leg reached its foot targets with JVRC-1's knee bent 0.66
-            rad backwards).
+            rad backwards; at 0.1 s they braked HRP-4C's swing knee so early that its foot
+            landed 20 mm high and 0.2 m behind its footprint).
         toe_roll_frames: over the last this many frames of a double support that ends in a
             lift-off, the lifting sole rolls over its toe edge (:mod:`imesh.physics.wbc`); 0:
             it stays flat until it leaves.
@@ -120,7 +125,7 @@ class WbcConfig:
     torque_fraction: float = 1.0
     min_normal_force_n: float = 1.0
     contact_height_m: float = 0.005
-    limit_horizon_s: float = 0.1
+    limit_horizon_s: float = 0.05
     toe_roll_frames: int = 2
     toe_cop_fraction: float = 0.8
 

@@ -40,8 +40,9 @@ class PhysicsResult:
         keypoint_rms_mm: RMS distance between the robot's key points (markers.toml) in the
             simulated and the reference motion over the survived frames [mm] (NaN without key
             points); ``keypoint_max_mm`` the largest.
-        slip_mm: largest horizontal displacement of a sole centre within one planned support
-            phase, from the frame the sole is down in the simulation [mm].
+        slip_mm: largest horizontal displacement of a sole corner on the ground within one
+            planned support phase, from the frame the corner is down in the simulation while
+            it stays down [mm] (a roll over the toe edge is no slip).
         friction_ratio: largest tangential / (mu x normal) ground force ratio of a loaded sole.
         cop_margin_mm: smallest distance of a loaded sole's centre of pressure to its edge [mm]
             (negative: outside, the sole tips).

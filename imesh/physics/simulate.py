@@ -163,9 +163,10 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
       than 5 % of the robot's weight;
     - ``cop_margin_mm``: smallest distance of a loaded sole's centre of pressure to the edge of
       its rectangle (negative outside) [mm];
-    - ``slip_mm``: largest horizontal displacement of a sole centre within one planned support
-      phase, from the frame the sole is down (lowest corner within ``CONTACT_M``), over the
-      survived frames [mm].
+    - ``slip_mm``: largest horizontal displacement of a sole corner on the ground within one
+      planned support phase, from the frame the corner is down (within ``CONTACT_M``) while
+      it stays down, over the survived frames [mm] (a sole rolling over its toe edge moves its
+      centre, not its toe corners).
     """
     n = np.maximum(samples, 1)[:, None, None]
     forces = sole_force / n
@@ -201,16 +202,17 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
         use = loaded & np.isfinite(edge)
         if use.any():
             margin = float(1e3 * edge[use].min())
-        # a planned support counts from the frame its sole is down (lowest corner within
-        # CONTACT_M), so the landing itself is not slip
-        low = corners[..., 2].min(axis=-1)
+        # what slides is the part of the sole on the ground: each corner counts from the
+        # first frame of the planned support in which it is down (within CONTACT_M) for as
+        # long as it stays down, so neither the landing nor a roll over the toe edge (the
+        # sole centre moves, the toe corners do not) is slip
+        down_c = corners[..., 2] <= CONTACT_M  # (T, 2, 4)
         for k in range(2):
             for a, b in runs(ref.support[:, k] & ok):
-                down = np.flatnonzero(low[a:b, k] <= CONTACT_M)
-                if not len(down):
-                    continue
-                xy = centre_w[a + down[0]:b, k, :2]
-                slip = max(slip, float(np.linalg.norm(xy - xy[0], axis=1).max()))
+                for c in range(4):
+                    for a2, b2 in runs(down_c[a:b, k, c]):
+                        xy = corners[a + a2:a + b2, k, c, :2]
+                        slip = max(slip, float(np.linalg.norm(xy - xy[0], axis=1).max()))
     return {"zmp": zmp, "force": force, "sole_forces": forces, "sole_cop": sole_cop,
             "friction_ratio": friction_ratio, "cop_margin_mm": margin, "slip_mm": 1e3 * slip}
 

@@ -49,18 +49,15 @@ class ZmpOptions(NonNegative):
             so a balanced motion is left as it is.
         margin: the fraction of each sole's half length and half width kept free of the ZMP:
             the plan's support polygon is the hull of the soles shrunk about their centres by
-            it, so the closed-loop controller of the physics check has room for feedback. The
+            it, so the closed-loop controller of the physics check has room for feedback: the
             plan uses its polygon to the edge, and a controller corrects with the rest of the
-            sole: at 0.4 the JVRC-1 and G1 waves fall in the DART check (3.5 and 3.4 s), at 0.7
-            all three waves stand, but the markers pay for it: the JVRC-1 wave's marker RMS
-            goes from 94.1 to 105.9 mm (0.55: 99.2, 0.6: 101.3), past the 100 mm gate, so the
-            default stays 0.4 until the robots' key points fit the markers better
-            (docs/checking.md).
+            sole. At 0.4 no walk stood in the DART check and the JVRC-1 and G1 waves fell (3.5
+            and 3.4 s); at 0.7 the walks of all three robots stand (docs/checking.md).
     """
 
     weight: float = 10.0
     band_m: float = 0.015
-    margin: float = 0.4
+    margin: float = 0.7
 
     def __post_init__(self) -> None:
         super().__post_init__()
