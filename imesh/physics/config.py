@@ -58,8 +58,7 @@ class WbcWeights(NonNegative):
             capture point) keeps the robot up and the angular momentum gives way (at equal
             weights the walks were lost 1-2 s into the clips, their CoM 40-90 mm behind).
         momentum: centroidal angular momentum rate, in ZMP-equivalent units (``Ldot / m z``).
-        base: base orientation (heavier than the posture: with the CoM first, a light base
-            task let the trunk swing to help it and the head left its reference by 0.25 m).
+        base: base orientation.
         swing: swing soles (6 rows each).
         joints: joint posture of the legs (the joints between the base and a sole: they move
             the CoM over the feet, so they yield to the CoM).
@@ -79,7 +78,7 @@ class WbcWeights(NonNegative):
 
     com: float = 1000.0
     momentum: float = 100.0
-    base: float = 100.0
+    base: float = 10.0
     swing: float = 30.0
     joints: float = 0.05
     upper_body: float = 1.0
