@@ -94,6 +94,7 @@ def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
         solver.settings.eps_rel = 0.0
         solver.settings.verbose = False
         solver.settings.check_duality_gap = gap_check
+        solver.settings.eps_duality_gap_abs = tol  # PIQP's default (1e-8) is not ``tol``'s
         solver.settings.max_iter = max_iter
         if preconditioner_iter is not None:
             solver.settings.preconditioner_iter = preconditioner_iter
