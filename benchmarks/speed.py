@@ -8,12 +8,14 @@
 Tables (each printed as it is measured; docs/speed.md quotes them):
 
 * ``profile``: ``imesh retarget CLIP --robot ROBOT`` (default settings, no ``--physics``) run
-  under cProfile; the wall time split by stage from the cumulative times of the
+  under cProfile with the process's cpu clock (``time.process_time``: on a shared machine
+  the wall clock counts the other jobs' time too); the cpu time split by stage from the
+  cumulative times of the
   stage functions: read the clip, load the robot, prepare (resample, low-pass, arrangement,
   contacts), morph, fit, plan, capsule fit, the whole-body SQP split into assemble
   (``build_qp``), QP (``solve_qp``) and linearize + line search (the rest of
   ``solve_whole_body``), verify (the evaluator), write; "other" is imports and the CLI.
-  Each clip in a process of its own (``python -m cProfile -m imesh``).
+  Each clip in a process of its own (:data:`PROFILE`, imports included).
   Then the functions of largest own time.
 * ``whole``: the same command as a separate process (``python -m imesh``), timed from
   outside with ``/usr/bin/time -v``: wall seconds, source frames per second (the clip's frames
@@ -31,7 +33,9 @@ Tables (each printed as it is measured; docs/speed.md quotes them):
   imesh... after one warm-up pair), ``--gmr-runs`` pairs per clip: medians of the cpu seconds
   (user + system), of the wall seconds, peak memory (MiB), source frames per cpu second and the
   ratio imesh / GMR of the cpu seconds. When GMR is not set up (its venv or source missing) the
-  table says why and times imesh alone.
+  table says why and times imesh alone. ``--baseline DIR`` (another imesh source tree, e.g.
+  ``git archive`` of an older commit unpacked) adds it to each round as "before", with the
+  ratio of imesh's cpu seconds to its.
 * ``inspect``: ``imesh inspect`` on a long clip built in a temporary folder by concatenating a
   shared BVH forwards and backwards (positions stay continuous) to ``--inspect-frames`` frames:
   wall seconds and peak memory.
@@ -93,20 +97,38 @@ STAGES = {
 }
 
 
+#: ``python -c PROFILE OUT.prof ARGS...``: ``imesh ARGS`` under cProfile on the process's cpu
+#: clock.
+PROFILE = """import cProfile, sys, time
+prof = cProfile.Profile(time.process_time)
+prof.enable()
+from imesh.cli.app import main
+try:
+    code = main(sys.argv[2:])
+finally:
+    prof.disable()
+    prof.dump_stats(sys.argv[1])
+sys.exit(code)
+"""
+
+
 def _cumulative(stats: pstats.Stats, path: str, name: str) -> float:
     return sum(v[3] for (f, _, n), v in stats.stats.items()
                if n == name and f.replace(os.sep, "/").endswith(path))
 
 
-def profile_stages(clip: Path, robot: str, out: Path) -> tuple[dict[str, float], pstats.Stats]:
-    """Run ``imesh retarget`` as its own process under cProfile (``python -m cProfile -m
-    imesh``: imports included, nothing cached from another run); seconds per stage
-    (``STAGES``)."""
+def profile_stages(clip: Path, robot: str, out: Path, root: Path | None = None
+                   ) -> tuple[dict[str, float], pstats.Stats]:
+    """Run ``imesh retarget`` as its own process under cProfile on the cpu clock
+    (:data:`PROFILE`: imports included, nothing cached from another run); cpu seconds per
+    stage (``STAGES``)."""
     prof = out / f"{clip.stem}.prof"
-    argv = [sys.executable, "-m", "cProfile", "-o", str(prof), "-m", "imesh", "-q",
+    argv = [sys.executable, "-c", PROFILE, str(prof), "-q",
             "retarget", str(clip), "--robot", robot, "-o", str(out / "profile.npz"),
-            "--json", str(out / "profile.json")]
-    proc = subprocess.run(argv, capture_output=True, text=True, env=_env())
+            "--json", str(out / "profile.json"), "--force"]
+    # in the tree's own folder: ``python -c`` and ``-m`` put the working folder first on sys.path
+    proc = subprocess.run(argv, capture_output=True, text=True, env=_env(root),
+                          cwd=str(root or ROOT))
     if proc.returncode != 0:
         raise SystemExit(f"imesh retarget {clip.name} exited {proc.returncode}:\n"
                          f"{proc.stderr[-2000:]}")
@@ -121,12 +143,13 @@ def profile_stages(clip: Path, robot: str, out: Path) -> tuple[dict[str, float],
     return row, stats
 
 
-def table_profile(clips: list[Path], robot: str, out: Path) -> None:
+def table_profile(clips: list[Path], robot: str, out: Path, root: Path | None = None) -> None:
     rows, stats = {}, {}
     for clip in clips:
-        rows[clip], stats[clip] = profile_stages(clip, robot, out)
+        rows[clip], stats[clip] = profile_stages(clip, robot, out, root)
     head = f"{'stage':<30}" + "".join(f"{c.stem[:22]:>24}" for c in clips)
-    print(f"\n## profile: imesh retarget --robot {robot} (cProfile, one process per clip)\n")
+    print(f"\n## profile: imesh retarget --robot {robot} (cProfile, cpu seconds, one process per "
+          f"clip; imesh from {root or ROOT})\n")
     print(head)
     print("-" * len(head))
     for stage in rows[clips[0]]:
@@ -143,10 +166,12 @@ def table_profile(clips: list[Path], robot: str, out: Path) -> None:
             print(f"  {tt:8.2f} s own {ct:8.2f} s cum {ncalls:>8} calls  {name} ({where})")
 
 
-def _timed(argv: list[str], env: dict | None = None) -> tuple[float, float, str]:
-    """Run a command under ``/usr/bin/time -v``: (wall s, peak MB, its stdout)."""
+def _timed(argv: list[str], env: dict | None = None, cwd: Path | None = None
+           ) -> tuple[float, float, str]:
+    """Run a command under ``/usr/bin/time -v`` (in ``cwd``): (wall s, peak MB, its stdout)."""
     cmd = ["/usr/bin/time", "-v", *argv]
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env,
+                          cwd=None if cwd is None else str(cwd))
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(argv)} exited {proc.returncode}:\n{proc.stderr[-2000:]}")
     wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)", proc.stderr)
@@ -156,9 +181,10 @@ def _timed(argv: list[str], env: dict | None = None) -> tuple[float, float, str]
     return seconds, peak / 1024.0, proc.stdout
 
 
-def _env() -> dict:
+def _env(root: Path | None = None) -> dict:
+    """The environment of a timed process: imesh from ``root`` (default this tree)."""
     env = dict(os.environ)
-    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    env["PYTHONPATH"] = str(root or ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     return env
 
 
@@ -306,7 +332,8 @@ def table_robots(runs: int = 5) -> None:
                   f"{_median([r[2] for r in rows]):>8.0f}", flush=True)
 
 
-def _cpu_timed(argv: list[str], env: dict | None = None) -> tuple[float, float, float]:
+def _cpu_timed(argv: list[str], env: dict | None = None, cwd: Path | None = None
+               ) -> tuple[float, float, float]:
     """Run a command to its end: (wall s, cpu s (user + system, of it and its children), peak
     MiB of its largest process (``/usr/bin/time``'s maximum resident set size))."""
     import resource
@@ -316,7 +343,7 @@ def _cpu_timed(argv: list[str], env: dict | None = None) -> tuple[float, float, 
         return use.ru_utime + use.ru_stime
 
     cpu0 = cpu()
-    wall, peak, _ = _timed(argv, env)
+    wall, peak, _ = _timed(argv, env, cwd)
     return wall, cpu() - cpu0, peak
 
 
@@ -335,7 +362,8 @@ def gmr_setup(gmr_dir: Path) -> tuple[list[str] | None, str]:
     return [str(venv / "bin" / "python"), str(script)], ""
 
 
-def table_gmr(clips: list[Path], out: Path, runs: int = 3, gmr_dir: Path | None = None) -> None:
+def table_gmr(clips: list[Path], out: Path, runs: int = 3, gmr_dir: Path | None = None,
+              baseline: Path | None = None) -> None:
     gmr_dir = gmr_dir or data_root().parent / "tools" / "gmr"
     gmr, why = gmr_setup(gmr_dir)
     load0 = os.getloadavg()[1]
@@ -343,29 +371,39 @@ def table_gmr(clips: list[Path], out: Path, runs: int = 3, gmr_dir: Path | None 
           "one warm-up pair (medians)\n")
     if gmr is None:
         print(f"GMR unavailable: {why}; imesh timed alone\n")
+    if baseline is not None:
+        print(f"before: imesh from {baseline}\n")
     head = (f"{'clip':<28} {'frames':>6} {'tool':<6} {'cpu s':>7} {'wall s':>7} "
-            f"{'peak MiB':>8} {'f/cpu s':>8} {'imesh/GMR cpu':>14}")
+            f"{'peak MiB':>8} {'f/cpu s':>8} {'imesh/GMR cpu':>14} {'imesh/before':>13}")
     print(head)
     print("-" * len(head))
     for clip in clips:
         n = _source_frames(clip)
         tools = {"imesh": _imesh("-q", "retarget", str(clip), "--robot", "g1", "-o",
                                  str(out / f"gmr-imesh-{clip.stem}.npz"), "--force")}
+        roots = {"imesh": None}
+        if baseline is not None:
+            tools["before"] = _imesh("-q", "retarget", str(clip), "--robot", "g1", "-o",
+                                     str(out / f"gmr-before-{clip.stem}.npz"), "--force")
+            roots["before"] = baseline
         if gmr is not None:
             tools = {"GMR": [*gmr, str(clip), str(out / f"gmr-{clip.stem}.npz")], **tools}
         rows: dict[str, list[tuple[float, float, float]]] = {t: [] for t in tools}
         for k in range(runs + 1):
             for tool, argv in tools.items():
-                row = _cpu_timed(argv, _env())
-                if k:  # the first pair warms the caches up
+                # in the tree's folder: ``python -m`` puts the working folder first on sys.path
+                row = _cpu_timed(argv, _env(roots.get(tool)), roots.get(tool) or ROOT)
+                if k:  # the first round warms the caches up
                     rows[tool].append(row)
         med = {t: [_median([r[i] for r in rows[t]]) for i in range(3)] for t in tools}
         for tool in tools:
             wall, cpu, peak = med[tool]
-            ratio = (f"{med['imesh'][1] / med['GMR'][1]:>14.2f}" if tool == "imesh"
-                     and "GMR" in med else f"{'':>14}")
+            ratio = (f"{cpu / med['GMR'][1]:>14.2f}" if tool != "GMR" and "GMR" in med
+                     else f"{'':>14}")
+            before = (f"{cpu / med['before'][1]:>13.3f}" if tool == "imesh" and "before" in med
+                      else f"{'':>13}")
             print(f"{clip.name[:28]:<28} {n:>6} {tool:<6} {cpu:>7.2f} {wall:>7.2f} "
-                  f"{peak:>8.0f} {n / cpu:>8.1f} {ratio}", flush=True)
+                  f"{peak:>8.0f} {n / cpu:>8.1f} {ratio} {before}", flush=True)
     print(f"load average (5 min) {load0:.2f} before, {os.getloadavg()[1]:.2f} after")
 
 
@@ -482,6 +520,10 @@ def main(argv=None) -> int:
     ap.add_argument("--gmr-runs", type=int, default=3, help="pairs per clip of the gmr table")
     ap.add_argument("--gmr-dir", type=Path, default=None,
                     help="GMR's harness (default: ../shared/tools/gmr beside the data)")
+    ap.add_argument("--baseline", type=Path, default=None,
+                    help="gmr table: also time imesh from this source tree (\"before\")")
+    ap.add_argument("--root", type=Path, default=None,
+                    help="profile table: profile imesh from this source tree (default this one)")
     ap.add_argument("--out", help="folder of the written motions (default: a temporary one)")
     args = ap.parse_args(argv)
     clips = [data_root() / "mocap" / c for c in args.clips]
@@ -494,7 +536,7 @@ def main(argv=None) -> int:
               f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
         for table in args.tables:
             if table == "profile":
-                table_profile(clips, args.robot, out)
+                table_profile(clips, args.robot, out, args.root)
             elif table == "whole":
                 table_whole(clips, args.robot, out)
             elif table == "startup":
@@ -502,7 +544,7 @@ def main(argv=None) -> int:
             elif table == "robots":
                 table_robots(args.runs)
             elif table == "gmr":
-                table_gmr(clips, out, args.gmr_runs, args.gmr_dir)
+                table_gmr(clips, out, args.gmr_runs, args.gmr_dir, args.baseline)
             elif table == "inspect":
                 table_inspect(clips[0], args.inspect_frames, tmp)
             elif table == "scaling":

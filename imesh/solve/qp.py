@@ -84,6 +84,11 @@ PIQP_MAX_ITER = 80
 #: scaled problem stalled with a dual residual of 0.06-0.13 through 250 iterations (56 s)
 #: where the unscaled one converges in 31 (docs/collision.md).
 PIQP_RETRY_MAX_ITER = 250
+#: Ruiz equilibration passes of a first attempt (PIQP's default is 10). With 10 the G1 wave's
+#: first QP stalled (80 iterations, then 25 in the retry without scaling) and the walk's second
+#: took 45; with 3 they take 24 and 28, and the walk's and wave's 34 QPs 800 interior-point
+#: iterations together instead of about 900 (docs/speed.md).
+PIQP_PRECONDITIONER_ITER = 3
 
 
 def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
@@ -94,6 +99,7 @@ def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
         solver.settings.eps_rel = 0.0
         solver.settings.verbose = False
         solver.settings.check_duality_gap = gap_check
+        solver.settings.eps_duality_gap_abs = tol  # PIQP's default (1e-8) is not ``tol``'s
         solver.settings.max_iter = max_iter
         if preconditioner_iter is not None:
             solver.settings.preconditioner_iter = preconditioner_iter
@@ -102,7 +108,7 @@ def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
                      p.x_l, p.x_u)
         return solver.solve(), solver.result
 
-    status, r = attempt(None, PIQP_MAX_ITER)
+    status, r = attempt(PIQP_PRECONDITIONER_ITER, PIQP_MAX_ITER)
     iterations = int(r.info.iter)
     if status == piqp.PIQP_MAX_ITER_REACHED:
         log.info("PIQP: no convergence in %d iterations (dual residual %.3g); solving again "

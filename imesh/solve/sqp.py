@@ -446,6 +446,19 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
                            qp_iterations=qp_iterations)
 
 
+def _settled(lin: Linearization, r: IterationReport, config: WholeBodyConfig) -> bool:
+    """Every other constraint the evaluator scores also holds at the iterate: joint velocities
+    and accelerations within their limits, no self-collision distance more than 1 mm inside
+    its margin, no torque more than 0.1 % of its limit above the margin-reduced limit."""
+    if r.velocity_ratio > 1.0 or r.acceleration_ratio > 1.0:
+        return False
+    if lin.collision is not None and len(lin.collision.min_distance) and \
+            (config.collision.margin_m - lin.collision.min_distance).max() > 1e-3:
+        return False
+    return lin.torques is None or \
+        lin.torques.excess(1.0 - config.margins.torque).max(initial=0.0) <= 1e-3
+
+
 def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: CompiledTargets,
                      config: WholeBodyConfig | None = None,
                      progress: Callable[[int, int], None] | None = None) -> WholeBodySolution:
@@ -537,7 +550,8 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         feasible = (r.sole_error_m < 1e-3 and r.zmp_outside_m < 1e-3
                     and r.lowest_swing_m > config.feet.clearance_m - 1e-3)
         if step < config.sqp.step_tolerance or (
-                feasible and gain < config.sqp.merit_tolerance * phi):
+                feasible and gain < config.sqp.merit_tolerance * phi) or (
+                step < config.sqp.settled_step and feasible and _settled(lin, r, config)):
             converged = True
             break
     seconds["total"] = time.perf_counter() - t_all

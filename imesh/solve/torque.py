@@ -217,22 +217,43 @@ def _right_jacobian_inverse(phi: np.ndarray) -> np.ndarray:
     return np.eye(3) + 0.5 * K + c[:, None, None] * K @ K
 
 
+def sole_chain_columns(robot) -> np.ndarray:
+    """Tangent indices whose change moves the soles' world-aligned Jacobians: the base's
+    rotation and the joints on the chains from the base to the sole frames. The base's
+    translation and every other joint leave them as they are."""
+    model = robot.model
+    cols = {3, 4, 5}
+    for side in SIDES:
+        frame = model.frames[robot.frame_id(robot.soles[side].frame)]
+        for j in model.supports[frame.parentJoint]:
+            joint = model.joints[j]
+            if j > 1 and joint.nv:  # not the universe nor the free flyer
+                cols.update(range(joint.idx_v, joint.idx_v + joint.nv))
+    return np.array(sorted(cols))
+
+
 def _split_derivative(robot, q: np.ndarray, support: np.ndarray, tau: np.ndarray,
                       P: np.ndarray, step: float = 1e-6) -> np.ndarray:
-    """(A, n, nv) ``d(P(q) tau) / dq`` with tau fixed, at A frames (forward differences)."""
+    """(A, n, nv) ``d(P(q) tau) / dq`` with tau fixed, at A frames (forward differences over
+    :func:`sole_chain_columns`; the other columns are 0: P depends on q through the soles'
+    Jacobians only)."""
     A, nv = len(q), P.shape[-1]
-    eye = step * np.eye(nv)
-    moved = np.array([robot.integrate(q[i], eye[k]) for i in range(A) for k in range(nv)])
+    cols = sole_chain_columns(robot)
+    C = len(cols)
+    eye = step * np.eye(nv)[cols]
+    moved = np.array([robot.integrate(q[i], eye[k]) for i in range(A) for k in range(C)])
     frames = [robot.soles[s].frame for s in SIDES]
-    J = robot.trajectory_kinematics(moved, frames).jacobians.reshape(A, nv, 2, 6, nv)
-    out = np.zeros((A, P.shape[1], nv))
+    J = robot.trajectory_kinematics(moved, frames).jacobians.reshape(A, C, 2, 6, nv)
+    sub = np.zeros((A, P.shape[1], C))
     for pattern in ((True, False), (False, True), (True, True)):
         at = np.flatnonzero((support == pattern).all(axis=1))
         if len(at) == 0:
             continue
         feet = np.flatnonzero(pattern)
-        Jp = J[at][:, :, feet].reshape(len(at), nv, 6 * len(feet), nv)
-        Pm = net_torque_map(Jp)  # (a, nv, n, nv): the split after each step
-        out[at] = np.transpose(np.einsum("akjs,as->akj", Pm, tau[at])
+        Jp = J[at][:, :, feet].reshape(len(at), C, 6 * len(feet), nv)
+        Pm = net_torque_map(Jp)  # (a, C, n, nv): the split after each step
+        sub[at] = np.transpose(np.einsum("akjs,as->akj", Pm, tau[at])
                                - np.einsum("ajs,as->aj", P[at], tau[at])[:, None], (0, 2, 1))
-    return out / step
+    out = np.zeros((A, P.shape[1], nv))
+    out[:, :, cols] = sub / step
+    return out
