@@ -106,3 +106,38 @@ def test_trunk_key_points_fit_the_adapted_markers(name):
                                                "shoulder_r")}
     assert max(trunk.values()) <= 35.0, trunk
     assert max(trunk["neck"], trunk["head"]) <= 30.0, trunk
+
+
+def test_failed_marker_gate_names_the_worst_key_points():
+    """A failed marker gate says which body parts and how much (the evaluator's
+    ``by_marker_mm``), worst first; the table's note too."""
+    from imesh.errors import VerificationError
+    from imesh.evaluate.table import format_table
+    from imesh.evaluate.verify import failed_gates
+
+    entry = {"value": 105.2, "unit": "mm", "reference": "adapted markers",
+             "by_marker_mm": {"pelvis": 40.0, "head": 159.0, "neck": 151.0, "chest": 86.0,
+                              "shoulder_r": 125.0, "shoulder_l": 122.0, "toe_l": 5.0}}
+    failed = failed_gates({"marker_rms_mm": entry})
+    assert failed["marker_rms_mm"][1] == ("<= 100.0; worst key points: head 159 mm, neck 151 mm, "
+                                          "shoulder_r 125 mm, shoulder_l 122 mm, chest 86 mm")
+    assert "worst key points: head 159 mm" in str(VerificationError("the wave", failed))
+    assert "worst head 159 mm, neck 151 mm" in format_table({"marker_rms_mm": entry})
+
+
+def test_by_marker_rms_matches_the_total():
+    """The per key point RMS combine to marker_rms_mm (equal frame counts per marker)."""
+    from imesh.core.motion import MarkerMotion
+    from imesh.metrics.markers import marker_rms_mm
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(7, 4, 3))
+    names = ("neck", "head", "chest", "pelvis")
+    make = lambda p: MarkerMotion(positions_m=p, fps=30.0, names=names,  # noqa: E731
+                                  valid=np.ones(p.shape[:2], bool),
+                                  bones=np.zeros((0, 2), np.int64))
+    kp, mk = make(a), make(a + 0.01 * rng.normal(size=a.shape))
+    by = marker_rms_by_name_mm(kp, mk)
+    assert list(by.values()) == sorted(by.values(), reverse=True)
+    total = np.sqrt(np.mean(np.square(list(by.values()))))
+    assert total == pytest.approx(marker_rms_mm(kp, mk), rel=1e-12)
