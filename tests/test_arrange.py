@@ -1,6 +1,6 @@
-"""The marker model arranged for a robot puts the trunk's markers where the robot's key points
-are (issue 33, part 2): the neck, the head and added trunk markers on the robot's geometry, so
-the key points on the trunk fit the adapted markers of a real clip."""
+"""Key points at the body points of the markers, and the markers the robot's trunk carries put
+on it after the morph (issue 33, part 2): the key points on the trunk fit the adapted markers of
+a real clip."""
 
 from __future__ import annotations
 
@@ -99,12 +99,13 @@ def test_standing_frame_maps_to_the_standing_robot(name):
 @pytest.mark.parametrize("name", ["jvrc1", "g1", "hrp4c"])
 def test_trunk_key_points_fit_the_adapted_markers(name):
     """The fitted robot's head, neck, chest and shoulders follow the adapted markers of the
-    wave: RMS <= 35 mm each (before the arrangement placed them: neck 65 / 80 / 169 mm, head
-    67 / 66 / 175 on JVRC-1 / G1 / HRP-4C)."""
+    wave in the initial fit: RMS <= 40 mm each (issue 33's figure), the neck and head <= 30
+    (before: neck 65 / 80 / 169 mm, head 67 / 66 / 175 on JVRC-1 / G1 / HRP-4C; now 8 / 29 /
+    13 and 8 / 27 / 14)."""
     by_name, _ = _wave_fit(name)
     trunk = {n: round(by_name[n], 1) for n in ("chest", "neck", "head", "shoulder_l",
                                                "shoulder_r")}
-    assert max(trunk.values()) <= 35.0, trunk
+    assert max(trunk.values()) <= 40.0, trunk
     assert max(trunk["neck"], trunk["head"]) <= 30.0, trunk
 
 

@@ -15,14 +15,14 @@ markers are arranged per the robot's ``markers.toml``:
    joint would have to bend the torso back by as much (the offset problem of sec. IV-A, which
    the paper solves for the collar with an added marker);
 5. markers the robot carries rigidly on its trunk besides the trunk's own markers (the neck key
-   point on every robot; the head on a robot without a neck joint; added markers such as a
-   collar) are put where the robot has them: in the human's trunk orientation, at the robot's
-   direction from their parent and the human's (scaled) length. The human's cervical spine
-   leans 20-40 degrees forward of its thorax, a robot's neck point sits straight above its
-   chest; the morph keeps only the chest-neck length, so left as is the neck marker stays in
-   front of where any robot pose can put it (an offset of 65-170 mm in the initial fit, the
-   same in every frame). Their children in the tree move with them (a head on a neck joint
-   keeps the human's direction from the neck).
+   point on every robot; the head where it is the neck joints' centre or the head is fixed; added
+   markers such as a collar) are listed (``Arrangement.carried``) and, after the morph, put
+   where the robot has them on the trunk (:func:`carry_on_trunk`): the morph keeps only their
+   bone lengths, so their direction from the trunk drifts with the deformation (the G1 wave's
+   neck marker 46 mm behind the trunk point; HRP-4C's neck 169 mm from its key point in the
+   initial fit before the key points moved to the body points of the markers). Placing them
+   on the trunk before the morph as well changed the initial fit by at most 2 mm on the walk
+   and wave, and made the CMU pirouettes' fit worse (G1 key points 146 -> 174 mm RMS).
 
 Target lengths of every length-constrained pair come from the robot's nominal pose: the distance
 between the two markers' robot key points. The human is first scaled (about the floor point under
@@ -199,47 +199,6 @@ def carried_by_trunk(robot, keypoints: Mapping, trunk: str = "chest",
     return tuple(n for n, m in zip(names, moved, strict=True) if m < tolerance_m)
 
 
-def _place_carried(pos: np.ndarray, robot_pts: np.ndarray, names: list[str],
-                   tree: list[tuple[str, str]], carried: tuple[str, ...]) -> np.ndarray:
-    """Step 5 of the module: carried markers at the robot's directions in the human's trunk
-    orientation, with the human's lengths; their other descendants move with them.
-
-    Args:
-        pos: (T, M, 3) arranged, scaled markers [m].
-        robot_pts: (M, 3) the markers' robot key points in the nominal pose [m].
-        names: (M,) marker names.
-        tree: (parent, child) bones; a carried marker without a parent hangs from the chest.
-        carried: the markers to place (not among TRUNK_MARKERS).
-
-    Returns:
-        (T, M, 3) the markers with the carried ones placed.
-    """
-    index = {n: i for i, n in enumerate(names)}
-    trunk = [index[n] for n in TRUNK_MARKERS]
-    rot = _kabsch_rotations(robot_pts[trunk], pos[:, trunk])  # (T, 3, 3) robot -> human
-    parent = {c: p for p, c in tree}
-    children: dict[str, list[str]] = {}
-    for p, c in tree:
-        children.setdefault(p, []).append(c)
-    out = pos.copy()
-    # parents first: a carried child of a carried marker is placed from its placed parent
-    order = sorted(carried, key=lambda n: _depth(n, parent))
-    for name in order:
-        i, p = index[name], index[parent.get(name, "chest")]
-        length = np.median(np.linalg.norm(pos[:, i] - pos[:, p], axis=-1))
-        robot_dir = robot_pts[i] - robot_pts[p]
-        robot_dir = robot_dir / np.linalg.norm(robot_dir)
-        new = out[:, p] + length * np.einsum("tij,j->ti", rot, robot_dir)
-        shift = new - out[:, i]
-        out[:, i] = new
-        stack = [c for c in children.get(name, []) if c not in carried]
-        while stack:  # descendants that are not carried keep their offset from it
-            c = stack.pop()
-            out[:, index[c]] += shift
-            stack.extend(k for k in children.get(c, []) if k not in carried)
-    return out
-
-
 def carry_on_trunk(positions_m: np.ndarray, arrangement: Arrangement) -> np.ndarray:
     """The carried markers of an arrangement put back on the trunk after the morph.
 
@@ -285,13 +244,6 @@ def carry_on_trunk(positions_m: np.ndarray, arrangement: Arrangement) -> np.ndar
             out[:, index[c]] = positions_m[:, index[c]] + shift
             stack.extend(k for k in children.get(c, []) if k not in arrangement.carried)
     return out
-
-
-def _depth(name: str, parent: Mapping[str, str]) -> int:
-    d = 0
-    while name in parent:
-        name, d = parent[name], d + 1
-    return d
 
 
 def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
@@ -377,8 +329,7 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
     if all(m in index for m in TRUNK_MARKERS):
         carried = tuple(n for n in carried_by_trunk(robot, keypoints)
                         if n not in TRUNK_MARKERS)
-        pos = _place_carried(pos, robot_pts, all_names, tree, carried)
-        log.info("markers carried by the trunk, placed at the robot's geometry: %s",
+        log.info("markers carried by the trunk, put on it after the morph: %s",
                  ", ".join(carried) or "none")
     arranged = MarkerMotion(positions_m=pos, fps=motion.fps, names=tuple(all_names),
                             valid=np.ones(pos.shape[:2], dtype=bool), bones=tree_idx,
