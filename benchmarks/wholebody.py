@@ -2,6 +2,7 @@
 
     python benchmarks/wholebody.py [--robots jvrc1 g1 hrp4c] [--clips ...] [--physics]
                                    [--out DIR] [--solver piqp] [--plots DIR]
+                                   [--zmp-margin 0.4] [--by-marker]
 
 For every clip x robot: ``imesh.retarget`` with default settings, the motion and the adapted
 markers written to ``--out``, then the written file read back and scored by
@@ -9,6 +10,9 @@ markers written to ``--out``, then the written file read back and scored by
 [--physics]`` prints). Prints one row per run: marker RMS, close-pair error (``cpe``: against
 the source clip, on the clip's frames without the lead-in/out), sole deviation/tilt, skid, ground
 penetration, limit violations, ZMP inside/error, DART, and the time of each stage.
+``--zmp-margin`` plans with another ``ZmpOptions.margin`` than the default; ``--by-marker`` adds
+a line per run with the key points' RMS at the trunk (chest, neck, head, shoulders) and the
+worst three others.
 """
 
 from __future__ import annotations
@@ -25,6 +29,19 @@ CLIPS = ("cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh", "cmu_141_16_wave_
          "cmu_02_10_wash_self_cc3rig.bvh")
 
 
+TRUNK = ("chest", "neck", "head", "shoulder_l", "shoulder_r")
+
+
+def by_marker_line(robot, written, adapted) -> str:
+    """The trunk key points' RMS [mm] against the adapted markers, then the worst three others."""
+    from imesh.metrics.markers import keypoint_motion, marker_rms_by_name_mm
+
+    kp = keypoint_motion(robot, written.q, written.fps)
+    by = marker_rms_by_name_mm(kp.subset([n for n in kp.names if n in adapted.names]), adapted)
+    others = [k for k in by if k not in TRUNK][:3]
+    return ", ".join(f"{k} {by[k]:.0f}" for k in (*[t for t in TRUNK if t in by], *others))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--robots", nargs="+", default=["jvrc1", "g1", "hrp4c"])
@@ -33,6 +50,10 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="out/wholebody", help="folder of the written motions")
     ap.add_argument("--solver", default="piqp", help="QP solver of the whole-body solve")
     ap.add_argument("--plots", help="write the balance figure of each run here (PNG)")
+    ap.add_argument("--zmp-margin", type=float, default=None,
+                    help="ZmpOptions.margin of the plan (default: the library's)")
+    ap.add_argument("--by-marker", action="store_true",
+                    help="print the trunk key points' RMS [mm] under each run")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
@@ -44,8 +65,12 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     base = RetargetConfig()
-    config = dataclasses.replace(base, wholebody=dataclasses.replace(
-        base.wholebody, sqp=dataclasses.replace(base.wholebody.sqp, solver=args.solver)))
+    wholebody = dataclasses.replace(
+        base.wholebody, sqp=dataclasses.replace(base.wholebody.sqp, solver=args.solver))
+    if args.zmp_margin is not None:
+        wholebody = dataclasses.replace(wholebody, zmp=dataclasses.replace(
+            wholebody.zmp, margin=args.zmp_margin))
+    config = dataclasses.replace(base, wholebody=wholebody)
     head = (f"{'clip':<30} {'robot':<6} {'frames':>6} {'rms mm':>7} {'cpe':>6} {'sole mm':>7} "
             f"{'tilt':>5} {'skid':>5} {'pen mm':>6} {'lim':>4} {'zmp in':>6} {'zmp mm':>6} "
             f"{'fell':>5} {'surv s':>6} {'trq':>5} {'trq rf':>6} {'fric':>5} {'it':>3} "
@@ -83,6 +108,8 @@ def main(argv=None) -> int:
                   f"{str(m.get('physics_fell', 'n/a')):>5} {dynamics} "
                   f"{wb.get('iterations', 0):>3} {res.seconds.get('wholebody', 0.0):>7.2f} "
                   f"{total:>7.2f}")
+            if args.by_marker:
+                print(f"    key points [mm]: {by_marker_line(robot, written, res.adapted)}")
             sys.stdout.flush()
     return 0
 

@@ -36,7 +36,12 @@ from ..metrics.collision import (
 from ..metrics.derivatives import motion_derivatives
 from ..metrics.dynamics import MU, reference_dynamics
 from ..metrics.limits import limit_violations
-from ..metrics.markers import close_pair_error, keypoint_motion, marker_rms_mm
+from ..metrics.markers import (
+    close_pair_error,
+    keypoint_motion,
+    marker_rms_by_name_mm,
+    marker_rms_mm,
+)
 from ..metrics.skid import SKID_THRESHOLD_MM, foot_skid, sole_deviation
 from ..metrics.soles import SoleTracks, sole_tracks
 from ..metrics.support import EVALUATOR_SUPPORT, SupportDetection, detect_support, planted_feet
@@ -235,9 +240,12 @@ def _marker_metrics(robot, motion: RobotMotion, source, adapted, resample: bool
         note = (src_note if kp_ref is kp_src else "") + note
         n = min(aligned.n_frames, kp_ref.n_frames)
         common = [m for m in kp_ref.names if m in aligned.names]
-        value = marker_rms_mm(kp_ref.frames(0, n).subset(common), aligned.frames(0, n))
+        kp_n, markers_n = kp_ref.frames(0, n).subset(common), aligned.frames(0, n)
+        value = marker_rms_mm(kp_n, markers_n)
+        by_name = marker_rms_by_name_mm(kp_n, markers_n)
         out["marker_rms_mm"] = _metric("marker_rms_mm", value, reference=ref_kind,
                                        markers=len(common), frames=n,
+                                       by_marker_mm={k: round(v, 1) for k, v in by_name.items()},
                                        note=note.rstrip("; ") or None)
     if src is None:
         out["close_pair_error"] = _missing("close_pair_error", "needs the source clip "

@@ -45,12 +45,21 @@ def _note(name: str, entry: dict) -> str:
     if name == "limit_violation_frames":
         return f"position {entry['position']}, velocity {entry['velocity']}"
     if name == "marker_rms_mm":
-        return f"vs {entry['reference']}"
+        worst = worst_markers(entry)
+        return f"vs {entry['reference']}" + (f"; worst {worst}" if worst else "")
     if name == "physics_fell":
         return entry.get("fall_reason") or f"real-time factor {entry['real_time_factor']:.2f}"
     if name == "seconds_per_frame":
         return ", ".join(f"{k} {v:.4f}" for k, v in entry.get("stages", {}).items())
     return ""
+
+
+def worst_markers(entry: Mapping, count: int = 5) -> str:
+    """The ``count`` key points farthest from their markers in a ``marker_rms_mm`` entry, as
+    "head 159 mm, neck 151 mm, ..." ("" when the entry has no per-marker figures)."""
+    by_marker = entry.get("by_marker_mm") or {}
+    worst = sorted(by_marker.items(), key=lambda kv: -kv[1])[:count]
+    return ", ".join(f"{k} {v:.0f} mm" for k, v in worst)
 
 
 def format_table(report: Mapping[str, dict]) -> str:

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from ..errors import VerificationError
 from .scoreboard import evaluate_motion, metric_values
+from .table import worst_markers
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,10 @@ def failed_gates(report: dict, gates: Gates | None = None, balanced: bool = True
             continue
         ok = value <= limit if op == "<=" else value >= limit
         if not ok:
-            out[name] = (value, f"{op} {limit}")
+            gate = f"{op} {limit}"
+            if name == "marker_rms_mm" and worst_markers(report.get(name, {})):
+                gate += f"; worst key points: {worst_markers(report[name])}"
+            out[name] = (value, gate)
     return out
 
 

@@ -13,7 +13,16 @@ markers are arranged per the robot's ``markers.toml``:
    robots put their waist key point above or in front of it (G1: 15 degrees in front); left as
    is, the rigid pelvis triangle would pitch the robot's base by the difference and its waist
    joint would have to bend the torso back by as much (the offset problem of sec. IV-A, which
-   the paper solves for the collar with an added marker).
+   the paper solves for the collar with an added marker);
+5. markers the robot carries rigidly on its trunk besides the trunk's own markers (the neck key
+   point on every robot; the head where it is the neck joints' centre or the head is fixed; added
+   markers such as a collar) are listed (``Arrangement.carried``) and, after the morph, put
+   where the robot has them on the trunk (:func:`carry_on_trunk`): the morph keeps only their
+   bone lengths, so their direction from the trunk drifts with the deformation (the G1 wave's
+   neck marker 46 mm behind the trunk point; HRP-4C's neck 169 mm from its key point in the
+   initial fit before the key points moved to the body points of the markers). Placing them
+   on the trunk before the morph as well changed the initial fit by at most 2 mm on the walk
+   and wave, and made the CMU pirouettes' fit worse (G1 key points 146 -> 174 mm RMS).
 
 Target lengths of every length-constrained pair come from the robot's nominal pose: the distance
 between the two markers' robot key points. The human is first scaled (about the floor point under
@@ -38,6 +47,12 @@ log = logging.getLogger(__name__)
 
 #: Children of the leg bones (thigh, shank): their lengths set the human-to-robot scale.
 LEG_MARKERS = ("knee_l", "ankle_l", "knee_r", "ankle_r")
+#: The markers whose robot key points define the trunk's orientation (step 5 of the module);
+#: the chest's key-point frame is the robot's trunk.
+TRUNK_MARKERS = ("pelvis", "chest", "shoulder_l", "shoulder_r")
+#: Largest motion [m] of a key point relative to the trunk over random joint configurations for
+#: it to count as carried by the trunk.
+CARRIED_TOLERANCE_M = 0.005
 
 
 class ArrangementError(ImeshError):
@@ -63,6 +78,7 @@ class Arrangement:
         pair_names: (P,) the marker names of each pair in ``pairs``.
         robot_points_m: (M', 3) each marker's robot key point in the robot's nominal pose,
             soles at z = 0 [m] (where the morph's targets and the foot geometry come from).
+        carried: markers put on the trunk at the robot's geometry (step 5 of the module).
     """
 
     motion: MarkerMotion
@@ -74,6 +90,7 @@ class Arrangement:
     robot: str
     pair_names: tuple[tuple[str, str], ...]
     robot_points_m: np.ndarray
+    carried: tuple[str, ...] = ()
 
 
 def _reattach(names: tuple[str, ...], bones: np.ndarray, remove: set[str]
@@ -128,6 +145,105 @@ def _align_pelvis(pos: np.ndarray, robot_pts: np.ndarray, pelvis: int, hip_l: in
     out = pos.copy()
     out[:, pelvis] = 0.5 * (pos[:, hip_l] + pos[:, hip_r]) + v_new
     return out, turn
+
+
+def _kabsch_rotations(model_pts: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """(T, 3, 3) rotations R_t minimizing sum_k |R_t (m_k - mean m) - (p_tk - mean p_t)|^2.
+
+    Args:
+        model_pts: (K, 3) the model points.
+        pts: (T, K, 3) the same points per frame.
+    """
+    a = model_pts - model_pts.mean(axis=0)
+    b = pts - pts.mean(axis=1, keepdims=True)
+    u, _, vt = np.linalg.svd(np.einsum("ki,tkj->tij", a, b))
+    d = np.sign(np.linalg.det(np.einsum("tij,tjk->tik", u, vt)))
+    u[:, :, 2] *= d[:, None]
+    return np.einsum("tij,tjk->tki", u, vt)
+
+
+def carried_by_trunk(robot, keypoints: Mapping, trunk: str = "chest",
+                     tolerance_m: float = CARRIED_TOLERANCE_M, samples: int = 8) -> tuple[str, ...]:
+    """Markers whose key points the robot carries rigidly with the frame of ``trunk``'s key
+    point: their position in that frame moves by less than ``tolerance_m`` over random joint
+    configurations (a point on its joints' axes, as a neck key point at the neck joints' centre,
+    counts as carried).
+
+    Args:
+        robot: the Robot.
+        keypoints: marker -> Keypoint.
+        trunk: the marker whose key point's frame is the trunk.
+        tolerance_m: largest motion in the trunk frame [m].
+        samples: random configurations tried (a fixed seed: the answer is the same every call).
+
+    Returns:
+        The carried markers (``trunk`` excluded), in ``keypoints`` order.
+    """
+    if trunk not in keypoints:
+        return ()
+    names = [n for n in keypoints if n != trunk]
+    frames = [robot.frame_id(keypoints[n].frame) for n in names]
+    offsets = np.array([keypoints[n].offset for n in names], dtype=float).reshape(-1, 3)
+    trunk_frame = robot.frame_id(keypoints[trunk].frame)
+
+    def local(q):
+        pose = robot.frame_placements(q, [trunk_frame])[0]
+        return (robot.frame_positions(q, frames, offsets) - pose[:3, 3]) @ pose[:3, :3]
+
+    ref = local(robot.q_nominal)
+    rng = np.random.default_rng(0)
+    moved = np.zeros(len(names))
+    for _ in range(samples):
+        moved = np.maximum(moved, np.linalg.norm(
+            local(robot.random_configuration(rng, scale=0.5)) - ref, axis=1))
+    return tuple(n for n, m in zip(names, moved, strict=True) if m < tolerance_m)
+
+
+def carry_on_trunk(positions_m: np.ndarray, arrangement: Arrangement) -> np.ndarray:
+    """The carried markers of an arrangement put back on the trunk after the morph.
+
+    The morph (Laplacian deformation with bone lengths, paper eq. 5-6) keeps only the carried
+    markers' bone lengths: their direction from the trunk drifts with the deformation (the G1
+    wave's neck marker 46 mm behind the trunk point it was arranged on). The trunk markers
+    (:data:`TRUNK_MARKERS`) are rigid in the marker model with the robot's lengths, so the
+    rotation that maps the robot's trunk in its nominal pose onto them (Kabsch) puts each
+    carried marker where the robot has it; a tree descendant that is not carried moves with
+    its carried ancestor.
+
+    Args:
+        positions_m: (T, M, 3) markers in ``arrangement.motion.names`` order (the morph's
+            output) [m].
+        arrangement: the Arrangement.
+
+    Returns:
+        (T, M, 3) the markers, the carried ones on the trunk [m].
+    """
+    if not arrangement.carried:
+        return positions_m
+    names = list(arrangement.motion.names)
+    index = {n: i for i, n in enumerate(names)}
+    trunk = [index[n] for n in TRUNK_MARKERS]
+    robot_pts = arrangement.robot_points_m
+    rot = _kabsch_rotations(robot_pts[trunk], positions_m[:, trunk])
+    centre = positions_m[:, trunk].mean(axis=1)
+    robot_centre = robot_pts[trunk].mean(axis=0)
+    bones = arrangement.motion.bones
+    tree = [(names[a], names[b]) for a, b in bones]
+    children: dict[str, list[str]] = {}
+    for p, c in tree:
+        children.setdefault(p, []).append(c)
+    out = positions_m.copy()
+    for name in arrangement.carried:
+        i = index[name]
+        new = centre + np.einsum("tij,j->ti", rot, robot_pts[i] - robot_centre)
+        shift = new - positions_m[:, i]
+        out[:, i] = new
+        stack = [c for c in children.get(name, []) if c not in arrangement.carried]
+        while stack:
+            c = stack.pop()
+            out[:, index[c]] = positions_m[:, index[c]] + shift
+            stack.extend(k for k in children.get(c, []) if k not in arrangement.carried)
+    return out
 
 
 def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
@@ -209,6 +325,12 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
                                   index["hip_r"])
         log.info("pelvis marker turned by %.1f deg about the hip axis to the robot's waist "
                  "point", np.degrees(turn))
+    carried: tuple[str, ...] = ()
+    if all(m in index for m in TRUNK_MARKERS):
+        carried = tuple(n for n in carried_by_trunk(robot, keypoints)
+                        if n not in TRUNK_MARKERS)
+        log.info("markers carried by the trunk, put on it after the morph: %s",
+                 ", ".join(carried) or "none")
     arranged = MarkerMotion(positions_m=pos, fps=motion.fps, names=tuple(all_names),
                             valid=np.ones(pos.shape[:2], dtype=bool), bones=tree_idx,
                             source=motion.source, meta=motion.meta)
@@ -220,4 +342,5 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
              sorted(remove) or "none", added_names or "none", len(pairs), scale)
     return Arrangement(motion=arranged, pairs=pairs, target_lengths_m=target,
                        keypoints=keypoints, directions=directions, scale=scale,
-                       robot=robot.name, pair_names=tuple(pair_names), robot_points_m=robot_pts)
+                       robot=robot.name, pair_names=tuple(pair_names), robot_points_m=robot_pts,
+                       carried=carried)

@@ -32,6 +32,7 @@ from .markers import (
     CLOSE_PAIR_FRACTION,
     close_pair_error,
     keypoint_motion,
+    marker_rms_by_name_mm,
     marker_rms_mm,
     non_adjacent_pairs,
 )
@@ -45,6 +46,6 @@ __all__ = [
     "SelfCollisions", "SupportDetection", "check_capsule_collisions", "check_ground",
     "check_self_collisions",
     "close_pair_error", "desired_zmp", "detect_support", "foot_skid", "keypoint_motion",
-    "limit_violations", "marker_rms_mm", "motion_derivatives", "non_adjacent_pairs",
-    "sole_tracks", "zmp_report", "zmp_trajectory",
+    "limit_violations", "marker_rms_by_name_mm", "marker_rms_mm", "motion_derivatives",
+    "non_adjacent_pairs", "sole_tracks", "zmp_report", "zmp_trajectory",
 ]

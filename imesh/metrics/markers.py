@@ -86,6 +86,40 @@ def keypoint_motion(robot, q: np.ndarray, fps: float, names: Sequence[str] | Non
                         source=source or f"keypoints:{robot.name}")
 
 
+def _matched(keypoints: MarkerMotion, markers: MarkerMotion
+             ) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(common names, (T, K) squared distances [m^2], (T, K) validity) of the markers both
+    motions have."""
+    common = [n for n in keypoints.names if n in markers.names]
+    if not common:
+        raise InvalidMotionError(f"no common marker names between the robot key points "
+                                 f"({', '.join(keypoints.names)}) and the markers "
+                                 f"({', '.join(markers.names)})")
+    if keypoints.n_frames != markers.n_frames:
+        raise InvalidMotionError(f"robot motion has {keypoints.n_frames} frames, the markers "
+                                 f"{markers.n_frames}")
+    a = keypoints.positions_m[:, keypoints.indices(common)]
+    b = markers.positions_m[:, markers.indices(common)]
+    return common, np.sum((a - b) ** 2, axis=2), markers.valid[:, markers.indices(common)]
+
+
+def marker_rms_by_name_mm(keypoints: MarkerMotion, markers: MarkerMotion) -> dict[str, float]:
+    """RMS distance [mm] over the frames of each key point from its marker (the body parts of
+    :func:`marker_rms_mm`), worst first; a marker invalid in every frame is left out.
+
+    Args:
+        keypoints: (T, K, 3) robot key points (:func:`keypoint_motion`).
+        markers: (T, M, 3) the markers they fit.
+
+    Raises:
+        InvalidMotionError: different frame counts or no common marker name.
+    """
+    common, d2, valid = _matched(keypoints, markers)
+    out = {n: float(1e3 * np.sqrt(d2[valid[:, k], k].mean()))
+           for k, n in enumerate(common) if valid[:, k].any()}
+    return dict(sorted(out.items(), key=lambda kv: -kv[1]))
+
+
 def marker_rms_mm(keypoints: MarkerMotion, markers: MarkerMotion) -> float:
     """RMS distance [mm] between robot key points and the markers they fit.
 
@@ -98,16 +132,6 @@ def marker_rms_mm(keypoints: MarkerMotion, markers: MarkerMotion) -> float:
     Raises:
         InvalidMotionError: different frame counts or no common marker name.
     """
-    common = [n for n in keypoints.names if n in markers.names]
-    if not common:
-        raise InvalidMotionError(f"no common marker names between the robot key points "
-                                 f"({', '.join(keypoints.names)}) and the markers "
-                                 f"({', '.join(markers.names)})")
-    if keypoints.n_frames != markers.n_frames:
-        raise InvalidMotionError(f"robot motion has {keypoints.n_frames} frames, the markers "
-                                 f"{markers.n_frames}")
-    a = keypoints.positions_m[:, keypoints.indices(common)]
-    b = markers.positions_m[:, markers.indices(common)]
-    valid = markers.valid[:, markers.indices(common)]
-    d2 = np.sum((a - b) ** 2, axis=2)[valid]
+    _, d2, valid = _matched(keypoints, markers)
+    d2 = d2[valid]
     return float(1e3 * np.sqrt(d2.mean())) if d2.size else float("nan")

@@ -41,7 +41,7 @@ from ..errors import OptionError
 from ..fit import FitConfig, FitResult, fit_motion
 from ..fit.limits import joint_limits
 from ..fit.targets import compile_targets
-from ..human.arrange import Arrangement, arrange_for_robot
+from ..human.arrange import Arrangement, arrange_for_robot, carry_on_trunk
 from ..human.filtering import lowpass
 from ..morph.adapt import prepare_markers
 from ..morph.problem import MorphConfig, MorphWeights, build_morph_problem
@@ -371,7 +371,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                                       hard_positions_m=hard, soft_positions_m=soft_m,
                                       soft_weights=soft_wm, config=config.morph)
         morph = solve_morph(problem, progress=morph_step if progress is not None else None)
-        adapted = source.with_positions(morph.positions_m, source=f"adapted:{source.source}")
+        adapted = source.with_positions(carry_on_trunk(morph.positions_m, arrangement),
+                                        source=f"adapted:{source.source}")
         t2 = time.perf_counter()
         fit_markers, extra_dirs = orientation_targets(adapted, robot, arrangement,
                                                       weight=config.foot_weight, flat=blend,

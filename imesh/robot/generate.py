@@ -19,12 +19,15 @@ link's +z up (REP-103):
   knee (elbow) is the non-twist joint nearest the middle of the limb's path; the
   joints before it are the hip (shoulder), the ones after it the ankle (wrist).
 * **Key points** (the 20 standard human markers but the spine, markerset.py): a hip is the point
-  of the first hip axis closest to the other hip axes (fixed on the pelvis); ankles, wrists and
-  the neck are the least-squares meeting points of their joints' axes, a shoulder the point of the
+  of the first hip axis closest to the other hip axes (fixed on the pelvis); ankles and wrists
+  are the least-squares meeting points of their joints' axes, a shoulder the point of the
   last shoulder axis closest to the other shoulder axes; knees and elbows their joint origins;
   toes on the ball of the foot 2 cm above the sole; hands along the hand link's axis, 48 % of the
   hand's length beyond the wrist; chest 7.2 % of a leg below the shoulders; pelvis 11 % of a leg
-  above the hips; head at the centre of the head's geometry.
+  above the hips; the neck (the human marker: the base of the neck) on the torso 6.5 % of a leg
+  above the shoulders; the head (the human marker: the skull base) at the least-squares meeting
+  point of the neck joints' axes, or, with the head fixed on the torso, at the centre of the
+  head's geometry.
 * **Sole**: the lowest face of the foot's collision geometry (visual when the collision geometry
   is only contact spheres), in a foot frame whose z axis is vertical (the foot link, or a frame on
   it such as ``l_sole``).
@@ -321,15 +324,16 @@ def _trunk_points(tree: UrdfTree, limbs: Mapping[str, Limb], leg_len: float, up:
                        if m.frames[f].type == pin.FrameType.BODY
                        and word in m.frames[f].name.lower()})
 
+    # The human neck marker is the base of the neck, its head marker the skull base, where the
+    # head pivots: a robot's neck joints sit there, not at the base of the neck.
+    neck = sh_mid + NECK_ABOVE_SHOULDERS * leg_len * up
+    kp["neck"] = (torso_link, neck)
     if head:
         hids = [jid[n] for n in head.joints]
-        neck = meeting_point(tree.pos[hids], tree.axis[hids], tree.pos[hids[0]])
-        kp["neck"] = (tree.link_of(hids[0]), neck)
-        head_links, head_frame = bodies(hids[-1]), tree.link_of(hids[-1])
-    else:  # a head fixed on the torso (G1)
-        neck = sh_mid + NECK_ABOVE_SHOULDERS * leg_len * up
-        kp["neck"] = (torso_link, neck)
-        head_links, head_frame = bodies(torso_joint, "head"), torso_link
+        kp["head"] = (tree.link_of(hids[-1]),
+                      meeting_point(tree.pos[hids], tree.axis[hids], tree.pos[hids[0]]))
+        return 0.5
+    head_links, head_frame = bodies(torso_joint, "head"), torso_link  # fixed on the torso (G1)
     pts = tree.points_of_frames(head_links, "visual")
     if len(pts) == 0:
         pts = tree.points_of_frames(head_links)
@@ -340,7 +344,7 @@ def _trunk_points(tree: UrdfTree, limbs: Mapping[str, Limb], leg_len: float, up:
         defaults.append(f"head: no head geometry; head point {HEAD_ABOVE_NECK:.2f} leg above the "
                         "neck")
     kp["head"] = (head_frame, head_pt)
-    return 0.5 if head else 0.2
+    return 0.2
 
 
 # ----------------------------------------------------------------------------------------------
