@@ -327,3 +327,28 @@ def test_a_slide_the_fit_did_not_follow_holds_still(robot):
     x = {f.start: f.center_m[0] for f in fps if f.side == "left"}
     assert [round(x[t], 3) for t in range(T)] == [0.0, 0.05, 0.1, 0.15, 0.15, 0.15, 0.35,
                                                   0.35, 0.4, 0.45]
+
+
+def test_robot_soles_stay_flat_through_the_walks_double_supports(mocap):
+    """On the CMU walk the human passes the weight between a heel and a toe (neither foot
+    flat): the robot's support keeps every frame of the source's double supports (3-4 frames
+    each at 30 fps), and cut to the flat parts it keeps fewer (0-2 each)."""
+    import dataclasses
+
+    from imesh.contacts.support import SupportConfig, flat_support
+    from imesh.human.arrange import arrange_for_robot
+    from imesh.human.filtering import lowpass
+    from imesh.io import load_motion
+    from imesh.morph.adapt import prepare_markers
+
+    human = lowpass(prepare_markers(load_motion(mocap("cmu_02_01_walk.bvh"))).resample(FPS), 8.0)
+    source = arrange_for_robot(human, load_test_robot("jvrc1")).motion
+    contacts = detect_contacts(source)
+    double = contacts.support.all(axis=1)
+    assert double.sum() >= 12  # four transitions of 3-4 frames
+    kept = flat_support(source, contacts, SupportConfig()).support
+    assert kept.all(axis=1)[double].all()
+    config = SupportConfig()
+    cut = flat_support(source, contacts, dataclasses.replace(
+        config, flat=dataclasses.replace(config.flat, double_support=False))).support
+    assert cut.all(axis=1).sum() <= double.sum() - 6
