@@ -50,3 +50,55 @@ def test_a_lift_at_the_clips_end(land):
         assert left.all()
     else:
         assert left[:10 + 17].all() and not left[27:34].any() and left[34:].all()
+
+
+@pytest.fixture(scope="module")
+def g1():
+    from imesh.robot import load_robot
+    return load_robot("g1")
+
+
+def _g1_lifted(robot) -> np.ndarray:
+    """(2, nq) G1 standing on its left foot with the right foot lifted and pitched toe down
+    (the CMU veer starts so: the right sole 50 mm up and pitched 85 deg)."""
+    q = robot.q_nominal.copy()
+    for name, angle in (("right_hip_pitch_joint", -0.4), ("right_knee_joint", 1.2),
+                        ("right_ankle_pitch_joint", 0.5)):
+        q[7 + robot.joint_index(name)] += angle
+    return np.repeat(q[None], 2, axis=0)
+
+
+def test_a_foot_put_down_in_the_lead_carries_its_markers(g1):
+    """The markers of the right foot, lifted at the clip's first frame, stand with its sole
+    level on the ground through the lead-in and follow a smooth swing to where the clip has
+    them: no frame moves them more than 1.6 times the mean step (smoothstep: 1.5), and the
+    sole's corners stay above the ground throughout the swing."""
+    from imesh.fit.targets import compile_targets, robot_targets
+    from imesh.solve.lead import _swing_poses, lead_feet
+
+    kps, dirs = robot_targets(g1)
+    names = sorted({k.marker for k in kps} | {m for d in dirs for m in (d.from_marker,
+                                                                         d.to_marker)})
+    targets = compile_targets(g1, names, None, None)
+    q = _g1_lifted(g1)
+    at = g1.frame_positions(q[0], [k.frame for k in targets.keypoints], targets.kp_offsets)
+    markers = np.zeros((2, len(names), 3))
+    markers[:, targets.kp_markers] = at
+    feet = lead_feet(g1, q, targets)
+    right = [names[i] for i in feet.markers[1]]
+    assert right == ["ankle_r", "toe_r"]
+    support = np.array([[True, False], [True, True]])
+    lead = add_lead(q, markers, support, 30, 0, step_frames=15, feet=feet)
+    toe = lead.markers[:, names.index("toe_r")]
+    # standing: the toe marker where the level footprint has it (the sole on z = 0)
+    down = feet.down_first[1] @ np.linalg.inv(feet.first[1])
+    np.testing.assert_allclose(toe[:15], np.repeat((down[:3, :3] @ toe[30] + down[:3, 3])[None],
+                                                   15, axis=0), atol=1e-12)
+    corners = g1.sole_corners(q[0], "right")
+    assert corners[:, 2].min() > 0.03  # the pose is lifted
+    steps = np.linalg.norm(np.diff(toe[14:31], axis=0), axis=1)
+    assert steps.max() <= 1.6 * np.linalg.norm(toe[30] - toe[14]) / 16
+    poses = _swing_poses(feet.down_first[1], feet.first[1], feet.corners[1], 15)
+    low = np.min(np.einsum("nij,kj->nki", poses[:, :3, :3], feet.corners[1])[..., 2]
+                 + poses[:, None, 2, 3], axis=1)
+    assert low.min() >= 0.0

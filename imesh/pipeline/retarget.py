@@ -51,6 +51,7 @@ from ..solve import (
     WholeBodyConfig,
     WindowOptions,
     add_lead,
+    lead_feet,
     plan_whole_body,
     smooth_initializer,
     solve_whole_body,
@@ -427,11 +428,12 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         t3 = time.perf_counter()
         n_lead = int(round(config.lead_s * source.fps))
         q_init = smooth_initializer(robot, q_out, source.fps, config.wholebody.initial_lowpass_hz)
-        ext = add_lead(q_init, fit_markers.positions_m, flat.support, n_lead, n_lead,
-                       step_frames=int(round(0.5 * source.fps)),
-                       land_frames=int(round(config.lead_land_s * source.fps)))
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")
+        ext = add_lead(q_init, fit_markers.positions_m, flat.support, n_lead, n_lead,
+                       step_frames=int(round(0.5 * source.fps)),
+                       land_frames=int(round(config.lead_land_s * source.fps)),
+                       feet=lead_feet(robot, q_init, targets))
         limits = joint_limits(robot, fit_config.limits)
         sliding = np.zeros_like(ext.support)
         sliding[n_lead:n_lead + n_work] = flat.moving

@@ -62,6 +62,29 @@ def _rz(yaw: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def level_placement(sole, rot_level: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """(4, 4) the sole frame's pose that lays a sole level on z = 0 where ``poses`` have it.
+
+    The sole centre goes to the median of the poses' centres in x, y and to z = 0; the heading
+    is the circular mean of their yaw relative to the level orientation.
+
+    Args:
+        sole: the sole rectangle (:class:`imesh.robot.config.SoleRectangle`).
+        rot_level: (3, 3) the sole frame's rotation when the sole is level (the nominal pose's).
+        poses: (N, 4, 4) world poses of the sole frame.
+    """
+    centers = poses[:, :3, :3] @ sole.center + poses[:, :3, 3]
+    # yaw of the sole relative to its level orientation in the nominal pose
+    yaw = _yaw(poses[:, :3, :3] @ rot_level.T)
+    psi = float(np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean()))
+    R = _rz(psi) @ rot_level
+    c = np.array([*np.median(centers[:, :2], axis=0), 0.0])
+    pose = np.eye(4)
+    pose[:3, :3] = R
+    pose[:3, 3] = c - R @ sole.center
+    return pose
+
+
 def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, fps: float,
                  yaw_tol_rad: float = 0.15, move_tol_m: float = 0.04, gap_s: float = 0.3,
                  pivots: np.ndarray | None = None, pivot_rad: float = 0.8,
@@ -187,16 +210,8 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         spans += [(int(t), int(t) + 1, int(source[t]), int(source[t]) + 1, True)
                   for t in np.flatnonzero(sliding[:, k])]
         for start, stop, a, b, slide in sorted(spans):
-            sel = poses[a:b]
-            centers = sel[:, :3, :3] @ sole.center + sel[:, :3, 3]
-            # yaw of the sole relative to its level orientation in the nominal pose
-            yaw = _yaw(sel[:, :3, :3] @ rot_level.T)
-            psi = float(np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean()))
-            R = _rz(psi) @ rot_level
-            c = np.array([*np.median(centers[:, :2], axis=0), 0.0])
-            pose = np.eye(4)
-            pose[:3, :3] = R
-            pose[:3, 3] = c - R @ sole.center
+            pose = level_placement(sole, rot_level, poses[a:b])
+            R, c = pose[:3, :3], pose[:3, :3] @ sole.center + pose[:3, 3]
             corners = sole.corners() @ R.T + pose[:3, 3]
             out.append(Footprint(side=side, start=int(start), stop=int(stop), frame_pose=pose,
                                  center_m=c, corners_m=corners,

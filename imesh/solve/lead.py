@@ -6,9 +6,11 @@ solve therefore gets ``n_in`` frames before the clip and ``n_out`` after it in w
 are in support: a foot in support at the clip's first (last) frame keeps that phase's footprint,
 a foot in the air is put down under where it is (level, same heading) and swings over the
 lead's last (first) ``step_frames`` into (out of) the clip. The initializer and the marker
-targets hold the first (last) frame; the jump from rest into the clip's velocity is covered by
-the elastic acceleration rows of the solve, which then moves the CoM over the support and the
-swing foot into its first step with the ZMP inside the support polygon.
+targets hold the first (last) frame, except the markers on a foot put down (:class:`LeadFeet`):
+they stand with the foot and follow its swing, a smooth rigid motion from the footprint to where
+the clip has the foot. The jump from rest into the clip's velocity is covered by the elastic
+acceleration rows of the solve, which then moves the CoM over the support and the swing foot
+into its first step with the ZMP inside the support polygon.
 """
 
 from __future__ import annotations
@@ -16,6 +18,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from ..contacts.phases import SIDES
+from .footprints import level_placement
+
+#: Least height [m] of the swinging sole's corners above the ground in the middle of a lead
+#: swing (a sin(pi u) profile, u the swing's progress): the straight motion from the footprint
+#: to the clip's foot pose would pass through the floor where the clip has the toe pitched down.
+LEAD_SWING_CLEARANCE_M = 0.02
+#: Key points on a leg's chain within this distance [m] of its sole centre are carried with the
+#: foot in the lead's swings (the ankle's; the knee is 0.3-0.4 m away on the shipped robots).
+LEAD_FOOT_RADIUS_M = 0.15
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,8 +50,101 @@ class Lead:
     n_out: int
 
 
+@dataclass(frozen=True, eq=False)
+class LeadFeet:
+    """The feet at the clip's ends and the markers they carry, for the lead's swings.
+
+    Attributes:
+        markers: per side (left, right) (k,) int indices of the markers on that foot: those
+            whose key point or direction is on a link rigidly attached to the sole frame, and
+            key points on the leg within ``LEAD_FOOT_RADIUS_M`` of the sole centre.
+        first, last: (2, 4, 4) world poses of the sole frames at the clip's first and last
+            frames [m].
+        down_first, down_last: (2, 4, 4) the same soles laid level on z = 0 under them (where
+            the lead stands them: :func:`imesh.solve.footprints.level_placement`).
+        corners: (2, 4, 3) sole corners in the sole frames [m].
+    """
+
+    markers: tuple[np.ndarray, np.ndarray]
+    first: np.ndarray
+    last: np.ndarray
+    down_first: np.ndarray
+    down_last: np.ndarray
+    corners: np.ndarray
+
+
+def lead_feet(robot, q: np.ndarray, targets) -> LeadFeet:
+    """The :class:`LeadFeet` of a clip.
+
+    Args:
+        robot: the robot.
+        q: (T, nq) initializer of the clip (its first and last frames are used).
+        targets: the compiled key points and directions (:func:`imesh.fit.compile_targets`).
+    """
+    frames = [robot.soles[s].frame for s in SIDES]
+    level = robot.frame_rotations(robot.q_nominal, frames)
+    first = robot.frame_placements(q[0], frames)
+    last = robot.frame_placements(q[-1], frames)
+    kps = targets.keypoints
+    kp_at = robot.frame_positions(q[0], [k.frame for k in kps], targets.kp_offsets)
+    markers = []
+    for k, side in enumerate(SIDES):
+        sole = robot.soles[side]
+        foot = set(robot.rigid_links(sole.frame))
+        chain = robot.supporting_joints(sole.frame).tolist()
+        centre = first[k, :3, :3] @ sole.center + first[k, :3, 3]
+        # key points on the foot, or on the leg next to it (G1's ankle marker is on the link
+        # between its ankle's pitch and roll joints: it moves with the foot)
+        on = {int(m) for kp, m, p in zip(kps, targets.kp_markers, kp_at, strict=True)
+              if set(robot.rigid_links(kp.frame)) == foot
+              or (chain[:len(js := robot.supporting_joints(kp.frame).tolist())] == js
+                  and np.linalg.norm(p - centre) < LEAD_FOOT_RADIUS_M)}
+        on |= {int(m) for d, a, b in zip(targets.directions, targets.dir_from, targets.dir_to,
+                                         strict=True)
+               if set(robot.rigid_links(d.frame)) == foot for m in (a, b)}
+        markers.append(np.array(sorted(on), dtype=np.int64))
+    return LeadFeet(
+        markers=(markers[0], markers[1]), first=first, last=last,
+        down_first=np.array([level_placement(robot.soles[s], level[k], first[k:k + 1])
+                             for k, s in enumerate(SIDES)]),
+        down_last=np.array([level_placement(robot.soles[s], level[k], last[k:k + 1])
+                            for k, s in enumerate(SIDES)]),
+        corners=np.array([robot.soles[s].corners() for s in SIDES]))
+
+
+def _swing_poses(down: np.ndarray, up: np.ndarray, corners: np.ndarray, n: int) -> np.ndarray:
+    """(n, 4, 4) sole poses of a swing from ``down`` (a level footprint) to ``up`` (the clip's
+    pose), excluding both ends: the sole centre moves along a smoothstep, the orientation is
+    slerped, and the pose is raised until its corners clear the ground by
+    ``LEAD_SWING_CLEARANCE_M sin(pi u)``."""
+    u = np.arange(1, n + 1) / (n + 1)
+    s = u * u * (3.0 - 2.0 * u)
+    rot = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([down[:3, :3], up[:3, :3]])))(s)
+    R = rot.as_matrix()
+    centre = corners.mean(axis=0)
+    c = (1 - s)[:, None] * (down[:3, :3] @ centre + down[:3, 3]) \
+        + s[:, None] * (up[:3, :3] @ centre + up[:3, 3])
+    low = np.min((R @ corners.T)[:, 2, :] - (R @ centre)[:, 2, None], axis=1) + c[:, 2]
+    c[:, 2] += np.maximum(LEAD_SWING_CLEARANCE_M * np.sin(np.pi * u) - low, 0.0)
+    out = np.repeat(np.eye(4)[None], n, axis=0)
+    out[:, :3, :3] = R
+    out[:, :3, 3] = c - R @ centre
+    return out
+
+
+def _carry(markers: np.ndarray, index: np.ndarray, frames: slice, poses: np.ndarray,
+           at: np.ndarray) -> None:
+    """Move the markers ``index`` of ``frames`` rigidly with the foot: from its pose ``at``
+    (where they are) to ``poses`` (n, 4, 4) (in place)."""
+    rel = np.linalg.inv(at)
+    m = markers[frames][:, index]  # (n, k, 3)
+    T = poses @ rel  # (n, 4, 4)
+    markers[frames, index] = np.einsum("nij,nkj->nki", T[:, :3, :3], m) + T[:, None, :3, 3]
+
+
 def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
-             n_out: int, step_frames: int = 0, land_frames: int = 0) -> Lead:
+             n_out: int, step_frames: int = 0, land_frames: int = 0,
+             feet: LeadFeet | None = None) -> Lead:
     """Extend a clip by ``n_in`` standing frames before it and ``n_out`` after it.
 
     A foot in the air at the clip's first frame stands during the lead-in and swings over its
@@ -59,6 +166,11 @@ def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
             rear toe for the swing it does not take (0.5 s with the CoM 15 cm in front of the
             stance sole on the G1 walk). Alike for a foot that lifts within the clip's last
             ``land_frames`` frames.
+        feet: where the feet are at the clip's ends and their markers: the markers of a foot
+            that steps out of (into) the lead stand with it on its footprint and follow its
+            swing (None: they hold the clip's first (last) frame throughout, and the solve
+            lifts the sole in the frame the support ends: G1's sole rose 99 mm and pitched
+            32 deg in one frame into the CMU veer).
     """
     def pad(a: np.ndarray) -> np.ndarray:
         return np.concatenate([np.repeat(a[:1], n_in, axis=0), a,
@@ -67,6 +179,7 @@ def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
     sup = pad(np.asarray(support, dtype=bool))
     sup[:n_in] = True
     sup[len(sup) - n_out:] = True
+    marks = pad(np.asarray(markers, dtype=np.float64))
     T = len(support)
     for k in range(sup.shape[1]):
         down = np.flatnonzero(support[:, k])
@@ -74,10 +187,24 @@ def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
             if len(down) and down[0] <= land_frames:
                 sup[n_in:n_in + down[0], k] = True
             else:
-                sup[n_in - min(step_frames, n_in // 2):n_in, k] = False
+                n = min(step_frames, n_in // 2)
+                sup[n_in - n:n_in, k] = False
+                if feet is not None and len(feet.markers[k]):
+                    at = feet.first[k]
+                    _carry(marks, feet.markers[k], slice(0, n_in - n),
+                           np.repeat(feet.down_first[k][None], n_in - n, axis=0), at)
+                    _carry(marks, feet.markers[k], slice(n_in - n, n_in),
+                           _swing_poses(feet.down_first[k], at, feet.corners[k], n), at)
         if n_out and not support[-1, k]:
             if len(down) and T - 1 - down[-1] <= land_frames:
                 sup[n_in + down[-1]:n_in + T, k] = True
             else:
-                sup[n_in + T:n_in + T + min(step_frames, n_out // 2), k] = False
-    return Lead(q=pad(q), markers=pad(markers), support=sup, n_in=n_in, n_out=n_out)
+                n = min(step_frames, n_out // 2)
+                sup[n_in + T:n_in + T + n, k] = False
+                if feet is not None and len(feet.markers[k]):
+                    at = feet.last[k]
+                    _carry(marks, feet.markers[k], slice(n_in + T, n_in + T + n),
+                           _swing_poses(feet.down_last[k], at, feet.corners[k], n)[::-1], at)
+                    _carry(marks, feet.markers[k], slice(n_in + T + n, n_in + T + n_out),
+                           np.repeat(feet.down_last[k][None], n_out - n, axis=0), at)
+    return Lead(q=pad(q), markers=marks, support=sup, n_in=n_in, n_out=n_out)
