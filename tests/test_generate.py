@@ -211,7 +211,8 @@ def test_icub_holds_its_nominal_pose_in_dart(tmp_path, detector):
     generated nominal pose without a joint reaching its torque limit."""
     from imesh.core.robot_motion import RobotMotion
     from imesh.physics import GroundConfig, PhysicsConfig, simulate_motion
-    from imesh.physics.world import DartRobot, sphere_moment
+    from imesh.physics.world import DartRobot
+    from imesh.robot.inertia import sphere_moment
 
     urdf = erd("icub_description/robots/icub.urdf")
     write_generated(generate_robot_config(urdf), tmp_path)
@@ -234,3 +235,25 @@ def test_icub_holds_its_nominal_pose_in_dart(tmp_path, detector):
     # iCub's URDF damps every joint (1 N m s/rad) and gives its wrist pronosupination 0.45 N m:
     # the controller pays the damping the simulator applies (0.51 of that limit at rest)
     assert result.torque_ratio_max < 0.6
+
+
+def test_icub_has_one_inertia_in_pinocchio_and_dart(tmp_path):
+    """iCub's URDF writes its head and neck as point masses; both models of the robot get the
+    same sphere inertia for them (imesh.robot.inertia), so the whole-body controller's mass
+    matrix (pinocchio) is the simulator's (DART): with the URDF's, neck_yaw's diagonal was
+    4.6e-4 kg m^2 in pinocchio against DART's regularized one."""
+    from imesh.physics import PhysicsConfig
+    from imesh.physics.world import DartRobot
+
+    urdf = erd("icub_description/robots/icub.urdf")
+    write_generated(generate_robot_config(urdf), tmp_path)
+    robot = load_robot(tmp_path / "robot.toml", urdf=urdf)
+    sim = DartRobot(robot, PhysicsConfig())
+    q = robot.q_nominal
+    sim.set_state(q)
+    dart_m = np.asarray(sim.skeleton.getMassMatrix())[np.ix_(sim.joint_dofs, sim.joint_dofs)]
+    pin_m = robot.configuration.dynamics(q, np.zeros(6 + robot.dof), [0],
+                                         np.zeros((1, 3))).mass_matrix[6:, 6:]
+    np.testing.assert_allclose(pin_m, dart_m, atol=1e-8)
+    neck = robot.joint_index("neck_yaw")
+    assert pin_m[neck, neck] > 2e-3

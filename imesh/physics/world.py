@@ -32,6 +32,7 @@ from scipy.spatial.transform import Rotation
 
 from ..core.lazy import optional
 from ..errors import ImeshError
+from ..robot.inertia import regularize_inertias
 from .config import PhysicsConfig
 
 log = logging.getLogger(__name__)
@@ -39,11 +40,6 @@ log = logging.getLogger(__name__)
 #: Mass [kg] and principal moments [kg m^2] DART gives links without <inertial> (~0).
 DEFAULT_MASS = 1e-9
 DEFAULT_MOMENT = 1e-12
-#: Density [kg/m^3] of the solid sphere whose inertia replaces a degenerate inertia tensor.
-SPHERE_DENSITY = 1000.0
-#: An inertia tensor whose largest principal moment is below this fraction of that sphere's
-#: moment is degenerate (a point mass, as iCub's URDF writes its head and neck).
-DEGENERATE_FRACTION = 0.01
 #: Half size of the ground box [m] (the robot stays within it).
 GROUND_HALF_SIZE = 100.0
 
@@ -102,44 +98,10 @@ def locked_value(robot, joint: ET.Element) -> float:
     return float(np.clip(0.0, lo, hi))
 
 
-def sphere_moment(mass_kg: float) -> float:
-    """Principal moment [kg m^2] of a solid sphere of ``SPHERE_DENSITY`` and this mass:
-    ``2/5 m r^2`` with ``r = (3 m / (4 pi rho))^(1/3)``."""
-    radius = (3.0 * mass_kg / (4.0 * np.pi * SPHERE_DENSITY)) ** (1.0 / 3.0)
-    return 0.4 * mass_kg * radius ** 2
-
-
-def _regularize_inertia(link: ET.Element, mass_kg: float) -> None:
-    """Give a link whose inertia tensor is degenerate the inertia of a solid sphere of its mass.
-
-    A point mass on a joint axis has no inertia about it: iCub's head (1.34 kg, all moments 0)
-    makes the effective inertia of ``neck_yaw`` 1e-12 kg m^2, and the stable PD loop, its
-    torque clamped at the motor limit, then shakes the head at the limit until the robot
-    falls. A sphere of water of the link's mass (0.0025 kg m^2 for the head) is a lower bound
-    of any real body's; the mass and centre of mass stay the URDF's, so the gravity and the
-    feed-forward torques are unchanged.
-    """
-    tensor = link.find("inertial/inertia")
-    if tensor is None:
-        return
-    i = {key: float(tensor.get(key, "0")) for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
-    matrix = np.array([[i["ixx"], i["ixy"], i["ixz"]],
-                       [i["ixy"], i["iyy"], i["iyz"]],
-                       [i["ixz"], i["iyz"], i["izz"]]])
-    floor = sphere_moment(mass_kg)
-    if np.linalg.eigvalsh(matrix).max() >= DEGENERATE_FRACTION * floor:
-        return
-    log.info("link %s: inertia tensor degenerate, set to a %.3g kg sphere's (%.3g kg m^2)",
-             link.get("name"), mass_kg, floor)
-    for key in ("ixx", "iyy", "izz"):
-        tensor.set(key, repr(floor))
-    for key in ("ixy", "ixz", "iyz"):
-        tensor.set(key, "0")
-
-
 def reduced_urdf(robot) -> str:
-    """The robot's URDF text without visual/collision elements and mimic tags, with the joints
-    that robot.toml fixes turned into fixed joints at their locked value."""
+    """The robot's URDF text without visual/collision elements and mimic tags, with degenerate
+    link inertias made physical as in the robot's pinocchio model (:mod:`imesh.robot.inertia`)
+    and the joints that robot.toml fixes turned into fixed joints at their locked value."""
     try:
         root = ET.parse(robot.urdf).getroot()
     except (ET.ParseError, OSError) as exc:
@@ -154,8 +116,7 @@ def reduced_urdf(robot) -> str:
             inertial = link.find("inertial")
             assert inertial is not None  # it holds the <mass> found above
             link.remove(inertial)
-        elif mass is not None:
-            _regularize_inertia(link, float(mass.get("value", "0")))
+    regularize_inertias(root)  # as pinocchio's model has them (imesh.robot.inertia)
     fixed = set(robot.config.fixed_joints)
     for joint in root.iter("joint"):
         for m in joint.findall("mimic"):

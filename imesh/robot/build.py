@@ -25,6 +25,7 @@ from .collision import CollisionShape, GeometryItem, build_proxies, derive_sole
 from .config import SIDES, RobotConfig, SoleRectangle
 from .errors import RobotConfigError, closest_first
 from .geometry import geometry_items
+from .inertia import regularize_inertias
 from .markers_config import MarkerConfig
 from .pin import _pinocchio, find_frame, frame_names
 
@@ -281,11 +282,15 @@ def build_model(config: RobotConfig, markers: MarkerConfig | None, urdf: Path,
     """
     pin = _pinocchio()
     try:
-        ET.parse(urdf)
+        tree = ET.parse(urdf)
     except ET.ParseError as exc:
         raise RobotConfigError(f"URDF does not parse: {exc}", path=urdf) from None
     try:
-        full = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
+        if regularize_inertias(tree.getroot()):  # as DART gets them (imesh.robot.inertia)
+            full = pin.buildModelFromXML(ET.tostring(tree.getroot(), encoding="unicode"),
+                                         pin.JointModelFreeFlyer())
+        else:
+            full = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
     except Exception as exc:  # pinocchio raises ValueError/RuntimeError with the parser message
         raise RobotConfigError(f"URDF does not parse: {exc}", path=urdf) from None
     by_link = load_geometry(full, urdf, package_dirs) if geometry else None

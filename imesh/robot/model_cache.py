@@ -45,7 +45,7 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
 log = logging.getLogger(__name__)
 
 #: Bump when what the robot cache stores, or how it is computed, changes.
-ROBOT_CACHE_VERSION = 2
+ROBOT_CACHE_VERSION = 3
 
 #: Cache folder kinds (``<cache>/<kind>/<key>.npz``).
 MODELS_KIND = "models"
