@@ -45,8 +45,8 @@ def feedforward(sim: DartRobot, ref: Reference) -> tuple[np.ndarray, np.ndarray]
     """Inverse-dynamics feed-forward of every reference frame (pinocchio, the model the motion
     was made with).
 
-    Per frame, the generalized forces ``h = M a + C v + g`` (:meth:`imesh.robot.Robot.
-    inverse_dynamics`) plus the joints' damping ``B qd`` the simulator applies; the base
+    Per frame, the generalized forces ``h = M a + C v + g + B qd`` (:meth:`imesh.robot.Robot.
+    inverse_dynamics`, with the joints' damping the simulator applies); the base
     wrench ``h[:6]`` is produced by wrenches ``f`` at the centres of the support soles:
     ``J_base^T f = h[:6]``, weighted least norm (forces count
     ``WRENCH_ARM_M`` times more than moments), and the joint torques are
@@ -69,10 +69,8 @@ def feedforward(sim: DartRobot, ref: Reference) -> tuple[np.ndarray, np.ndarray]
     T = ref.n_frames
     tau = np.zeros((T, sim.n_dofs))
     wrenches = np.zeros((T, 2, 6))
-    damping = sim.joint_damping  # DART applies the URDF's joint damping; pinocchio does not
     for t in range(T):
         h = robot.inverse_dynamics(ref.q[t], ref.v[t], ref.a[t])
-        h[6:] += damping * ref.v[t, 6:]
         feet = np.flatnonzero(ref.support[t])
         if nb and len(feet):
             robot.forward(ref.q[t])

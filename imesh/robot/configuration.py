@@ -235,12 +235,14 @@ class Configuration:
                          c[1] - (h * cdd[1] - ldot[0] / m) / denom])
 
     def inverse_dynamics(self, q, v, a) -> np.ndarray:
-        """(nv,) float generalized forces ``M(q) a + C(q, v) v + g(q)`` (recursive Newton-Euler;
-        pinocchio convention: the first 6 rows are the wrench the free-flyer needs, in the base
-        frame, the rest joint torques [Nm])."""
+        """(nv,) float generalized forces ``M(q) a + C(q, v) v + g(q) + B qd`` (recursive
+        Newton-Euler, plus the joints' viscous damping ``B`` of the URDF; pinocchio convention:
+        the first 6 rows are the wrench the free-flyer needs, in the base frame, the rest joint
+        torques [Nm])."""
         q = self.check(q)
-        tau = np.array(self._pin.rnea(self.model, self.data, q, np.asarray(v, float),
-                                      np.asarray(a, float)))
+        v = np.asarray(v, float)
+        tau = np.array(self._pin.rnea(self.model, self.data, q, v, np.asarray(a, float)))
+        tau[6:] += np.asarray(self.model.damping)[6:] * v[6:]
         self._placements_after_pass(q)
         return tau
 

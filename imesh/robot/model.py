@@ -362,9 +362,9 @@ class Robot:
         return self.configuration.zmp(q, v, a, ground_z)
 
     def inverse_dynamics(self, q, v, a) -> np.ndarray:
-        """(nv,) float generalized forces ``M(q) a + C(q, v) v + g(q)`` (recursive Newton-Euler;
-        pinocchio convention: the first 6 rows are the wrench the free-flyer needs, in the base
-        frame, the rest joint torques [Nm])."""
+        """(nv,) float generalized forces ``M(q) a + C(q, v) v + g(q) + B qd`` (recursive
+        Newton-Euler plus the URDF's joint damping ``B``; pinocchio convention: the first 6 rows
+        are the wrench the free-flyer needs, in the base frame, the rest joint torques [Nm])."""
         return self.configuration.inverse_dynamics(q, v, a)
 
     def dynamics(self, q, v, frames: FrameRefs, offsets: np.ndarray) -> Dynamics:
