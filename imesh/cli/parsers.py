@@ -80,7 +80,8 @@ def _add_load_options(p: argparse.ArgumentParser, resample: bool = True) -> None
     if resample:
         p.add_argument("--fps", type=float, help="resample to this frame rate")
     p.add_argument("--source-fps", type=float,
-                   help="frame rate of formats that store none (AMC; default 120)")
+                   help="frame rate of formats that store none (AMC: default 120; joint-position "
+                   ".npy: required)")
     p.add_argument("--asf", help="skeleton (.asf) of an .amc clip (default: the .asf beside it "
                    "whose name starts the .amc name)")
     p.add_argument("--rig", help="rig table mapping the file to the standard markers: a .toml "
@@ -88,6 +89,10 @@ def _add_load_options(p: argparse.ArgumentParser, resample: bool = True) -> None
     p.add_argument("--body-model", metavar="DIR",
                    help="folder of the SMPL-X / SMPL-H body-model files an AMASS .npz needs "
                    "(DIR/smplx/SMPLX_NEUTRAL.npz ...; docs/amass.md)")
+    p.add_argument("--joints", metavar="FILE",
+                   help="joint names of a joint-position .npy/.npz, one per line (default: "
+                   "names stored in the .npz, or a joint_names.txt beside the file; "
+                   "docs/terrain.md)")
 
 
 def _add_morph_options(p: argparse.ArgumentParser) -> None:
@@ -336,7 +341,8 @@ def add_reduce(sub) -> argparse.ArgumentParser:
     p.add_argument("--units", help="override the detected unit (m, cm, mm, in, cmu)")
     p.add_argument("--up-axis", help="override the detected up axis (+X -X +Y -Y +Z -Z)")
     p.add_argument("--source-fps", type=float,
-                   help="frame rate of formats that store none (AMC; default 120)")
+                   help="frame rate of formats that store none (AMC: default 120; joint-position "
+                   ".npy: required)")
     return p
 
 
