@@ -217,12 +217,13 @@ def read_joint_positions(path: str | os.PathLike, *, joints: str | os.PathLike |
     elif ext == ".npz":
         members = load_npz(p, "joint-position .npz",
                            keys=POSITION_KEYS + NAME_KEYS + FPS_KEYS + ("units", "parents"))
-        key = next((k for k in POSITION_KEYS if k in members), None)
-        if key is None:
+        found = next((k for k in POSITION_KEYS if k in members), None)
+        if found is None:
             raise MotionFileError(str(p), f"no joint positions: the archive has none of "
                                   f"{', '.join(POSITION_KEYS)}; valid: a (T, J, 3) array under "
                                   "one of these names (AMASS files are told by poses, trans, "
                                   "betas, gender)")
+        key = found
         data = members[key]
         stored_names = next((members[k] for k in NAME_KEYS if k in members), None)
         if "units" in members:
@@ -255,7 +256,7 @@ def read_joint_positions(path: str | os.PathLike, *, joints: str | os.PathLike |
     if not (np.isfinite(fps) and fps > 0):
         raise MotionFileError(str(p), f"frame rate {fps!r}; valid: a finite number > 0")
     positions = np.array(data, dtype=np.float64)  # a copy: the mmap is read-only
-    valid = np.isfinite(positions).all(axis=2)
+    valid = np.asarray(np.isfinite(positions).all(axis=2))
     positions[~valid] = np.nan
     bones = (np.zeros((0, 2), dtype=np.int64) if parents is None
              else _bones_from_parents(p, parents, n_joints))
