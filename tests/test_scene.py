@@ -30,6 +30,9 @@ from imesh.metrics.props import (
     surface_skid,
     top_contacts,
 )
+from imesh.metrics.skid import foot_skid
+from imesh.metrics.soles import sole_tracks
+from imesh.metrics.support import SupportDetection, detect_support
 from imesh.morph.adapt import prepare_markers
 from imesh.scene import (
     Prop,
@@ -268,6 +271,15 @@ def test_skid_on_a_box_top():
     assert skid.max_mm == pytest.approx(3.0, abs=1e-6) and skid.samples == 9
     q[:, 0] += 0.03 * np.arange(10)  # 33 mm per frame: 1 m/s, a swing, not a support
     assert surface_skid(robot, q, 30.0, [prop_planes(box)], ["step"]).samples == 0
+    # on the floor (the box's bottom face under the sole is not a surface to stand on), the
+    # figure is the evaluator's foot skid with its support detection
+    q = np.repeat(robot.q_nominal[None], 10, axis=0)
+    q[:, 0] += 0.004 * np.arange(10)
+    floor = surface_skid(robot, q, 30.0, [prop_planes(_foot_box(robot, 0.2))], ["step"])
+    soles = sole_tracks(robot, q, 30.0)
+    ref = foot_skid(soles, detect_support(soles, SupportDetection()).support)
+    assert floor.surfaces == {"floor": 18, "step": 0}
+    assert floor.max_mm == pytest.approx(ref.max_mm_per_frame) == pytest.approx(4.0)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -322,3 +334,26 @@ def test_retarget_refuses_a_bad_scene_before_the_work(capsys, tmp_path):
     assert status == 2
     assert str(bad) in err and "valid: .obj" in err
     assert not out.exists() and not scene_path_for(out).exists()
+
+
+def test_the_guide_runs(tmp_path, monkeypatch):
+    """docs/terrain.md's python blocks run (in a folder holding the shared interaction data) and
+    print what the page says they print."""
+    import contextlib
+    import io
+    import re
+    from pathlib import Path
+
+    page = Path(__file__).resolve().parents[1] / "docs" / "terrain.md"
+    blocks = re.findall(r"^```python\n(.*?)^```", page.read_text(), re.S | re.M)
+    assert blocks
+    (tmp_path / "interaction").symlink_to(data_root() / "interaction")
+    monkeypatch.chdir(tmp_path)
+    printed = io.StringIO()
+    namespace: dict = {"__name__": "docs_terrain"}
+    with contextlib.redirect_stdout(printed):
+        for i, block in enumerate(blocks):
+            exec(compile(block, f"docs/terrain.md (python block {i + 1})", "exec"), namespace)
+    text = printed.getvalue()
+    assert "2423 m +Z [0.95 0.18]" in text
+    assert "'hand_l': 1140" in text and "0.7811 [0.742 0.141]" in text

@@ -9,8 +9,8 @@
 - ``prop_contacts_kept``: fraction of the human's prop contacts (toes, hands, knees within their
   thresholds of a prop, on the clip's frames) that the robot keeps: the link of the marker's key
   point within 20 mm of the same prop (needs the source clip: ``--source`` or the provenance).
-- ``surface_skid_mm_per_frame``: largest slide of a sole touching the floor or a prop, per
-  1/30 s.
+- ``surface_skid_mm_per_frame``: largest slide of a sole supporting on the floor or on a prop
+  (the evaluator's support detection measured from each surface), per 1/30 s.
 - ``human_prop_contact_frames``: the human's contact frames per prop and effector (a table,
   no single value: its ``value`` is the total).
 
@@ -137,6 +137,7 @@ def evaluate_scene(robot, motion: RobotMotion, scene: Scene, source=None) -> dic
     out["surface_skid_mm_per_frame"] = {
         "value": None if not skid.samples else skid.max_mm, "unit": "mm per 1/30 s",
         "p95": skid.p95_mm, "samples": skid.samples, "surfaces": skid.surfaces,
+        "max_by_surface_mm": skid.max_by_surface_mm,
         **({} if skid.samples else {"reason": "no sole touches a surface"})}
     human = _source_motion(source, motion)
     if human is None:
@@ -177,7 +178,10 @@ def format_scene_table(report: dict) -> str:
             note = "; ".join(f"{p}: " + ", ".join(f"{k} {n}" for k, n in v.items())
                              for p, v in e["props"].items() if v)
         elif name == "surface_skid_mm_per_frame" and e.get("surfaces"):
-            note = "samples on " + ", ".join(f"{k} {n}" for k, n in e["surfaces"].items())
+            worst = e.get("max_by_surface_mm", {})
+            note = "support samples (max mm) on " + ", ".join(
+                f"{k} {n}" + (f" ({worst[k]:.1f})" if k in worst else "")
+                for k, n in e["surfaces"].items())
         rows.append((name, _fmt(e["value"]), e["unit"], note))
     w = [max(len(r[k]) for r in rows) for k in range(3)]
     return "\n".join(f"{a:<{w[0]}}  {b:>{w[1]}}  {c:<{w[2]}}  {d}".rstrip() for a, b, c, d in rows)

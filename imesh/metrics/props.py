@@ -18,10 +18,9 @@ distance to the farthest face plane (exact above a face, a lower bound near edge
   20 mm of the same prop's surface at the same frame: at most 20 mm away, and not sunk more
   than 20 mm into it (a link deep inside a box does not keep a contact with its top).
 - **Skid on any surface** (:func:`surface_skid`): a sole supporting on the floor or a prop at
-  two consecutive frames (lowest corner within 10 mm of the surface: above it, or for a prop
-  also at most 10 mm into it; the floor as the evaluator's ground check, any depth below; sole
-  centre slower than 0.5 m/s, as the evaluator's support detection); its horizontal slide per
-  1/30 s.
+  two consecutive frames (the evaluator's support detection with the height taken from that
+  surface: lowest corner within 10 mm of it, at most 10 mm into a prop, centre slower than
+  0.5 m/s, hysteresis); its horizontal slide per 1/30 s.
 """
 
 from __future__ import annotations
@@ -34,10 +33,11 @@ import numpy as np
 
 from ..contacts.phases import SIDES
 from .soles import sole_tracks
+from .support import SupportDetection
 
 log = logging.getLogger(__name__)
 
-__all__ = ["PENETRATION_COUNT_M", "CONTACT_KEPT_M", "HUMAN_CONTACT_M", "SURFACE_CONTACT_M",
+__all__ = ["PENETRATION_COUNT_M", "CONTACT_KEPT_M", "HUMAN_CONTACT_M",
            "signed_distance", "ProxyPoints", "PropPenetration", "prop_penetration",
            "human_contacts", "HumanContacts", "link_distances", "contact_preservation",
            "ContactPreservation", "surface_skid", "SurfaceSkid", "top_contacts"]
@@ -50,10 +50,8 @@ CONTACT_KEPT_M = 0.020
 HUMAN_CONTACT_M: Mapping[str, float] = {
     "toe_l": 0.06, "toe_r": 0.06, "hand_l": 0.06, "hand_r": 0.06, "knee_l": 0.10,
     "knee_r": 0.10}
-#: A sole touches a surface when its lowest corner is within this of it [m].
-SURFACE_CONTACT_M = 0.010
-#: A touching sole supports when its centre is slower than this [m/s] (the evaluator's).
-SUPPORT_SPEED_MS = 0.5
+#: A prop face supports a sole when its normal's z exceeds this (up to ~45 deg slopes).
+UPWARD_NZ = 0.7
 #: Frames posed at a time.
 BLOCK_FRAMES = 256
 #: Frame rate the skid is reported at (as :data:`imesh.metrics.skid.SKID_FPS`).
@@ -337,39 +335,61 @@ class SurfaceSkid:
     Attributes:
         max_mm: largest horizontal slide of a touching sole's centre [mm per 1/30 s].
         p95_mm: its 95th percentile.
-        samples: (foot, frame) samples touching at both frames.
+        samples: (foot, frame) samples supporting at both frames.
         surfaces: surface name -> samples on it.
+        max_by_surface_mm: surface name -> largest slide on it (surfaces with samples).
     """
 
     max_mm: float
     p95_mm: float
     samples: int
     surfaces: dict = field(default_factory=dict)
+    max_by_surface_mm: dict = field(default_factory=dict)
 
 
 def surface_skid(robot, q: np.ndarray, fps: float, planes: Sequence[np.ndarray],
-                 names: Sequence[str], touch_m: float = SURFACE_CONTACT_M,
-                 speed_ms: float = SUPPORT_SPEED_MS) -> SurfaceSkid:
-    """Horizontal slide of each sole while it supports on the floor (z = 0) or a prop at a
-    frame and the previous one (module docstring)."""
+                 names: Sequence[str], detection: SupportDetection | None = None
+                 ) -> SurfaceSkid:
+    """Horizontal slide of each sole while it supports on the floor (z = 0) or on a prop, at a
+    frame and the previous one.
+
+    Support on each surface is the evaluator's sole-based detection
+    (:func:`imesh.metrics.support.detect_support`: the sole's lowest corner within 10 mm and its
+    centre slower than 0.5 m/s, with hysteresis and a minimum phase of 0.05 s) with the height
+    measured from that surface: the lowest corner's height above the floor, or its signed
+    distance to the prop (a sole sunk more than ``height_m`` into a prop is not on it).
+    """
+    detection = detection or SupportDetection()
     soles = sole_tracks(robot, np.asarray(q, float), fps)
     steps, on = [], {n: 0 for n in ("floor", *names)}
+    worst: dict[str, float] = {}
     for side in SIDES:
         c = soles.corners[side]  # (T, 4, 3)
-        floor = c[..., 2].min(axis=1)
-        d = [np.where(floor <= touch_m, np.abs(np.maximum(floor, 0.0)), np.inf)]
+        speed = soles.speed(side)
+        heights = [c[..., 2].min(axis=1)]
         for pl in planes:
-            sd = signed_distance(c, pl).min(axis=1)
-            d.append(np.where(np.abs(sd) <= touch_m, np.abs(sd), np.inf))
-        dist = np.stack(d, axis=1)  # (T, 1 + P): |distance| of the surfaces touched, else inf
-        touch = np.isfinite(dist).any(axis=1) & (soles.speed(side) < speed_ms)
-        both = touch[1:] & touch[:-1]
-        surface = np.argmin(dist, axis=1)[1:][both]
-        for k, n in enumerate(("floor", *names)):
-            on[n] += int((surface == k).sum())
+            d = c @ pl[:, :3].T - pl[:, 3]  # (T, 4, K) each corner against each face
+            sd = d.max(axis=-1)  # (T, 4)
+            # on a prop: the corner nearest to the prop is over one of its upward faces (a
+            # sole on the floor inside a box sits at the box's bottom face, not on the box)
+            lowest = np.argmin(sd, axis=1)
+            t = np.arange(len(c))
+            upward = pl[np.argmax(d[t, lowest], axis=-1), 2] > UPWARD_NZ
+            h = sd[t, lowest]
+            heights.append(np.where(upward & (h >= -detection.height_m), h, np.inf))
+        support = np.stack([detection.phases.support(h, speed, detection.height_m,
+                                                     detection.speed_mps, soles.fps)
+                            for h in heights], axis=1)  # (T, 1 + P)
+        both = support[1:] & support[:-1]  # on the same surface at both frames
         step = np.linalg.norm(np.diff(soles.centers[side][:, :2], axis=0), axis=1)
-        steps.append(step[both] * 1e3 * fps / SKID_FPS)
+        for k, n in enumerate(("floor", *names)):
+            on[n] += int(both[:, k].sum())
+        mm = step * 1e3 * fps / SKID_FPS
+        for k, n in enumerate(("floor", *names)):
+            if both[:, k].any():
+                worst[n] = max(worst.get(n, 0.0), float(mm[both[:, k]].max()))
+        steps.append(mm[both.any(axis=1)])
     s = np.concatenate(steps)
     if not s.size:
-        return SurfaceSkid(float("nan"), float("nan"), 0, on)
-    return SurfaceSkid(float(s.max()), float(np.percentile(s, 95)), int(s.size), on)
+        return SurfaceSkid(float("nan"), float("nan"), 0, on, worst)
+    return SurfaceSkid(float(s.max()), float(np.percentile(s, 95)), int(s.size), on, worst)
