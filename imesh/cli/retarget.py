@@ -34,6 +34,8 @@ def run(args) -> int:
     """Retarget, verify and write (motion, markers, reports, plots), print the summary and the
     metrics table; returns the exit status (VerificationError: 3, unless ``--force``)."""
     if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
+        if getattr(args, "scene", None):
+            log.warning("--scene is ignored by --mode arms (the base stays at the nominal pose)")
         robot = load_robot(args.robot, urdf=args.urdf)
         motion = load_clip(args)
         status = run_arms(args, robot, motion)

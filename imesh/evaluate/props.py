@@ -63,8 +63,19 @@ def _raw_source(source, motion: RobotMotion) -> MarkerMotion | None:
     provenance's clip when its file is still there)."""
     clip = motion.provenance.source if motion.provenance is not None else None
     if source is None and clip is not None:
-        if Path(clip.path).is_file():
+        if not Path(clip.path).is_file():
+            return None
+        try:  # a clip the provenance names but that cannot be read again as recorded (a
+            # window cut in Python, a file without its frame rate): no contact figures
             source = read_clip(clip.path, clip.load)
+        except ImeshError as exc:
+            log.warning("scene contacts: the provenance's clip cannot be read again (%s); pass "
+                        "--source", exc)
+            return None
+        if source.n_frames != clip.frames:
+            log.warning("scene contacts: the provenance's clip %s has %d frames, the motion was "
+                        "made from %d; pass --source", clip.path, source.n_frames, clip.frames)
+            return None
     elif isinstance(source, str | Path):
         source = read_clip(source, clip.load) if clip is not None else load_motion(source)
     return source
