@@ -357,3 +357,33 @@ def test_the_guide_runs(tmp_path, monkeypatch):
     text = printed.getvalue()
     assert "2423 m +Z [0.95 0.18]" in text
     assert "'hand_l': 1140" in text and "0.7811 [0.742 0.141]" in text
+
+
+def test_retarget_writes_the_scene_and_evaluate_reads_it(capsys, tmp_path):
+    """``imesh retarget WINDOW --scene box... -o OUT.npz`` (the initial fit only: quick) writes
+    OUT.scene.npz at the human's scale; ``imesh evaluate OUT.npz`` finds it and the clip (the
+    provenance), and reports the same scene figures as the retarget."""
+    window = tmp_path / "step_up.npz"
+    names = (climb("") / "joint_names.txt").read_text().split()
+    np.savez(window, positions=np.load(climb(SEQ0[0]) / SEQ0[1])[300:460],
+             names=np.array(names), fps=np.float64(120))
+    out = tmp_path / "g1.npz"
+    argv = ["retarget", window, "--robot", "g1", "--balance", "none", "-o", out, "--force",
+            "--json", tmp_path / "retarget.json"]
+    for box in boxes(SEQ0):
+        argv += ["--scene", box]
+    status, text = run(capsys, *argv)
+    assert status == 0, text
+    report = json.loads((tmp_path / "retarget.json").read_text())
+    scene = load_saved_scene(scene_path_for(out))
+    assert scene.names == ("box1", "box2", "box3")
+    assert scene.scale == pytest.approx(report["human_scale"], abs=1e-12)
+    floor = load_motion(window).meta["floor_offset_m"]
+    np.testing.assert_allclose(scene.tops_m(),
+                               scene.scale * (np.array([0.95, 0.47, 0.18]) - floor), atol=1e-9)
+    status, text = run(capsys, "evaluate", out, "--json", tmp_path / "evaluate.json")
+    assert status == 0, text
+    again = json.loads((tmp_path / "evaluate.json").read_text())["scene"]
+    assert again == report["scene"]
+    assert again["human_prop_contact_frames"]["value"] > 0  # the person steps onto box2
+    assert set(again["human_prop_contact_frames"]["props"]["box2"]) == {"toe_l", "toe_r"}
