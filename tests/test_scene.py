@@ -357,6 +357,7 @@ def test_the_guide_runs(tmp_path, monkeypatch):
     text = printed.getvalue()
     assert "2423 m +Z [0.95 0.18]" in text
     assert "'hand_l': 1140" in text and "0.7811 [0.742 0.141]" in text
+    assert text.splitlines()[-1] == "600"
 
 
 def test_retarget_writes_the_scene_and_evaluate_reads_it(capsys, tmp_path):
