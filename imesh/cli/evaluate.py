@@ -4,6 +4,7 @@ report (the library is :mod:`imesh.evaluate`)."""
 from __future__ import annotations
 
 from ..evaluate.motion_files import load_motion_file
+from ..evaluate.props import evaluate_scene, format_scene_table, scene_for_motion
 from ..evaluate.scoreboard import evaluate_motion
 from ..evaluate.table import format_table
 from ..io.atomic import write_json
@@ -28,12 +29,20 @@ def run(args) -> int:
         clip = motion.provenance.source if motion.provenance is not None else None
         source = read_clip(source, {**(dict(clip.load) if clip is not None else {}),
                                     "body_model": args.body_model})
+    scene = scene_for_motion(robot, motion, args.motion, getattr(args, "scene", None) or (),
+                             scale=getattr(args, "scene_scale", None), source=source)
     report = evaluate_motion(robot, motion, source=source, physics=args.physics,
                              adapted=args.adapted, physics_config=config,
                              plot=args.plot if args.physics else None,
                              resample=args.resample)
     print(f"{args.motion}: {motion.n_frames} frames of {robot.name} at {motion.fps:g} fps")
     print(format_table(report))
+    if scene is not None:
+        scene_report = evaluate_scene(robot, motion, scene, source=source)
+        print(f"scene: {len(scene.props)} props ({', '.join(scene.names)}) at scale "
+              f"{scene.scale:.4f}; props are not in the solve yet (docs/terrain.md)")
+        print(format_scene_table(scene_report))
+        report = {**report, "scene": scene_report}
     if args.report:
         write_json(args.report, report)
     if args.report_html:

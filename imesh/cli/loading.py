@@ -33,7 +33,8 @@ def load_clip(args, *, apply_rig: bool = True) -> MarkerMotion:
         "units": args.units, "up_axis": args.up_axis, "source_fps": args.source_fps,
         "asf": getattr(args, "asf", None), "fps": getattr(args, "fps", None),
         "rig": getattr(args, "rig", None) if apply_rig else None,
-        "body_model": getattr(args, "body_model", None)})
+        "body_model": getattr(args, "body_model", None),
+        "joints": getattr(args, "joints", None)})
     if args.command in ("adapt", "retarget"):
         require_frames(motion, PIPELINE_MIN_FRAMES, f"imesh {args.command} ({_WHY})")
     return motion

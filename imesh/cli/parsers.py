@@ -80,7 +80,8 @@ def _add_load_options(p: argparse.ArgumentParser, resample: bool = True) -> None
     if resample:
         p.add_argument("--fps", type=float, help="resample to this frame rate")
     p.add_argument("--source-fps", type=float,
-                   help="frame rate of formats that store none (AMC; default 120)")
+                   help="frame rate of formats that store none (AMC: default 120; joint-position "
+                   ".npy: required)")
     p.add_argument("--asf", help="skeleton (.asf) of an .amc clip (default: the .asf beside it "
                    "whose name starts the .amc name)")
     p.add_argument("--rig", help="rig table mapping the file to the standard markers: a .toml "
@@ -88,6 +89,10 @@ def _add_load_options(p: argparse.ArgumentParser, resample: bool = True) -> None
     p.add_argument("--body-model", metavar="DIR",
                    help="folder of the SMPL-X / SMPL-H body-model files an AMASS .npz needs "
                    "(DIR/smplx/SMPLX_NEUTRAL.npz ...; docs/amass.md)")
+    p.add_argument("--joints", metavar="FILE",
+                   help="joint names of a joint-position .npy/.npz, one per line (default: "
+                   "names stored in the .npz, or a joint_names.txt beside the file; "
+                   "docs/terrain.md)")
 
 
 def _add_morph_options(p: argparse.ArgumentParser) -> None:
@@ -199,6 +204,14 @@ def add_retarget(sub) -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=10, help="morph steps (default 10)")
     p.add_argument("--window-frames", type=int, default=2000,
                    help="solve longer clips in windows of this many frames (default 2000)")
+    p.add_argument("--scene", action="append", default=[], metavar="FILE",
+                   help="static props (OBJ/STL/PLY meshes, or a URDF of fixed links) in the "
+                   "clip's frame and units (repeatable): scaled with the human, written beside "
+                   "the output as OUT.scene.npz and measured (penetration, contacts kept, skid); "
+                   "not yet part of the solve (docs/terrain.md)")
+    p.add_argument("--scene-scale", type=float, metavar="S",
+                   help="scale the props by S about the retarget's fixed point instead of the "
+                   "human-to-robot scale (the robot's legs over the human's)")
     p.add_argument("--solve-workers", type=int, choices=(1, 2), default=1,
                    help="processes of a whole-body solve in several windows: 2 solves two "
                         "halves at once and joins them (pays only with a free core; default 1)")
@@ -286,6 +299,13 @@ def add_evaluate(sub) -> argparse.ArgumentParser:
                    "(resampled to the motion's fps, first common frames); by default such a "
                    "mismatch is refused")
     p.add_argument("--fps", type=float, help="frame rate of motion files that store none")
+    p.add_argument("--scene", action="append", default=[], metavar="FILE",
+                   help="the props to measure the motion against: a .scene.npz written by "
+                   "'imesh retarget --scene', or meshes/URDF in the clip's frame, scaled like "
+                   "the retarget (needs the source clip); default: MOTION's .scene.npz beside "
+                   "it (docs/terrain.md)")
+    p.add_argument("--scene-scale", type=float, metavar="S",
+                   help="scale mesh/URDF --scene props by S instead of the human-to-robot scale")
     p.add_argument("--physics", action="store_true", help="run the DART dynamics check")
     p.add_argument("--controller", choices=("wbc", "kinematic", "spd", "pid"), default="wbc",
                    help="controller of the DART check: wbc (whole-body QP with balance "
@@ -336,7 +356,8 @@ def add_reduce(sub) -> argparse.ArgumentParser:
     p.add_argument("--units", help="override the detected unit (m, cm, mm, in, cmu)")
     p.add_argument("--up-axis", help="override the detected up axis (+X -X +Y -Y +Z -Z)")
     p.add_argument("--source-fps", type=float,
-                   help="frame rate of formats that store none (AMC; default 120)")
+                   help="frame rate of formats that store none (AMC: default 120; joint-position "
+                   ".npy: required)")
     return p
 
 

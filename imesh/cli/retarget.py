@@ -10,15 +10,18 @@ from pathlib import Path
 from ..arms.solve import REFINE_CONFIG
 from ..contacts.support import SupportConfig
 from ..core.progress import retarget_bar
+from ..evaluate.props import evaluate_scene, format_scene_table
 from ..evaluate.table import format_table
 from ..evaluate.verify import verify_motion
-from ..io.atomic import write_json
+from ..io.atomic import atomic_path, write_json
 from ..io.formats import write_export
 from ..io.npz import save_marker_motion
 from ..io.robot_motion import save_robot_motion
 from ..physics import ControlConfig, PhysicsConfig
 from ..pipeline.retarget import RetargetConfig, retarget
 from ..robot import load_robot
+from ..scene import save_scene, scene_path_for
+from ..scene.morph_frame import scene_for_clip
 from ..viz.balance import plot_balance
 from ..viz.report import write_report
 from .arms import run_arms
@@ -31,6 +34,8 @@ def run(args) -> int:
     """Retarget, verify and write (motion, markers, reports, plots), print the summary and the
     metrics table; returns the exit status (VerificationError: 3, unless ``--force``)."""
     if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
+        if getattr(args, "scene", None):
+            log.warning("--scene is ignored by --mode arms (the base stays at the nominal pose)")
         robot = load_robot(args.robot, urdf=args.urdf)
         motion = load_clip(args)
         status = run_arms(args, robot, motion)
@@ -51,7 +56,15 @@ def run(args) -> int:
         bar.stage("load", detail=f"robot {args.robot}")
         robot = load_robot(args.robot, urdf=args.urdf)
         bar.stage("prepare")  # the robot is loaded: the bar moves before the clip's filtering
+        scene = None
+        if getattr(args, "scene", None):  # read (and refused) before the solve
+            scene = scene_for_clip(args.scene, motion, robot, scale=args.scene_scale,
+                                   fps=config.fps, lowpass_hz=config.lowpass_hz)
         result = retarget(motion, robot, config=config, progress=bar)
+        if scene is not None and args.scene_scale is None and \
+                abs(scene.scale - result.arrangement.scale) > 1e-9:
+            log.warning("scene scaled by %.6f, the human by %.6f: the props may not match",
+                        scene.scale, result.arrangement.scale)
         report = result.report()
         if args.plots and result.balance is not None:
             report["balance_plots"] = plot_balance(result.balance, args.plots, robot.name)
@@ -77,6 +90,9 @@ def run(args) -> int:
             write_export(robot_motion, args.output, args.format, mjcf=args.mjcf, robot=robot)
         if args.markers:
             save_marker_motion(args.markers, result.adapted)
+        if scene is not None:
+            save_scene(scene_path_for(args.output), scene, atomic=atomic_path)
+            report["scene"] = evaluate_scene(robot, robot_motion, scene, source=motion)
         if args.report:
             write_json(args.report, report)
         if args.report_html:
@@ -95,6 +111,10 @@ def run(args) -> int:
     if report["flight_frames"]:
         print(f"flight frames (planned ballistic, no support): {report['flight_frames']}")
     print(format_table(metrics))
+    if scene is not None and "scene" in report:
+        print(f"scene: {len(scene.props)} props at scale {scene.scale:.4f} -> "
+              f"{scene_path_for(args.output)} (not yet in the solve: docs/terrain.md)")
+        print(format_scene_table(report["scene"]))
     return 0
 
 

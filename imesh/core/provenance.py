@@ -28,7 +28,8 @@ PROVENANCE_FORMAT = 1
 #: Options of :func:`imesh.io.load_motion` and of the command line's clip reading that change
 #: the markers a retarget sees (``imesh retarget --units --up-axis --source-fps --asf --rig
 #: --fps --body-model``), recorded so that the clip can be read again the same way.
-LOAD_OPTION_KEYS = ("units", "up_axis", "source_fps", "asf", "rig", "fps", "body_model")
+LOAD_OPTION_KEYS = ("units", "up_axis", "source_fps", "asf", "rig", "fps", "body_model",
+                    "joints")
 
 
 def file_sha256(path: str | os.PathLike) -> str:

@@ -37,7 +37,8 @@ def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = No
             formats that store none [1/s]), ``asf`` (the skeleton of an .amc), ``fps`` (resample
             to this rate [1/s]), ``rig`` (a rig table: .toml path or built-in name),
             ``body_model`` (the body-model folder of an AMASS file, recorded as an absolute
-            path); None values are the defaults.
+            path), ``joints`` (the joint-names file of a joint-position array, recorded as an
+            absolute path); None values are the defaults.
 
     Returns:
         The motion (metres, Z up), resampled and mapped by the rig as asked.
@@ -52,7 +53,8 @@ def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = No
         raise OptionError("clip reading option", unknown[0], LOAD_OPTION_KEYS)
     motion = load_motion(path, units=parse_units(given.get("units")),
                          up_axis=given.get("up_axis"), fps=given.get("source_fps"),
-                         asf=given.get("asf"), body_model=given.get("body_model"))
+                         asf=given.get("asf"), body_model=given.get("body_model"),
+                         joints=given.get("joints"))
     if given.get("fps"):
         motion = motion.resample(float(given["fps"]))
     if given.get("rig"):
@@ -63,5 +65,7 @@ def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = No
         return motion
     if given.get("body_model"):  # read again from elsewhere (imesh evaluate --source)
         given["body_model"] = os.path.abspath(given["body_model"])
+    if given.get("joints"):
+        given["joints"] = os.path.abspath(given["joints"])
     recorded = {k: (str(v) if k in ("asf", "rig") else v) for k, v in given.items()}
     return dataclasses.replace(motion, meta={**motion.meta, "load_options": recorded})
