@@ -71,7 +71,7 @@ class FitConfig:
             the better basin. The warm start finds only the basin it starts in: on CMU 05_06
             (leaps and pirouettes) on G1 the fit lost the markers after a développé (frames
             26-54) and never found them again (140 mm RMS standing still at the end; 27 mm
-            from a fresh start). The dance's fit RMS on G1 / JVRC-1: 169 / 343 mm without
+            from a fresh start). The dance's fit RMS on G1 / JVRC-1: 229 / 528 mm without
             restarts, 83 / 72 at 50 mm, 87 / 75 at 80 mm, 87 / 88 at 120 mm; the walks, wave
             and zombie walk restart no frame. inf: no restarts.
         restart_gain: the restart wins when its cost ``|W e|^2`` (key points and directions)
