@@ -357,12 +357,13 @@ def test_robot_soles_stay_flat_through_the_walks_double_supports(mocap):
 def test_a_turned_out_supporting_foot_keeps_its_sole_up(mocap):
     """The fit's sole-up target of a supporting foot (orientation_targets, the foot flat on the
     ground) was turned to the pelvis's side: CMU 05_06's supporting feet point more than 90
-    deg away from the pelvis in 20 frames of support or its ramps (turned out, pivoting), and
-    there the target pointed down (foot_up 100 mm below the ankle), so the fit turned G1's
-    sole upside down (tilt 114-152 deg, left foot, frames 149-158) and the footprints planned
-    from it were 180 deg off. Every fully supporting frame now has its sole-up target above
-    the ankle; the walks, the veer, the wave and the zombie walk get the same targets as
-    before, to the bit."""
+    deg away from the pelvis in 15 frames of full support (47-51, 149-158; turned out,
+    pivoting), and there the target pointed down (foot_up 100 mm below the ankle), so the fit
+    turned G1's sole upside down (tilt 114-152 deg, left foot, frames 149-158) and the
+    footprints planned from it were 180 deg off. Every fully supporting frame now has its
+    sole-up target above the ankle (the ramps keep the pelvis's side: at toe-off a foot
+    pitched past its toe points back); the walks, veer, wave, wash and zombie walk, and
+    JVRC-1's Bandai run, get the same targets as before, to the bit."""
     from imesh.contacts.phases import FOOT_MARKERS, SIDES
     from imesh.contacts.support import support_blend
     from imesh.io import load_motion
