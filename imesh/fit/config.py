@@ -71,9 +71,9 @@ class FitConfig:
             the better basin. The warm start finds only the basin it starts in: on CMU 05_06
             (leaps and pirouettes) on G1 the fit lost the markers after a développé (frames
             26-54) and never found them again (140 mm RMS standing still at the end; 27 mm
-            from a fresh start). The dance's fit RMS on G1 / JVRC-1: 229 / 528 mm without
-            restarts, 83 / 72 at 50 mm, 87 / 75 at 80 mm, 87 / 88 at 120 mm; the walks, wave
-            and zombie walk restart no frame. inf: no restarts.
+            from a fresh start). The dance's fit RMS on G1 / JVRC-1: 239 / 390 mm without
+            restarts, 87 / 71 at 50 mm, 91 / 74 at 80 mm, 96 / 86 at 120 mm; the walks, wave,
+            wash and zombie walk restart no frame. inf: no restarts.
         restart_gain: the restart wins when its cost ``|W e|^2`` (key points and directions)
             is below this fraction of the warm start's.
         restart_iterations: largest number of solves from the fresh start.
