@@ -352,3 +352,32 @@ def test_robot_soles_stay_flat_through_the_walks_double_supports(mocap):
     cut = flat_support(source, contacts, dataclasses.replace(
         config, flat=dataclasses.replace(config.flat, double_support=False))).support
     assert cut.all(axis=1).sum() <= double.sum() - 6
+
+
+def test_a_turned_out_supporting_foot_keeps_its_sole_up(mocap):
+    """The fit's sole-up target of a supporting foot (orientation_targets, the foot flat on the
+    ground) was turned to the pelvis's side: CMU 05_06's supporting feet point more than 90
+    deg away from the pelvis in 15 frames of full support (47-51, 149-158; turned out,
+    pivoting), and there the target pointed down (foot_up 100 mm below the ankle), so the fit
+    turned G1's sole upside down (tilt 114-152 deg, left foot, frames 149-158) and the
+    footprints planned from it were 180 deg off. Every fully supporting frame now has its
+    sole-up target above the ankle (the ramps keep the pelvis's side: at toe-off a foot
+    pitched past its toe points back); the walks, veer, wave, wash and zombie walk, and
+    JVRC-1's Bandai run, get the same targets as before, to the bit."""
+    from imesh.contacts.phases import FOOT_MARKERS, SIDES
+    from imesh.contacts.support import support_blend
+    from imesh.io import load_motion
+    from imesh.pipeline.retarget import RetargetConfig, orientation_targets, retarget
+
+    robot = load_test_robot("g1")
+    config = RetargetConfig(balance="none")
+    res = retarget(load_motion(mocap("cmu_05_06_dance_pirouettes_jete.bvh")), robot,
+                   config=config)
+    blend = support_blend(res.support, config.support.ramp.duration_s)
+    markers, _ = orientation_targets(res.adapted, robot, res.arrangement, flat=blend)
+    for k, side in enumerate(SIDES):
+        up = markers.positions_m[:, markers.index(f"foot_up_{side[0]}")]
+        ankle = markers.positions_m[:, markers.index(FOOT_MARKERS[side][1])]
+        rise = (up - ankle)[blend[:, k] >= 1.0, 2]
+        assert len(rise) > 20
+        assert rise.min() > 0.05, side  # 0.1 m along the sole's normal; -0.1 m before

@@ -27,7 +27,7 @@ from .config import FitConfig
 from .dls import FitProblem
 from .errors import FitError
 from .feasible import project_joint_trajectory
-from .initial import initial_guess
+from .initial import frame_guesses, initial_guess
 from .kinematics import Kinematics
 from .limits import ACCELERATION, POSITION, VELOCITY, IncrementBox, check_within, joint_limits
 from .residual import FrameTargets
@@ -80,7 +80,8 @@ def _limited(kin: Kinematics, frames: FrameTargets, free: Track, joints: np.ndar
     at_bound = np.stack([on_pos.any(axis=1), on_vel.any(axis=1), on_acc.any(axis=1)], axis=1)
     return Track(q=q, kp_err=kp_err, dir_err=dir_err, iterations=free.iterations,
                  at_bound=at_bound, conflict=np.zeros(n_frames, dtype=bool),
-                 joint_bound_frames=(on_pos | on_vel | on_acc).sum(axis=0), empty=free.empty)
+                 joint_bound_frames=(on_pos | on_vel | on_acc).sum(axis=0), empty=free.empty,
+                 restarts=free.restarts)
 
 
 def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = None,
@@ -126,20 +127,25 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
     limited = bool(np.any(np.isfinite(limits.v_max)) or np.any(np.isfinite(limits.a_max)))
     options = config.limits
     t_start = time.perf_counter()
+    fresh = None
+    if np.isfinite(config.restart_rms_m) and (init is None or init.ndim == 1):
+        q_nominal = np.asarray(robot.q_nominal, dtype=np.float64).copy()
+        q_nominal[7:] = problem.q_posture
+        fresh = frame_guesses(robot, kin, targets, frames.kp_pos, frames.kp_ok, q_nominal)
     if config.lookahead and limited and n_frames >= 3:
         # the markers with the position limits only (per-frame box), then the joint trajectory
         # projected onto all the limits over the whole clip (feasible.py): it satisfies Kim's
         # eqs 9, 13 and 14 in every frame and brakes ahead of fast target motion
         position_only = IncrementBox.build(limits.position_only(), markers.fps,
                                            options.brake_before_limits)
-        free = track(problem, frames, position_only, q0, init)
+        free = track(problem, frames, position_only, q0, init, fresh)
         projection = project_joint_trajectory(free.q[:, 7:], markers.fps, limits.lower,
                                               limits.upper, limits.v_max, limits.a_max)
         out = _limited(kin, frames, free, projection.q, limits, markers.fps)
     else:
         out = track(problem, frames, IncrementBox.build(limits, markers.fps,
                                                         options.brake_before_limits),
-                    q0, init)
+                    q0, init, fresh)
     seconds = time.perf_counter() - t_start
     result = _result(robot, markers, targets, config, out, seconds)
     if out.empty:
@@ -148,10 +154,10 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
     s = result.summary()
     log.info("fit %s to %s: %d frames, key-point RMS %.2f mm, %.2f iterations/frame, "
              "%.3f ms/frame, frames at position/velocity/acceleration bounds %d/%d/%d, "
-             "conflicts %d", robot.name, markers.source or "motion", n_frames,
+             "conflicts %d, restarts %d", robot.name, markers.source or "motion", n_frames,
              s["marker_rms_mm"], s["mean_iterations"], 1e3 * result.seconds_per_frame,
              s["frames_at_position_bound"], s["frames_at_velocity_bound"],
-             s["frames_at_acceleration_bound"], s["conflict_frames"])
+             s["frames_at_acceleration_bound"], s["conflict_frames"], out.restarts)
     return result
 
 
@@ -188,5 +194,5 @@ def _result(robot, markers: MarkerMotion, targets: CompiledTargets, config: FitC
         at_position_bound=out.at_bound[:, POSITION], at_velocity_bound=out.at_bound[:, VELOCITY],
         at_acceleration_bound=out.at_bound[:, ACCELERATION], conflict=out.conflict,
         joint_bound_frames=out.joint_bound_frames, seconds_per_frame=seconds / markers.n_frames,
-        config=config,
+        config=config, restart_frames=out.restarts,
     )

@@ -52,6 +52,8 @@ class FitResult:
         joint_bound_frames: (n,) per joint, frames in which it sat on any bound.
         seconds_per_frame: wall time of the frame loop divided by T [s].
         config: the settings used.
+        restart_frames: frames whose solution came from a restart at their own markers
+            (FitConfig.restart_rms_m).
         frames_at_position_bound, frames_at_velocity_bound, frames_at_acceleration_bound,
             conflict_frames: the number of frames with the matching (T,) flag set.
     """
@@ -71,6 +73,7 @@ class FitResult:
     joint_bound_frames: np.ndarray
     seconds_per_frame: float
     config: FitConfig = field(default_factory=FitConfig)
+    restart_frames: int = 0
 
     frames_at_position_bound = _FrameCount("at_position_bound")
     frames_at_velocity_bound = _FrameCount("at_velocity_bound")
@@ -106,4 +109,5 @@ class FitResult:
             "frames_at_acceleration_bound": self.frames_at_acceleration_bound,
             "conflict_frames": self.conflict_frames,
             "seconds_per_frame": self.seconds_per_frame,
+            "restart_frames": self.restart_frames,
         }

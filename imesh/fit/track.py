@@ -35,6 +35,7 @@ class Track:
         conflict: (T,) some joint's boxes did not intersect.
         joint_bound_frames: (n,) per joint, frames in which it sat on any bound.
         empty: frames without any valid marker.
+        restarts: frames whose solution came from a restart at their own markers.
     """
 
     q: np.ndarray
@@ -45,6 +46,7 @@ class Track:
     conflict: np.ndarray
     joint_bound_frames: np.ndarray
     empty: int
+    restarts: int = 0
 
 
 def _warm_start(problem: FitProblem, q_out: np.ndarray, t: int, q0: np.ndarray,
@@ -81,9 +83,49 @@ def _smoothing(config: FitConfig, q_posture: np.ndarray, prev_rms: float, q: np.
     return q_ref, float(np.sqrt(mu2 + eta2))
 
 
+def _restart(problem: FitProblem, frame: FrameProblem, q_warm: np.ndarray, fresh: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
+    """The frame solved again from ``fresh`` (nq,), its start from its own markers
+    (:func:`imesh.fit.initial.frame_guesses`), when that finds a better basin than the warm
+    start's solution ``q_warm`` (nq,).
+
+    The fresh start is solved without the smoothing term (it would hold the joints to the
+    previous frame's basin) and without the base's velocity box, for
+    ``FitConfig.restart_iterations`` solves; it wins when its key-point and direction cost
+    ``|W e|^2`` is below ``FitConfig.restart_gain`` times the warm one's. The winner is then
+    polished with the frame's own problem (smoothing and base box included) and kept unless
+    the polish gave the gain back.
+
+    Returns:
+        (q, key points, direction axes, solves) of the new solution, or None (keep the warm
+        start's).
+    """
+    config, rows, kin = problem.config, frame.rows, problem.kin
+    start = fresh.copy()
+    start[7:] = np.clip(start[7:], frame.lo, frame.hi)
+    free = FrameProblem(lo=frame.lo, hi=frame.hi, rows=rows, q_ref=start[7:], mu=0.0,
+                        max_it=config.restart_iterations, first=True, q_prev=None)
+    q_new, points, axes, it = solve_frame(problem, free, start)
+    res_warm = rows.residual(*kin.points_and_axes(q_warm))
+    res_new = rows.residual(points, axes)
+    bound = config.restart_gain * float(res_warm @ res_warm)
+    if not float(res_new @ res_new) < bound:
+        return None
+    q_pol, p_pol, a_pol, it_pol = solve_frame(problem, frame, q_new)
+    res_pol = rows.residual(p_pol, a_pol)
+    if float(res_pol @ res_pol) < bound:
+        return q_pol, p_pol, a_pol, it + it_pol
+    return q_new, points, axes, it + it_pol
+
+
 def track(problem: FitProblem, frames: FrameTargets, limits: IncrementBox, q0: np.ndarray,
-          init: np.ndarray | None) -> Track:
+          init: np.ndarray | None, fresh: np.ndarray | None = None) -> Track:
     """Fit every frame in order inside the boxes of ``limits``.
+
+    A frame whose key-point RMS from its warm start stays above ``FitConfig.restart_rms_m`` is
+    solved again from ``fresh[t]``, its own markers' geometric start (:func:`_restart`): a
+    warm-started damped least-squares iteration only finds the basin it starts in, and after
+    a turn or a leap it can follow the markers from the wrong one for the rest of the clip.
 
     Args:
         problem: what is fixed over the frames.
@@ -91,6 +133,8 @@ def track(problem: FitProblem, frames: FrameTargets, limits: IncrementBox, q0: n
         limits: the joint limits in per-frame units.
         q0: (nq,) starting configuration of frame 0.
         init: (T, nq) starting configuration of every frame, or None (warm starts).
+        fresh: (T, nq) starts from each frame's own markers for the restarts (NaN rows: none),
+            or None (no restarts).
 
     Returns:
         The configurations, per-frame errors and bound activity.
@@ -107,6 +151,7 @@ def track(problem: FitProblem, frames: FrameTargets, limits: IncrementBox, q0: n
     conflict = np.zeros(n_frames, dtype=bool)
     joint_bound_frames = np.zeros(len(limits.lower), dtype=np.int64)
     empty = 0
+    restarts = 0
     prev_rms = float("nan")
     for t in range(n_frames):
         box = limits.at(q_out[t - 1, 7:] if t >= 1 else None,
@@ -123,12 +168,21 @@ def track(problem: FitProblem, frames: FrameTargets, limits: IncrementBox, q0: n
             max_it=config.first_frame_iterations if t == 0 else config.iterations,
             first=t == 0, q_prev=q_out[t - 1] if t >= 1 and base_box else None)
         q, points, axes, it = solve_frame(problem, frame, q)
+        kp_err[t], dir_err[t] = frames.errors(t, points, axes)
+        if (fresh is not None and t >= 1 and rows.ok_p.any() and np.isfinite(fresh[t]).all()
+                and np.sqrt(np.nanmean(kp_err[t] ** 2)) > config.restart_rms_m):
+            better = _restart(problem, frame, q, fresh[t])
+            if better is not None:
+                q, points, axes, it_more = better
+                it += it_more
+                restarts += 1
+                kp_err[t], dir_err[t] = frames.errors(t, points, axes)
         q_out[t] = q
         iters[t] = it
-        kp_err[t], dir_err[t] = frames.errors(t, points, axes)
         if rows.ok_p.any():
             prev_rms = float(np.sqrt(np.nanmean(kp_err[t] ** 2)))
         at_bound[t], on_bound = box.active(q[7:])
         joint_bound_frames += on_bound
     return Track(q=q_out, kp_err=kp_err, dir_err=dir_err, iterations=iters, at_bound=at_bound,
-                 conflict=conflict, joint_bound_frames=joint_bound_frames, empty=empty)
+                 conflict=conflict, joint_bound_frames=joint_bound_frames, empty=empty,
+                 restarts=restarts)

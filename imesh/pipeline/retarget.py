@@ -263,9 +263,14 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
             k = SIDES.index(side)
             # right-pointing for a forward foot; left unnormalized (its length is the foot's
             # horizontal extent), so a foot pointing down on the ramps (toe-off) gets the
-            # pelvis axis rather than an ill-defined f x z
+            # pelvis axis rather than an ill-defined f x z. Turned to the pelvis's side on the
+            # ramps only (a foot pitched past its toe at toe-off points back); in full support
+            # the sole lies flat and f x z is its own right-pointing axis, also where the foot
+            # is turned more than 90 deg from the pelvis (a dancer's turned-out or pivoting
+            # foot, whose sole-up target would otherwise point down)
             level = np.cross(f, [0.0, 0.0, 1.0])
-            level *= np.where(np.sum(level * lateral, axis=1, keepdims=True) < 0, -1.0, 1.0)
+            level *= np.where((np.sum(level * lateral, axis=1, keepdims=True) < 0)
+                              & (flat[:, k, None] < 1.0), -1.0, 1.0)
             lateral = flat[:, k, None] * level + (1.0 - flat[:, k, None]) * lateral
             lateral /= np.maximum(np.linalg.norm(lateral, axis=1, keepdims=True), 1e-9)
         up = np.cross(lateral, f)
