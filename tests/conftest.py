@@ -72,3 +72,18 @@ def g1_walk(tmp_path_factory):
     assert main(["-q", "retarget", str(demo_clip()), "--robot", "g1", "-o", str(out),
                  "--json", str(report)]) == 0
     return out, json.loads(report.read_text())
+
+
+def run_cli(capsys, *argv) -> tuple[int, str]:
+    """Exit status and the error line of ``imesh argv`` (stdout when it succeeds); asserts the
+    error is one line and there is no traceback."""
+    from imesh.cli import main
+
+    status = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err
+    if status != 0:
+        lines = [ln for ln in captured.err.splitlines() if ln.startswith("imesh: error:")]
+        assert len(lines) == 1, captured.err
+        return status, lines[0]
+    return status, captured.out

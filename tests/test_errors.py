@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli as run
 
-from imesh.cli import main
 from imesh.cli.loading import PIPELINE_MIN_FRAMES
 from imesh.errors import (
     ImplausibleMotionError,
@@ -36,17 +36,6 @@ TRC = "roboptim_human_grab_box.trc"
 QUALISYS = "ezc3d_Qualisys_gait.c3d"
 
 
-def run(capsys, *argv) -> tuple[int, str]:
-    """Exit status and the error line of ``imesh argv`` (stdout when it succeeds); asserts the
-    error is one line and there is no traceback."""
-    status = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    assert "Traceback" not in captured.err
-    if status != 0:
-        lines = [ln for ln in captured.err.splitlines() if ln.startswith("imesh: error:")]
-        assert len(lines) == 1, captured.err
-        return status, lines[0]
-    return status, captured.out
 
 
 # ----------------------------------------------------------------------------------------------

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import data_root
+from conftest import run_cli as run
 
-from imesh.cli import main
 from imesh.errors import ImeshError, ImplausibleMotionError, MarkerMappingError, MotionFileError
 from imesh.human.standard import to_standard
 from imesh.io import load_motion
@@ -38,16 +38,6 @@ def names53() -> list[str]:
     return (climb_dir() / "joint_names.txt").read_text().split()
 
 
-def run(capsys, *argv) -> tuple[int, str]:
-    """Exit status and the one error line (or stdout); never a traceback."""
-    status = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    assert "Traceback" not in captured.err
-    if status != 0:
-        lines = [ln for ln in captured.err.splitlines() if ln.startswith("imesh: error:")]
-        assert len(lines) == 1, captured.err
-        return status, lines[0]
-    return status, captured.out
 
 
 def bone(motion, a: str, b: str) -> np.ndarray:

@@ -13,8 +13,8 @@ import json
 import numpy as np
 import pytest
 from conftest import data_root, load_test_robot
+from conftest import run_cli as run
 
-from imesh.cli import main
 from imesh.core.robot_motion import RobotMotion
 from imesh.human.arrange import arrange_for_robot
 from imesh.human.filtering import lowpass
@@ -69,15 +69,6 @@ def clip(seq):
     return load_motion(climb(seq[0]) / seq[1], fps=120)
 
 
-def run(capsys, *argv) -> tuple[int, str]:
-    status = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    assert "Traceback" not in captured.err
-    if status != 0:
-        lines = [ln for ln in captured.err.splitlines() if ln.startswith("imesh: error:")]
-        assert len(lines) == 1, captured.err
-        return status, lines[0]
-    return status, captured.out
 
 
 # ----------------------------------------------------------------------------------------------

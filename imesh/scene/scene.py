@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..io.units import rotation_to_z_up
 from .props import Prop, SceneFileError, load_props
 
 log = logging.getLogger(__name__)
@@ -88,20 +89,6 @@ def load_scene(paths: Sequence[str | os.PathLike]) -> Scene:
     return Scene(tuple(props), "file", sources=tuple(str(p) for p in paths))
 
 
-def _rotation_to_z_up(up_axis: str) -> np.ndarray:
-    """The proper rotation of :func:`imesh.io.units.rotation_to_z_up` (same convention; kept
-    here so the scene needs no reader)."""
-    sign = 1.0 if up_axis[0] == "+" else -1.0
-    axis = "XYZ".index(up_axis[1])
-    order = [(axis + 1) % 3, (axis + 2) % 3, axis]
-    r = np.zeros((3, 3))
-    for row, col in enumerate(order):
-        r[row, col] = 1.0
-    if sign < 0:
-        r = np.diag([1.0, -1.0, -1.0]) @ r
-    return r
-
-
 def human_scene(scene: Scene, motion_meta: dict) -> Scene:
     """The scene in the human world of a loaded clip: the clip's unit, up-axis rotation and
     floor shift (``motion.meta``: ``unit_scale_m``, ``up_axis``, ``floor_offset_m``) applied
@@ -109,7 +96,7 @@ def human_scene(scene: Scene, motion_meta: dict) -> Scene:
     if scene.frame != "file":
         return scene
     unit = float(motion_meta.get("unit_scale_m", 1.0))
-    rot = _rotation_to_z_up(str(motion_meta.get("up_axis", "+Z")))
+    rot = rotation_to_z_up(str(motion_meta.get("up_axis", "+Z")))
     floor = float(motion_meta.get("floor_offset_m", 0.0))
     props = tuple(p.transformed(rot, unit, np.array([0.0, 0.0, -floor])) for p in scene.props)
     if unit != 1.0 or floor != 0.0 or not np.allclose(rot, np.eye(3)):
