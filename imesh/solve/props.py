@@ -114,7 +114,9 @@ class PropLinearization:
 def linearize_props(planes: np.ndarray, seg_world: np.ndarray, radius: np.ndarray,
                     seg_origin: np.ndarray, seg_jacobians: np.ndarray, capsule_skip: np.ndarray,
                     points: np.ndarray, point_origin: np.ndarray, point_jacobians: np.ndarray,
-                    point_skip: np.ndarray, activation: float) -> PropLinearization:
+                    point_skip: np.ndarray, activation: float,
+                    point_owner: np.ndarray | None = None,
+                    point_radius: np.ndarray | None = None) -> PropLinearization:
     """Exact distances of every proxy to every prop at every frame, and the rows of those
     within ``activation`` [m].
 
@@ -124,8 +126,11 @@ def linearize_props(planes: np.ndarray, seg_world: np.ndarray, radius: np.ndarra
         seg_origin: (T, C, 3) origin of each capsule's frame; seg_jacobians: (T, C, 6, nv) its
             world-aligned Jacobian (linear, angular).
         capsule_skip: (T, C) bool samples not checked.
-        points: (T, Q, 3) the feet's ground points; point_origin: (T, Q, 3) their sole frame's
-            origin; point_jacobians: (T, Q, 6, nv) its Jacobian; point_skip: (T, Q) bool.
+        points: (T, Q, 3) point proxies (the feet's ground points, the evaluator's proxy
+            points); point_origin: (T, Q, 3) the origin of each one's frame; point_jacobians:
+            (T, Q, 6, nv) that frame's Jacobian, or (T, F, 6, nv) with ``point_owner`` (Q,) the
+            frame of each point; point_skip: (T, Q) bool; point_radius: (Q,) [m] subtracted from
+            a point's distance (sphere proxies; None: 0).
     """
     T, C = seg_world.shape[:2]
     P, nv = len(planes), seg_jacobians.shape[-1]
@@ -139,6 +144,8 @@ def linearize_props(planes: np.ndarray, seg_world: np.ndarray, radius: np.ndarra
     # foot points x props
     vals = np.einsum("tqa,pka->tqpk", points, planes[..., :3]) - planes[..., 3]
     d_pt = vals.max(axis=-1)  # (T, Q, P)
+    if point_radius is not None:
+        d_pt = d_pt - point_radius[None, :, None]
     d_pt[point_skip] = np.inf
     face_pt = np.argmax(vals, axis=-1)
     dist = np.concatenate([d_cap, d_pt], axis=1)  # (T, C + Q, P)
@@ -158,7 +165,7 @@ def linearize_props(planes: np.ndarray, seg_world: np.ndarray, radius: np.ndarra
     if len(k):
         qq = xx[k] - C
         n = planes[pp[k], face_pt[tt[k], qq, pp[k]], :3]
-        J = point_jacobians[tt[k], qq]
+        J = point_jacobians[tt[k], qq if point_owner is None else point_owner[qq]]
         lever = np.cross(points[tt[k], qq] - point_origin[tt[k], qq], n)
         rows[k] = np.einsum("ra,ran->rn", n, J[:, :3]) + np.einsum("ra,ran->rn", lever, J[:, 3:])
     finite = np.where(np.isfinite(dist), dist, np.inf)

@@ -26,6 +26,7 @@ from ..errors import SolverError
 from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh
 from ..metrics.derivatives import motion_derivatives
+from ..metrics.props import ProxyPoints
 from ..metrics.zmp import desired_zmp
 from .collision import collision_violation, linearize_collisions
 from .config import WholeBodyConfig
@@ -156,6 +157,16 @@ class _Frames:
             self.prop_capsule_frames = np.array([ids.index(f) for f in cf], dtype=int)
             feet = {robot.soles[s].frame for s in SIDES}
             self.prop_capsule_skip = np.array([c.frame in feet for c in model.capsules])
+            # and the evaluator's proxy points (imesh.metrics.props) off the feet: the capsules
+            # do not enclose every collision shape (the G1's rubber hands)
+            pts = ProxyPoints.of(robot)
+            keep = np.array([pts.frames[o] not in feet for o in pts.owner])
+            pf = [robot.frame_id(f) for f in pts.frames]
+            ids += [f for f in dict.fromkeys(pf) if f not in ids]
+            self.prop_points_local = pts.local_m[keep]
+            self.prop_points_owner = np.array([ids.index(pf[o]) for o in pts.owner[keep]],
+                                              dtype=int)
+            self.prop_points_radius = pts.radius_m[keep]
             self.prop_support = np.asarray(support, dtype=bool)
             self.prop_activation = config.collision.activation_m
             self.props = props
@@ -252,13 +263,24 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
         Mc = M[:, frames.prop_capsule_frames][:, model.frame_index]  # (T, C, 4, 4)
         Jc = J[:, frames.prop_capsule_frames][:, model.frame_index]
         T, n_pts = len(q), corners.shape[2]
+        # point proxies: the feet's ground points (frames 0, 1 of the stacked Jacobians), then
+        # the evaluator's proxy points of the other links
+        own = frames.prop_points_owner
+        Mo = M[:, own]
+        pts = np.concatenate([corners.reshape(T, -1, 3),
+                              np.einsum("tnij,nj->tni", Mo[..., :3, :3], frames.prop_points_local)
+                              + Mo[..., :3, 3]], axis=1)
+        origin = np.concatenate([np.repeat(soles[:, :, :3, 3], n_pts, axis=1), Mo[..., :3, 3]],
+                                axis=1)
+        jac = np.concatenate([js, J], axis=1)  # (T, 2 + F, 6, nv)
+        owner = np.r_[np.repeat([0, 1], n_pts), 2 + own]
+        skip = np.concatenate([np.repeat(frames.prop_support, n_pts, axis=1),
+                               np.zeros((T, len(own)), dtype=bool)], axis=1)
         prop_lin = linearize_props(
             frames.props, model.world_segments(M[:, frames.prop_capsule_frames]), model.radius,
             Mc[..., :3, 3], Jc, np.broadcast_to(frames.prop_capsule_skip, (T, len(model.radius))),
-            corners.reshape(T, -1, 3),
-            np.repeat(soles[:, :, :3, 3], n_pts, axis=1),
-            np.repeat(js, n_pts, axis=1),
-            np.repeat(frames.prop_support, n_pts, axis=1), frames.prop_activation)
+            pts, origin, jac, skip, frames.prop_activation, point_owner=owner,
+            point_radius=np.r_[np.zeros(2 * n_pts), frames.prop_points_radius])
     return Linearization(points=points, point_jacobians=point_j, axes=axes,
                          axis_jacobians=J[:, frames.dirs, 3:], soles=soles, sole_jacobians=js,
                          corners=corners, corner_jacobians_z=cz, body_z=body_z,
