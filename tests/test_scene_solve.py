@@ -135,3 +135,20 @@ def test_prop_rows_are_the_gradients_of_the_distances():
     C, P = len(model.radius), corners_local.shape[1]
     assert not np.any((held.proxies >= C) & (held.proxies < C + P))
     assert np.any((lin.proxies >= C) & (lin.proxies < C + P))
+
+
+def test_support_is_cut_where_the_surface_changes():
+    """A foot carried from a box top onto a higher one within one detected support run is
+    given a swing of 0.1 s either side of the change, so each phase has one height."""
+    from imesh.contacts.phases import Contacts
+    from imesh.contacts.surfaces import split_at_surface_changes
+
+    support = np.ones((40, 2), dtype=bool)
+    heights = np.zeros((40, 2))
+    heights[20:, 0] = 0.367  # the left foot steps onto the higher top at frame 20
+    out = split_at_surface_changes(Contacts(support=support, fps=30.0,
+                                            sliding=support.copy()), heights)
+    np.testing.assert_array_equal(np.flatnonzero(~out.support[:, 0]), np.arange(17, 23))
+    assert out.support[:, 1].all() and not out.sliding[17:23, 0].any()
+    levels = phase_heights(out.support, heights)[:, 0]
+    assert (levels[:17] == 0).all() and (levels[23:] == 0.367).all()

@@ -15,7 +15,7 @@ import numpy as np
 from ..core.motion import MarkerMotion
 from ..scene.scene import Scene
 from ..scene.surfaces import scene_planes, surface_heights
-from .phases import FOOT_MARKERS, SIDES, ContactConfig, runs
+from .phases import FOOT_MARKERS, SIDES, ContactConfig, Contacts, runs
 
 
 def foot_surface_heights(motion: MarkerMotion, scene: Scene,
@@ -61,3 +61,24 @@ def phase_heights(support: np.ndarray, heights_m: np.ndarray) -> np.ndarray:
         for i, h in enumerate(level):
             out[bounds[i]:bounds[i + 1], k] = h
     return out
+
+
+def split_at_surface_changes(contacts: Contacts, heights_m: np.ndarray, gap_s: float = 0.1,
+                             step_m: float = 0.01) -> Contacts:
+    """The contacts with every support run cut where its foot's surface changes height by more
+    than ``step_m`` [m] between two frames (``heights_m`` (T, 2), :func:`foot_surface_heights`):
+    ``gap_s`` [s] either side of the change become swing.
+
+    On lowered feet (:func:`lowered_feet`) a foot carried from one top to a higher one in a few
+    frames reads as a foot that never left the ground; one support phase over two surfaces
+    would pin it to one height (seq_1 of the holosoma climbs: the left foot from box2 onto
+    box1, pinned to box2's top, pulled the morphed body 0.6 m down into box1).
+    """
+    support = contacts.support.copy()
+    n = max(1, int(round(gap_s * contacts.fps)))
+    for k in range(2):
+        for t in np.flatnonzero(np.abs(np.diff(heights_m[:, k])) > step_m) + 1:
+            support[max(t - n, 0):t + n, k] = False
+    return Contacts(support=support, fps=contacts.fps,
+                    sliding=None if contacts.sliding is None else contacts.sliding & support,
+                    pivoting=None if contacts.pivoting is None else contacts.pivoting & support)

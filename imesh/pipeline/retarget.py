@@ -33,7 +33,12 @@ from ..contacts.phases import (
     runs,
 )
 from ..contacts.support import SupportConfig, flat_support, support_blend, support_foot_targets
-from ..contacts.surfaces import foot_surface_heights, lowered_feet, phase_heights
+from ..contacts.surfaces import (
+    foot_surface_heights,
+    lowered_feet,
+    phase_heights,
+    split_at_surface_changes,
+)
 from ..core.motion import MarkerMotion
 from ..core.progress import ProgressCallback, notify
 from ..core.provenance import make_provenance
@@ -355,7 +360,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     surface = None  # (T, 2) height of each foot's support surface, with a scene
     if scene is not None and scene.props:
         raw = foot_surface_heights(source, scene, config.contacts)
-        contacts = detect_contacts(lowered_feet(source, raw), config.contacts)
+        contacts = split_at_surface_changes(
+            detect_contacts(lowered_feet(source, raw), config.contacts), raw)
         surface = phase_heights(contacts.support, raw)
         log.info("scene: %d of %d support frames on a prop's top", int(
             (contacts.support & (surface > 1e-3)).sum()), int(contacts.support.sum()))
