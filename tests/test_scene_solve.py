@@ -152,3 +152,23 @@ def test_support_is_cut_where_the_surface_changes():
     assert out.support[:, 1].all() and not out.sliding[17:23, 0].any()
     levels = phase_heights(out.support, heights)[:, 0]
     assert (levels[:17] == 0).all() and (levels[23:] == 0.367).all()
+
+
+def test_a_foot_far_above_its_surface_is_not_a_support():
+    """Frames whose foot the detection calls support (its fallback for frames neither on the
+    ground nor falling) while it is far above the surface under it lose the support."""
+    from imesh.contacts.phases import Contacts
+    from imesh.contacts.surfaces import drop_hanging
+    from imesh.core.motion import MarkerMotion
+
+    T = 30
+    pos = np.zeros((T, 4, 3))
+    pos[:, :, 2] = 0.03  # toes and ankles resting
+    pos[10:20, 0:2, 2] = 0.5  # the left foot hangs 47 cm up in frames 10-19
+    motion = MarkerMotion(positions_m=pos, fps=30.0, names=("toe_l", "ankle_l", "toe_r",
+                                                             "ankle_r"),
+                          valid=np.ones((T, 4), dtype=bool))
+    support = np.ones((T, 2), dtype=bool)
+    out = drop_hanging(Contacts(support=support, fps=30.0), motion, above_m=0.15)
+    np.testing.assert_array_equal(np.flatnonzero(~out.support[:, 0]), np.arange(10, 20))
+    assert out.support[:, 1].all()

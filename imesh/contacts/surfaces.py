@@ -10,12 +10,16 @@ height (:func:`phase_heights`), which the support targets and the footprints add
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from ..core.motion import MarkerMotion
 from ..scene.scene import Scene
 from ..scene.surfaces import scene_planes, surface_heights
 from .phases import FOOT_MARKERS, SIDES, ContactConfig, Contacts, runs
+
+log = logging.getLogger(__name__)
 
 
 def foot_surface_heights(motion: MarkerMotion, scene: Scene,
@@ -82,3 +86,29 @@ def split_at_surface_changes(contacts: Contacts, heights_m: np.ndarray, gap_s: f
     return Contacts(support=support, fps=contacts.fps,
                     sliding=None if contacts.sliding is None else contacts.sliding & support,
                     pivoting=None if contacts.pivoting is None else contacts.pivoting & support)
+
+
+def drop_hanging(contacts: Contacts, lowered: MarkerMotion, above_m: float) -> Contacts:
+    """The contacts without the support frames in which the foot is more than ``above_m`` [m]
+    above the surface under it (``lowered``: :func:`lowered_feet`; the lower of its toe and
+    ankle markers, each above its own 5th percentile over the clip, as the detection measures
+    a lift).
+
+    The detection gives a frame with no foot on the ground and no free fall to the lower foot
+    (:func:`imesh.contacts.phases.detect_contacts`); on a climb those are the frames in which
+    the person hangs on the hands (holosoma seq_1: both toes 0.5 m above box2's top, against
+    box1's side), and a foot pinned to the surface under it pulls the morphed body down into
+    the box (0.6 m). Without it the frames are planned as flight (nothing in the model carries
+    the hands' load).
+    """
+    lift = np.stack([np.min([lowered.positions_m[:, lowered.index(m), 2]
+                             - np.percentile(lowered.positions_m[:, lowered.index(m), 2], 5)
+                             for m in FOOT_MARKERS[side]], axis=0) for side in SIDES], axis=1)
+    keep = contacts.support & ~(lift > above_m)
+    dropped = int((contacts.support & ~keep).sum())
+    if dropped:
+        log.info("scene: %d support frames more than %.0f mm above any surface dropped (the "
+                 "person hangs on the hands there)", dropped, 1e3 * above_m)
+    return Contacts(support=keep, fps=contacts.fps,
+                    sliding=None if contacts.sliding is None else contacts.sliding & keep,
+                    pivoting=None if contacts.pivoting is None else contacts.pivoting & keep)

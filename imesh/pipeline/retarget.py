@@ -34,6 +34,7 @@ from ..contacts.phases import (
 )
 from ..contacts.support import SupportConfig, flat_support, support_blend, support_foot_targets
 from ..contacts.surfaces import (
+    drop_hanging,
     foot_surface_heights,
     lowered_feet,
     phase_heights,
@@ -362,6 +363,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         raw = foot_surface_heights(source, scene, config.contacts)
         contacts = split_at_surface_changes(
             detect_contacts(lowered_feet(source, raw), config.contacts), raw)
+        contacts = drop_hanging(contacts, lowered_feet(source, raw),
+                                3 * config.contacts.height_fraction * source.height_m)
         surface = phase_heights(contacts.support, raw)
         log.info("scene: %d of %d support frames on a prop's top", int(
             (contacts.support & (surface > 1e-3)).sum()), int(contacts.support.sum()))
