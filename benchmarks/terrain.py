@@ -2,6 +2,7 @@
 person does with the boxes, and what a retarget does to the boxes today.
 
     python benchmarks/terrain.py [--robots g1] [--window 200 800] [--out DIR] [--no-robot]
+                                 [--floor-only] [--seqs seq_0 seq_1]
 
 Three tables, on ``IMESH_DATA/interaction/holosoma_climb`` (MANIFEST.md there):
 
@@ -18,8 +19,9 @@ Three tables, on ``IMESH_DATA/interaction/holosoma_climb`` (MANIFEST.md there):
    retargeted with default settings; the motion and its scene written to ``--out`` and read
    back, then measured: prop penetration (deepest, frames deeper than 10 mm), the human's prop
    contacts kept within 20 mm, skid on any surface, and the evaluator's ground penetration,
-   self-collision frames and limit violations. The solve knows only the floor z = 0 (props in
-   the solve are issue 34's part 3), so the robot is expected to walk through the boxes.
+   self-collision frames and limit violations. The props are in the solve (supports on their
+   tops, no link inside them: docs/terrain.md); ``--floor-only`` retargets without them (the
+   solve knows only the floor z = 0, as before issue 34's part 3).
 """
 
 from __future__ import annotations
@@ -47,6 +49,10 @@ def main(argv=None) -> int:
                     help="source frames (120 fps) of the robot window (default 200 800)")
     ap.add_argument("--out", default="out/terrain", help="folder of the written motions")
     ap.add_argument("--no-robot", action="store_true", help="tables 1 and 2 only")
+    ap.add_argument("--floor-only", action="store_true",
+                    help="retarget without the props in the solve (the scene only measured)")
+    ap.add_argument("--seqs", nargs="+", default=[s[0] for s in SEQS],
+                    help="sequences of table 3 (default: both)")
     ap.add_argument("--rescore", action="store_true",
                     help="table 3 from the motions and scenes already written in --out")
     args = ap.parse_args(argv)
@@ -119,20 +125,24 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
     out.mkdir(parents=True, exist_ok=True)
     a, b = args.window
     print(f"\n3. robot: source frames {a}-{b - 1} retargeted with default settings (30 fps, "
-          "1 s lead-in/out); the solve knows the floor only")
+          "1 s lead-in/out); " + ("the solve knows the floor only" if args.floor_only
+                                  else "the props in the solve"))
     print(f"{'seq':<6} {'robot':<6} {'frames':>6} {'solve s':>7} {'pen mm per box':<15} "
           f"{'>10mm':>5} {'deepest link (box)':<32} {'kept':>5} {'of':>4} {'skid':>5} "
           f"{'ground':>6} {'self':>4} {'limit':>5}")
     for seq, folder, _ in SEQS:
+        if seq not in args.seqs:
+            continue
         window = clips[seq].frames(a, b)
         for rname, robot in robots.items():
-            path = out / f"{seq}_{a}_{b}_{rname}.npz"
+            tag = "_floor" if args.floor_only else ""
+            path = out / f"{seq}_{a}_{b}_{rname}{tag}.npz"
             seconds = float("nan")
             if not args.rescore:
                 scene = scene_for_clip(sorted((base / folder / "box_models").glob("*.obj")),
                                        window, robot)
                 t0 = time.perf_counter()
-                result = retarget(window, robot)
+                result = retarget(window, robot, scene=None if args.floor_only else scene)
                 seconds = time.perf_counter() - t0
                 save_robot_motion(path, result.motion)
                 save_scene(scene_path_for(path), scene, atomic=atomic_path)

@@ -60,7 +60,7 @@ def run(args) -> int:
         if getattr(args, "scene", None):  # read (and refused) before the solve
             scene = scene_for_clip(args.scene, motion, robot, scale=args.scene_scale,
                                    fps=config.fps, lowpass_hz=config.lowpass_hz)
-        result = retarget(motion, robot, config=config, progress=bar)
+        result = retarget(motion, robot, config=config, progress=bar, scene=scene)
         if scene is not None and args.scene_scale is None and \
                 abs(scene.scale - result.arrangement.scale) > 1e-9:
             log.warning("scene scaled by %.6f, the human by %.6f: the props may not match",
@@ -113,7 +113,7 @@ def run(args) -> int:
     print(format_table(metrics))
     if scene is not None and "scene" in report:
         print(f"scene: {len(scene.props)} props at scale {scene.scale:.4f} -> "
-              f"{scene_path_for(args.output)} (not yet in the solve: docs/terrain.md)")
+              f"{scene_path_for(args.output)}")
         print(format_scene_table(report["scene"]))
     return 0
 

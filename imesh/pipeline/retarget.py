@@ -33,6 +33,13 @@ from ..contacts.phases import (
     runs,
 )
 from ..contacts.support import SupportConfig, flat_support, support_blend, support_foot_targets
+from ..contacts.surfaces import (
+    drop_hanging,
+    foot_surface_heights,
+    lowered_feet,
+    phase_heights,
+    split_at_surface_changes,
+)
 from ..core.motion import MarkerMotion
 from ..core.progress import ProgressCallback, notify
 from ..core.provenance import make_provenance
@@ -47,6 +54,7 @@ from ..morph.adapt import prepare_markers
 from ..morph.problem import MorphConfig, MorphWeights, build_morph_problem
 from ..morph.solver import MorphResult, MorphStepReport, solve_morph, window_layout
 from ..robot.markers_config import Direction
+from ..scene.surfaces import scene_planes, surface_heights
 from ..solve import (
     WholeBodyConfig,
     WindowOptions,
@@ -57,6 +65,7 @@ from ..solve import (
     solve_whole_body,
     windows,
 )
+from ..solve.props import pad_planes
 from ..solve.sqp import WholeBodySolution
 
 log = logging.getLogger(__name__)
@@ -300,8 +309,25 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
     return markers, tuple(directions)
 
 
+def lead_heights(surface_m: np.ndarray, markers_m: np.ndarray, names: MarkerMotion, scene,
+                 n_lead: int) -> np.ndarray:
+    """(T + 2 n_lead, 2) [m] support surface height of each foot over the clip with its lead-in
+    and lead-out: the clip's ``surface_m`` (T, 2), and in the lead frames the highest prop top
+    under the foot's toe and ankle markers (``markers_m`` (T + 2 n_lead, M, 3), named as
+    ``names``), whatever their height (:func:`imesh.solve.add_lead` puts a foot down at z = 0
+    under where the clip has it; on a prop, its footprint goes on the top)."""
+    out = np.pad(surface_m, ((n_lead, n_lead), (0, 0)), mode="edge")
+    lead = np.r_[0:n_lead, len(out) - n_lead:len(out)]
+    planes = scene_planes(scene)
+    for k, side in enumerate(SIDES):
+        pts = markers_m[lead][:, [names.index(m) for m in FOOT_MARKERS[side]]].copy()
+        pts[..., 2] = np.inf
+        out[lead, k] = surface_heights(scene, pts, np.inf, planes).max(axis=1)
+    return out
+
+
 def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = None,
-             progress: ProgressCallback | None = None) -> RetargetResult:
+             progress: ProgressCallback | None = None, scene=None) -> RetargetResult:
     """Adapt a human motion to ``robot`` (an :class:`imesh.robot.Robot`).
 
     Args:
@@ -311,6 +337,11 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         progress: called with an :class:`imesh.core.progress.StageProgress` as each stage moves
             (prepare, every morph step, fit, plan, every whole-body iteration); the command
             line draws its bar from these (:class:`imesh.core.progress.JobBar`).
+        scene: the props in the robot's world (:func:`imesh.scene.morph_frame.scene_for_clip`),
+            or None (the floor only). With props, a foot standing on a prop's top is a support
+            there (:mod:`imesh.contacts.surfaces`), its morph targets and footprint are at the
+            top's height, and the whole-body solve keeps every link out of the props
+            (:mod:`imesh.solve.props`; docs/terrain.md).
 
     Returns:
         RetargetResult; ``result.motion`` is the RobotMotion, with its provenance (the clip
@@ -332,7 +363,18 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         human = lowpass(human, config.lowpass_hz)
     arrangement = arrange_for_robot(human, robot)
     source = arrangement.motion
-    contacts = detect_contacts(source, config.contacts)
+    surface = None  # (T, 2) height of each foot's support surface, with a scene
+    if scene is not None and scene.props:
+        raw = foot_surface_heights(source, scene, config.contacts)
+        contacts = split_at_surface_changes(
+            detect_contacts(lowered_feet(source, raw), config.contacts), raw)
+        contacts = drop_hanging(contacts, lowered_feet(source, raw),
+                                3 * config.contacts.height_fraction * source.height_m)
+        surface = phase_heights(contacts.support, raw)
+        log.info("scene: %d of %d support frames on a prop's top", int(
+            (contacts.support & (surface > 1e-3)).sum()), int(contacts.support.sum()))
+    else:
+        contacts = detect_contacts(source, config.contacts)
     nishiwaki = config.nishiwaki or BalanceConfig(error_lowpass_hz=1.5,
                                                   allow_flight=config.allow_flight)
     if config.balance == "nishiwaki":  # fail before the morph, not after it (the whole-body
@@ -342,10 +384,15 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     hard = soft = soft_w = None
     flat = contacts
     if config.support is not None:
-        flat = flat_support(source, contacts, config.support)
+        on_floor = source if surface is None else lowered_feet(source, surface)
+        flat = flat_support(on_floor, contacts, config.support)
         heights, lengths = foot_geometry(arrangement)
-        hard, soft, soft_w = support_foot_targets(source, flat, heights, lengths,
+        hard, soft, soft_w = support_foot_targets(on_floor, flat, heights, lengths,
                                                   config.support)
+        if surface is not None:  # the targets of a foot on a prop's top: on that top
+            for k, side in enumerate(SIDES):
+                for m in FOOT_MARKERS[side]:
+                    hard[:, source.index(m), 2] += surface[:, k]
     seconds["prepare"] = time.perf_counter() - t0
     n_work = source.n_frames
     notify(progress, "prepare", 1, 1, n_work)
@@ -442,10 +489,15 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         limits = joint_limits(robot, fit_config.limits)
         sliding = np.zeros_like(ext.support)
         sliding[n_lead:n_lead + n_work] = flat.moving
+        props = {}
+        if surface is not None:
+            props = {"support_heights": lead_heights(surface, ext.markers, fit_markers, scene,
+                                                     n_lead),
+                     "props": pad_planes(scene_planes(scene))}
         plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
                                            source.fps, limits, config.wholebody,
                                            rest_frames=3 if n_lead >= 3 else 0,
-                                           sliding=sliding)
+                                           sliding=sliding, **props)
         seconds["plan"] = time.perf_counter() - t3
         n_out = len(ext.q)
         notify(progress, "plan", 1, 1, n_out)

@@ -7,8 +7,12 @@ robot motion (docs/terrain.md).
   ``.scene.npz`` file beside a motion.
 - :mod:`imesh.scene.morph_frame`: the retarget's scale and its fixed point.
 
-The props are not part of the solve yet (issue 34, part 3): the prop metrics
-(:mod:`imesh.metrics.props`) measure what the robot does to them.
+- :mod:`imesh.scene.surfaces`: the support surface under a point (the floor or a prop's top).
+
+In the retarget (``retarget(..., scene=)``) a foot on a prop's top is a support there
+(:mod:`imesh.contacts.surfaces`) and the whole-body solve keeps the robot out of the props
+(:mod:`imesh.solve.props`); the prop metrics (:mod:`imesh.metrics.props`) measure what the
+robot does to them.
 """
 
 from .props import MESH_EXTENSIONS, SCENE_EXTENSIONS, Prop, SceneFileError, load_props, prop_planes

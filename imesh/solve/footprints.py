@@ -228,6 +228,16 @@ def _shifted(f: Footprint, shift: np.ndarray) -> Footprint:
                                corners_m=f.corners_m + d, polygon_m=f.polygon_m + d)
 
 
+def raised(f: Footprint, height_m: float) -> Footprint:
+    """The footprint lifted by ``height_m`` [m]: level on a surface at that height (a prop's
+    top) instead of z = 0."""
+    d = np.array([0.0, 0.0, height_m])
+    pose = f.frame_pose.copy()
+    pose[:3, 3] += d
+    return dataclasses.replace(f, frame_pose=pose, center_m=f.center_m + d,
+                               corners_m=f.corners_m + d, polygon_m=f.polygon_m + d)
+
+
 def _axes(f: Footprint) -> np.ndarray:
     """(2, 2) the level sole's forward and left axes (columns) in the ground plane."""
     R = f.frame_pose[:2, :2]

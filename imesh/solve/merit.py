@@ -17,6 +17,8 @@ from .contacts import clearance, sole_errors
 from .costs import world_coordinates
 from .forces import normal_bounds
 from .plan import GRAVITY, Linearization, Plan
+from .props import shared_violation
+from .zmp import zmp_frames
 
 
 def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig) -> float:
@@ -36,7 +38,9 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
         y = world_coordinates(q, lin.base_rotations)
         f += config.costs.accel * np.sum((np.diff(y, 2, axis=0) * (plan.fps / 30.0) ** 2) ** 2)
     sup = plan.support.any(axis=1)
-    over = np.maximum(np.abs(lin.zmp_multibody - plan.desired_zmp)[sup] - config.zmp.band_m, 0)
+    band = sup if plan.props is None else zmp_frames(plan)
+    over = np.maximum(np.abs(lin.zmp_multibody - plan.desired_zmp)[band] - config.zmp.band_m,
+                      0)
     f += config.zmp.weight * np.sum(over ** 2)
     penalty = 0.0
     hp_frame, hp_n, hp_b = plan.halfplanes
@@ -81,7 +85,10 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
         1 - config.margins.acceleration)
     penalty += config.slack.elastic * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
-    if lin.collision is not None:
+    if lin.props is not None:  # one slack per frame for both (imesh.solve.props)
+        penalty += config.slack.elastic * shared_violation(lin.collision, lin.props,
+                                                            config.collision.margin_m)
+    elif lin.collision is not None:
         penalty += config.slack.elastic * collision_violation(lin.collision,
                                                                config.collision.margin_m)
     return float(0.5 * f + penalty)

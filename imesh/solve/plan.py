@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .collision import CollisionLinearization
+from .props import PropLinearization
 from .torque import TorqueLinearization
 
 #: Gravity [m/s^2], as the evaluator's ZMP and normal force use it.
@@ -42,6 +43,8 @@ class Linearization:
         torques: the net joint torques and their working-set rows (None: not linearized).
         collision: the self-collision samples
             (:class:`imesh.solve.collision.CollisionLinearization`), or None.
+        props: the samples of the robot's proxies against the scene's props
+            (:class:`imesh.solve.props.PropLinearization`), or None (no props).
     """
 
     points: np.ndarray
@@ -64,6 +67,7 @@ class Linearization:
     base_rotations: np.ndarray
     torques: TorqueLinearization | None = None
     collision: CollisionLinearization | None = None
+    props: PropLinearization | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,6 +105,9 @@ class Plan:
             ``config.forces.max_normal`` everywhere.
         kinetic: (T, 2) unit horizontal direction of the kinetic friction force where the only
             support slides (against the slide), NaN elsewhere; None: no slide.
+        props: (P, K, 4) outward face planes ``(n, d)`` of the scene's convex props in the
+            robot's world (``n . p <= d`` inside; :func:`imesh.solve.props.pad_planes`): no
+            robot proxy enters them (:mod:`imesh.solve.props`); None: no props.
     """
 
     marker_points: np.ndarray
@@ -126,6 +133,7 @@ class Plan:
     fixed_end_frames: int = 0
     normal_max: np.ndarray | None = None
     kinetic: np.ndarray | None = None
+    props: np.ndarray | None = None
 
     @property
     def flight(self) -> np.ndarray:

@@ -26,6 +26,7 @@ from ..errors import SolverError
 from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh
 from ..metrics.derivatives import motion_derivatives
+from ..metrics.props import ProxyPoints
 from ..metrics.zmp import desired_zmp
 from .collision import collision_violation, linearize_collisions
 from .config import WholeBodyConfig
@@ -35,6 +36,7 @@ from .footprints import (
     footprint_tracks,
     place_under_zmp,
     plan_footprints,
+    raised,
     split_pivots,
     support_halfplanes,
 )
@@ -42,6 +44,7 @@ from .holds import held_frames
 from .merit import merit
 from .plan import GRAVITY, Linearization, Plan
 from .problem import build_qp
+from .props import linearize_props, shared_violation
 from .qp import solve_qp
 from .torque import linearize_torques
 
@@ -114,7 +117,8 @@ class WholeBodySolution:
 class _Frames:
     """The robot frames one linearization asks for, and where each target finds its frame."""
 
-    def __init__(self, robot, targets: CompiledTargets, config: WholeBodyConfig | None = None):
+    def __init__(self, robot, targets: CompiledTargets, config: WholeBodyConfig | None = None,
+                 props: np.ndarray | None = None, support: np.ndarray | None = None):
         soles = [robot.frame_id(robot.soles[s].frame) for s in SIDES]
         ids = list(dict.fromkeys(list(targets.kp_frame_ids) + list(targets.dir_frame_ids)
                                  + soles + [robot.frame_id(robot.waist_frame)]))
@@ -142,6 +146,30 @@ class _Frames:
             ids += [f for f in dict.fromkeys(cf) if f not in ids]
             self.capsule_frames = np.array([ids.index(f) for f in cf], dtype=int)
             self.collision_activation = config.collision.activation_m
+        # props (imesh.solve.props): the capsules of every body but the feet, whose ground
+        # points stand in for them (skipped in their support frames)
+        self.props = None
+        if props is not None and config is not None and support is not None:
+            model = self.capsules if self.capsules is not None else robot.capsule_model()
+            cf = [robot.frame_id(f) for f in model.frames]
+            ids += [f for f in dict.fromkeys(cf) if f not in ids]
+            self.prop_model = model
+            self.prop_capsule_frames = np.array([ids.index(f) for f in cf], dtype=int)
+            feet = {robot.soles[s].frame for s in SIDES}
+            self.prop_capsule_skip = np.array([c.frame in feet for c in model.capsules])
+            # and the evaluator's proxy points (imesh.metrics.props) off the feet: the capsules
+            # do not enclose every collision shape (the G1's rubber hands)
+            pts = ProxyPoints.of(robot)
+            keep = np.array([pts.frames[o] not in feet for o in pts.owner])
+            pf = [robot.frame_id(f) for f in pts.frames]
+            ids += [f for f in dict.fromkeys(pf) if f not in ids]
+            self.prop_points_local = pts.local_m[keep]
+            self.prop_points_owner = np.array([ids.index(pf[o]) for o in pts.owner[keep]],
+                                              dtype=int)
+            self.prop_points_radius = pts.radius_m[keep]
+            self.prop_support = np.asarray(support, dtype=bool)
+            self.prop_activation = config.collision.activation_m
+            self.props = props
 
 
 def leg_ground_points(robot, below: float = 0.4) -> tuple[list[int], np.ndarray]:
@@ -229,6 +257,30 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
         collision = linearize_collisions(frames.capsules, M[:, frames.capsule_frames],
                                          J[:, frames.capsule_frames],
                                          frames.collision_activation)
+    prop_lin = None
+    if frames.props is not None:
+        model = frames.prop_model
+        Mc = M[:, frames.prop_capsule_frames][:, model.frame_index]  # (T, C, 4, 4)
+        Jc = J[:, frames.prop_capsule_frames][:, model.frame_index]
+        T, n_pts = len(q), corners.shape[2]
+        # point proxies: the feet's ground points (frames 0, 1 of the stacked Jacobians), then
+        # the evaluator's proxy points of the other links
+        own = frames.prop_points_owner
+        Mo = M[:, own]
+        pts = np.concatenate([corners.reshape(T, -1, 3),
+                              np.einsum("tnij,nj->tni", Mo[..., :3, :3], frames.prop_points_local)
+                              + Mo[..., :3, 3]], axis=1)
+        origin = np.concatenate([np.repeat(soles[:, :, :3, 3], n_pts, axis=1), Mo[..., :3, 3]],
+                                axis=1)
+        jac = np.concatenate([js, J], axis=1)  # (T, 2 + F, 6, nv)
+        owner = np.r_[np.repeat([0, 1], n_pts), 2 + own]
+        skip = np.concatenate([np.repeat(frames.prop_support, n_pts, axis=1),
+                               np.zeros((T, len(own)), dtype=bool)], axis=1)
+        prop_lin = linearize_props(
+            frames.props, model.world_segments(M[:, frames.prop_capsule_frames]), model.radius,
+            Mc[..., :3, 3], Jc, np.broadcast_to(frames.prop_capsule_skip, (T, len(model.radius))),
+            pts, origin, jac, skip, frames.prop_activation, point_owner=owner,
+            point_radius=np.r_[np.zeros(2 * n_pts), frames.prop_points_radius])
     return Linearization(points=points, point_jacobians=point_j, axes=axes,
                          axis_jacobians=J[:, frames.dirs, 3:], soles=soles, sole_jacobians=js,
                          corners=corners, corner_jacobians_z=cz, body_z=body_z,
@@ -236,7 +288,8 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
                          com_jacobians=kin.com_jacobians, com_acceleration=acc,
                          angular_momentum_rate=ld, centroidal_angular=ag[:, 3:5], mass=m,
                          zmp_multibody=zmp,
-                         base_rotations=rot, torques=torques, collision=collision)
+                         base_rotations=rot, torques=torques, collision=collision,
+                         props=prop_lin)
 
 
 #: A frame whose ZMP is within this of the CoM's ground projection is quasi-static [m]
@@ -339,7 +392,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                     support: np.ndarray, fps: float, limits: JointLimits,
                     config: WholeBodyConfig,
                     transition_s: float = 0.1, rest_frames: int = 3,
-                    sliding: np.ndarray | None = None) -> tuple[Plan, list[Footprint]]:
+                    sliding: np.ndarray | None = None, support_heights: np.ndarray | None = None,
+                    props: np.ndarray | None = None) -> tuple[Plan, list[Footprint]]:
     """Fix the targets, mesh, support, footprints and limits of a whole-body solve.
 
     Args:
@@ -358,6 +412,11 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
         sliding: (T, 2) bool support frames whose sole slides or pivots along the ground
             (one footprint per frame, :func:`~imesh.solve.footprints.plan_footprints`); None:
             none.
+        support_heights: (T, 2) [m] height of each foot's support surface (a prop's top, 0:
+            the floor; :func:`imesh.contacts.surfaces.phase_heights`): each footprint is level
+            at the median over its frames, and frames with a support above the floor get no
+            ZMP rows (the ZMP is the evaluator's, on z = 0; docs/terrain.md). None: the floor.
+        props: (P, K, 4) the props' face planes (:attr:`Plan.props`), or None.
     """
     T = len(q_init)
     frames = _Frames(robot, targets)
@@ -377,7 +436,13 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     footprints = plan_footprints(robot, poses, support, load=config.forces.max_normal,
                                  margin=config.zmp.margin, sliding=sliding,
                                  reach_m=config.feet.slide_reach_m)
-    if config.feet.under_zmp == "all" or (config.feet.under_zmp == "slides" and sliding.any()):
+    # on a prop's top the z = 0 ZMP is not the ZMP of the support (and a foot moved under it
+    # can leave the top): those plans keep the person's footprints
+    on_props = support_heights is not None and bool((support_heights[support] > 1e-3).any())
+    if on_props:
+        log.info("supports on a prop's top: footprints not moved under the ZMP")
+    if not on_props and (config.feet.under_zmp == "all"
+                         or (config.feet.under_zmp == "slides" and sliding.any())):
         v, a = motion_derivatives(q_init, fps)
         com, dh, _ = robot.centroidal_trajectory(q_init, v, a)
         zmp = multibody_zmp(com, dh, robot.mass)
@@ -388,6 +453,12 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
         for m_ in moved:
             log.info("%s footprint over frames [%d, %d) moved by (%.0f, %.0f) mm under the ZMP "
                      "it carries alone", m_["side"], *m_["frames"], *(1e3 * m_["shift_m"]))
+    halfplanes = None
+    if support_heights is not None:
+        footprints = [raised(f, float(np.median(support_heights[f.start:f.stop,
+                                                                SIDES.index(f.side)])))
+                      for f in footprints]
+        halfplanes = floor_halfplanes(footprints, support)
     flight = np.logical_not(support.any(axis=1))
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
@@ -403,7 +474,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     plan = Plan(marker_points=kp_markers, keypoint_weights=targets.kp_weights,
                 mesh_metric=metric, target_directions=d, direction_weights=targets.dir_weights,
                 support=np.asarray(support, dtype=bool), sole_targets=sole_targets,
-                halfplanes=support_halfplanes(footprints, support),
+                halfplanes=(support_halfplanes(footprints, support) if halfplanes is None
+                            else halfplanes),
                 desired_zmp=desired_zmp(tracks, support, transition_s), q_init=q_init,
                 lower=limits.lower, upper=limits.upper, v_max=limits.v_max,
                 a_max=limits.a_max, fps=fps,
@@ -414,8 +486,23 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                                           config.forces.impact_normal, config.forces.impact_s)
                             if flight.any() else None),
                 kinetic=(kinetic_directions(footprints, support, fps) if sliding.any()
-                         else None))
+                         else None), props=props)
     return plan, footprints
+
+
+def floor_halfplanes(footprints: list[Footprint], support: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`~imesh.solve.footprints.support_halfplanes` of the frames whose support
+    footprints are all on the floor (within 1 mm of z = 0): the ZMP rows hold only there (the
+    multibody ZMP of the evaluator is on z = 0; feet on a prop's top, or at two heights, would
+    need the contact wrench cone)."""
+    raised_ = np.zeros(len(support), dtype=bool)
+    for f in footprints:
+        if abs(f.center_m[2]) > 1e-3:
+            raised_[f.start:f.stop] = True
+    frame, n, b = support_halfplanes(footprints, support)
+    keep = ~raised_[frame]
+    return frame[keep], n[keep], b[keep]
 
 
 def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_seconds: float,
@@ -455,8 +542,18 @@ def _settled(lin: Linearization, r: IterationReport, config: WholeBodyConfig) ->
     if lin.collision is not None and len(lin.collision.min_distance) and \
             (config.collision.margin_m - lin.collision.min_distance).max() > 1e-3:
         return False
+    if lin.props is not None and len(lin.props.min_distance) and \
+            (config.collision.margin_m - lin.props.min_distance).max() > 1e-3:
+        return False
     return lin.torques is None or \
         lin.torques.excess(1.0 - config.margins.torque).max(initial=0.0) <= 1e-3
+
+
+def _violation(lin: Linearization, config: WholeBodyConfig) -> float:
+    """The self-collision (and prop) shortfalls a step may not deepen."""
+    if lin.props is None:
+        return collision_violation(lin.collision, config.collision.margin_m)
+    return shared_violation(lin.collision, lin.props, config.collision.margin_m)
 
 
 def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: CompiledTargets,
@@ -471,7 +568,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         SolverError: a QP failed (infeasible linearization, non-finite result).
     """
     config = config or WholeBodyConfig()
-    frames = _Frames(robot, targets, config)
+    frames = _Frames(robot, targets, config, props=plan.props, support=plan.support)
     q = (plan.q_init if plan.q_start is None else plan.q_start).copy()
     seconds = {"linearize": 0.0, "build": 0.0, "qp": 0.0}
     t_all = time.perf_counter()
@@ -518,8 +615,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             # a step may not deepen the self-collisions, whatever else it gains: a long step
             # can carry a hand through a body, where the distance's gradient then points
             # through (G1 walk: a wrist stuck 70 mm inside the hip, marker RMS 47 -> 58 mm)
-            deeper = collision_violation(lin_new.collision, config.collision.margin_m) > \
-                collision_violation(lin.collision, config.collision.margin_m) + 1e-6
+            deeper = _violation(lin_new, config) > _violation(lin, config) + 1e-6
             if phi_new < phi and not deeper:
                 break
             phi_new = max(phi_new, phi) if deeper else phi_new

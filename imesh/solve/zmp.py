@@ -38,7 +38,7 @@ class ZmpLinearization:
         cx, cy: (T, N) select the CoM auxiliaries' x and y of every frame.
         acc_z: (T, N) the vertical CoM acceleration's change ``Dacc dc_z``.
         Z: (2T, N) the ZMP's change, rows x_0, y_0, x_1, y_1, ...
-        support: (T,) bool frames with a support foot.
+        support: (T,) bool frames with the ZMP's dead band (:func:`zmp_frames`).
     """
 
     grad: sp.csr_matrix
@@ -73,7 +73,19 @@ def linearize_zmp(lin: Linearization, plan: Plan, lay: Layout) -> ZmpLinearizati
     order = np.argsort(np.r_[2 * np.arange(T), 2 * np.arange(T) + 1], kind="stable")
     Z = sp.vstack([Zx, Zy], format="csr")[order]  # rows x_0, y_0, x_1, y_1, ...
     return ZmpLinearization(grad=grad, Dacc=Dacc, cx=cx, cy=cy, acc_z=acc_z, Z=Z,
-                            support=np.asarray(plan.support.any(axis=1)))
+                            support=zmp_frames(plan))
+
+
+def zmp_frames(plan: Plan) -> np.ndarray:
+    """(T,) bool frames with the ZMP's dead band: the supported frames; with props only those
+    that have support half-planes (all supports on the floor:
+    :func:`imesh.solve.sqp.floor_halfplanes`)."""
+    sup = np.asarray(plan.support.any(axis=1))
+    if plan.props is None:
+        return sup
+    has = np.zeros(len(sup), dtype=bool)
+    has[plan.halfplanes[0]] = True
+    return sup & has
 
 
 def band_cost(P: sp.spmatrix, lin: Linearization, plan: Plan, zl: ZmpLinearization,

@@ -1,0 +1,58 @@
+"""Issue 34, part 3, on a real window: the holosoma person standing on box2 (seq_1, source frames
+200-359 at 120 fps: 40 frames at 30 fps plus the 1 s lead-in and lead-out), retargeted to the
+G1 with the props in the solve and without them (about a minute each on two cores).
+"""
+
+from __future__ import annotations
+
+import pytest
+from conftest import data_root, load_test_robot
+
+from imesh.evaluate.props import evaluate_scene
+from imesh.io import load_motion
+from imesh.pipeline.retarget import retarget
+from imesh.scene.morph_frame import scene_for_clip
+
+SEQ = "interaction/holosoma_climb/mocap_climb_seq_1"
+
+
+@pytest.fixture(scope="module")
+def standing():
+    seq = data_root() / SEQ
+    if not seq.is_dir():
+        pytest.skip(f"{seq} not found (IMESH_DATA)")
+    clip = load_motion(seq / "mocap_climb_seq_1_joint_positions_f0-2422.npy", fps=120.0)
+    window = clip.frames(200, 360)
+    robot = load_test_robot("g1")
+    scene = scene_for_clip(sorted((seq / "box_models").glob("*.obj")), window, robot)
+    with_props = retarget(window, robot, scene=scene)
+    floor_only = retarget(window, robot)
+    return robot, window, scene, with_props, floor_only
+
+
+def test_footprints_on_the_box_top_at_its_scaled_height(standing):
+    """Both feet stand on box2 through the window: every footprint is level at box2's top at
+    the G1's scale (0.7811 x 0.18 m), and the solved soles are on them."""
+    robot, _, scene, result, _ = standing
+    top = float(scene.tops_m()[scene.names.index("box2")])
+    assert abs(top - 0.7811 * 0.18) < 1e-3
+    fps = result.wholebody.footprints
+    assert fps and all(abs(f.center_m[2] - top) < 1e-3 for f in fps)
+    assert result.wholebody.report()["sole_error_mm"] < 1.0
+    # no ZMP rows where the feet are on the box (the ZMP of the evaluator is on z = 0)
+    assert len(result.wholebody.plan.halfplanes[0]) == 0
+
+
+def test_no_link_in_the_boxes(standing):
+    """With the props the deepest point of the robot's proxies in a box is at most 10 mm; the
+    floor-only solve stands the robot on the floor inside box2."""
+    robot, window, scene, with_props, floor_only = standing
+    after = evaluate_scene(robot, with_props.motion, scene, source=window)
+    before = evaluate_scene(robot, floor_only.motion, scene, source=window)
+    deep_after = max(p["deepest_mm"] for p in after["prop_penetration_mm"]["props"].values())
+    deep_before = max(p["deepest_mm"] for p in before["prop_penetration_mm"]["props"].values())
+    print(f"deepest {deep_before:.1f} -> {deep_after:.1f} mm; kept "
+          f"{before['prop_contacts_kept']['value']} -> {after['prop_contacts_kept']['value']}")
+    assert deep_before > 50.0
+    assert deep_after <= 10.0
+    assert after["prop_penetration_frames"]["value"] == 0
