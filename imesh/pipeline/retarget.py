@@ -489,15 +489,15 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         limits = joint_limits(robot, fit_config.limits)
         sliding = np.zeros_like(ext.support)
         sliding[n_lead:n_lead + n_work] = flat.moving
-        props = {}
+        surface_z = planes = None
         if surface is not None:
-            props = {"support_heights": lead_heights(surface, ext.markers, fit_markers, scene,
-                                                     n_lead),
-                     "props": pad_planes(scene_planes(scene))}
+            surface_z = lead_heights(surface, ext.markers, fit_markers, scene, n_lead)
+            planes = pad_planes(scene_planes(scene))
         plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
                                            source.fps, limits, config.wholebody,
                                            rest_frames=3 if n_lead >= 3 else 0,
-                                           sliding=sliding, **props)
+                                           sliding=sliding, support_heights=surface_z,
+                                           props=planes)
         seconds["plan"] = time.perf_counter() - t3
         n_out = len(ext.q)
         notify(progress, "plan", 1, 1, n_out)

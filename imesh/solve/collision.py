@@ -11,6 +11,7 @@ re-checks the nonlinear distances after each step.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -60,7 +61,20 @@ def linearize_collisions(model: CapsuleModel, placements: np.ndarray, jacobians:
                                   rows=rows, min_distance=dist.distance.min(axis=1))
 
 
-def collision_qp_rows(lin: CollisionLinearization, n_frames: int, stride: int, slack: int,
+class DistanceRows(Protocol):
+    """Linearized distances sharing the frame's collision slack: the robot's capsule pairs
+    (:class:`CollisionLinearization`) and its links against props
+    (:class:`imesh.solve.props.PropLinearization`)."""
+
+    @property
+    def frames(self) -> np.ndarray: ...  # (R,) frame of each row
+    @property
+    def distance(self) -> np.ndarray: ...  # (R,) signed distance [m]
+    @property
+    def rows(self) -> np.ndarray: ...  # (R, nv) gradient of the distance in dq_t
+
+
+def collision_qp_rows(lin: DistanceRows, n_frames: int, stride: int, slack: int,
                       margin: float) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
     """``rows_r dq_t + s_t >= margin - d_r`` over x = (x_0, ..., x_{T-1}), x_t of size
     ``stride`` with dq_t first and the frame's collision slack at offset ``slack``.

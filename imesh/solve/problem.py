@@ -67,7 +67,6 @@ from .holds import drop_constant_rows, held_frames, held_rows, rest_rows
 from .limits import bounds, motion_rows, torque_rows
 from .operators import Layout, Rows
 from .plan import Linearization, Plan
-from .props import prop_qp_rows
 from .qp import QpProblem
 from .zmp import auxiliary_rows, band_cost, band_rows, linearize_zmp, polygon_rows
 
@@ -122,7 +121,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         rows.add(*collision_qp_rows(lin.collision, T, lay.nx, lay.offset["collision_slack"],
                                     config.collision.margin_m))
     if lin.props is not None and len(lin.props.frames):  # props share the collision slack
-        rows.add(*prop_qp_rows(lin.props, T, lay.nx, lay.offset["collision_slack"],
+        rows.add(*collision_qp_rows(lin.props, T, lay.nx, lay.offset["collision_slack"],
                                config.collision.margin_m))
     G = sp.vstack(rows.blocks, format="csc") if rows.blocks else sp.csc_matrix((0, lay.n))
     x_l, x_u = bounds(plan, q, config, lay)

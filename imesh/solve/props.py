@@ -30,7 +30,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from .collision import CollisionLinearization
 
@@ -173,19 +172,6 @@ def linearize_props(planes: np.ndarray, seg_world: np.ndarray, radius: np.ndarra
     return PropLinearization(frames=tt, props=pp, proxies=xx, distance=dist[tt, xx, pp],
                              rows=rows, min_distance=finite.min(axis=(1, 2), initial=np.inf),
                              depth_by_prop=depth)
-
-
-def prop_qp_rows(lin: PropLinearization, n_frames: int, stride: int, slack: int,
-                 margin: float) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
-    """``rows_r dq_t + s_t >= margin - d_r`` with the frame's collision slack ``s_t`` at offset
-    ``slack`` of x_t (as :func:`imesh.solve.collision.collision_qp_rows`)."""
-    R, nv = lin.rows.shape
-    cols = lin.frames[:, None] * stride + np.arange(nv)
-    G = sp.csr_matrix((np.c_[lin.rows, np.ones(R)].ravel(),
-                       (np.repeat(np.arange(R), nv + 1),
-                        np.c_[cols, lin.frames * stride + slack].ravel())),
-                      shape=(R, n_frames * stride))
-    return G, margin - lin.distance, np.full(R, np.inf)
 
 
 def shared_violation(collision: CollisionLinearization | None, props: PropLinearization,
