@@ -381,3 +381,33 @@ def test_a_turned_out_supporting_foot_keeps_its_sole_up(mocap):
         rise = (up - ankle)[blend[:, k] >= 1.0, 2]
         assert len(rise) > 20
         assert rise.min() > 0.05, side  # 0.1 m along the sole's normal; -0.1 m before
+
+
+def test_a_restep_does_not_land_for_a_frame_before_the_lift_off(robot):
+    """A left sole that starts to move 5 cm (the toe-off a fit makes of a heel rising) three
+    frames before its support run ends, with the right foot down: the re-step would land for
+    less than 0.1 s before the run's own lift-off (HRP-4C's walk had a 1-frame landing at the
+    end of its lead-in), so the foot lifts at the cut instead and no support run shorter than
+    3 frames is left; a cut far from the run's end keeps both parts."""
+    from imesh.contacts.phases import runs
+    from imesh.solve.footprints import split_pivots
+
+    T = 40
+    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
+                                                                                   "right")])
+    still = np.repeat(np.eye(4)[None], T, axis=0)
+    still[:, :3, :3] = level[0]
+    both = np.ones((T, 2), dtype=bool)
+    both[30:, 0] = False  # the left foot lifts at frame 30
+
+    def moving_from(t0: int) -> dict:
+        left = still.copy()
+        left[t0:, 0, 3] += 0.05  # 5 cm: beyond move_tol_m (4 cm)
+        return {"left": left, "right": still.copy()}
+
+    out = split_pivots(robot, moving_from(27), both, FPS)
+    assert min(b - a for a, b in runs(out[:, 0])) >= 3
+    assert not out[23:30, 0].any() and out[:23, 0].all()
+    out = split_pivots(robot, moving_from(12), both, FPS)
+    left = runs(out[:, 0])
+    assert len(left) == 2 and left[1][1] == 30 and left[1][1] - left[1][0] >= 3

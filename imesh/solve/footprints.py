@@ -62,6 +62,11 @@ def _rz(yaw: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+#: A re-step of :func:`split_pivots` lands for at least this long [s]; a shorter landing
+#: before the support run's own lift-off is merged into the swing.
+MIN_RESTEP_S = 0.1
+
+
 def level_placement(sole, rot_level: np.ndarray, poses: np.ndarray) -> np.ndarray:
     """(4, 4) the sole frame's pose that lays a sole level on z = 0 where ``poses`` have it.
 
@@ -114,10 +119,12 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
         slide_m: ... and the travel [m] from which it slides.
 
     Returns:
-        (T, 2) bool support with the re-steps cut out.
+        (T, 2) bool support with the re-steps cut out (a re-step that would land less than
+        ``MIN_RESTEP_S`` before the run ends lifts the foot to the run's end instead).
     """
     out = np.array(support, dtype=bool)
     gap = max(2, int(round(gap_s * fps)))
+    min_run = int(round(MIN_RESTEP_S * fps))
     level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in SIDES])
     for k, side in enumerate(SIDES):
         poses = sole_poses[side]
@@ -130,6 +137,11 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
                 moved = np.linalg.norm(centre[t, :2] - centre[a, :2])
                 if abs(yaw[t] - yaw[a]) > yaw_tol_rad or moved > move_tol_m:
                     lo, hi = max(t - gap // 2, a + 1), min(t + gap - gap // 2, stop - 1)
+                    if stop - hi < min_run:
+                        # a re-step landing for a frame or two before the run's own lift-off
+                        # is a tap, not a step (HRP-4C's walk: the sole put down for one frame
+                        # at the clip's toe-off): the foot lifts at the cut instead
+                        hi = stop
                     if hi - lo >= 2 and out[lo:hi, 1 - k].all():
                         out[lo:hi, k] = False
                         a, t = hi, hi + 1
