@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..core.lazy import optional
 from ..errors import ImeshError, _listing
@@ -90,21 +91,13 @@ def prop_planes(prop: Prop) -> np.ndarray:
     return planes[np.sort(first)]
 
 
-def _rpy(rpy: tuple[float, float, float]) -> np.ndarray:
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
-
-
 def _origin(elem: ET.Element | None) -> np.ndarray:
     T = np.eye(4)
     if elem is None:
         return T
     xyz = [float(v) for v in elem.get("xyz", "0 0 0").split()]
     rpy = [float(v) for v in elem.get("rpy", "0 0 0").split()]
-    T[:3, :3] = _rpy((rpy[0], rpy[1], rpy[2]))
+    T[:3, :3] = Rotation.from_euler("xyz", rpy).as_matrix()  # URDF: fixed-axis roll, pitch, yaw
     T[:3, 3] = xyz
     return T
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..metrics.props import signed_distance
 from .props import prop_planes
 from .scene import Scene
 
@@ -42,7 +43,7 @@ def surface_heights(scene: Scene, points_m: np.ndarray, below_m: float,
         top = prop.top_m
         probe = p.copy()
         probe[..., 2] = top - TOP_INSET_M
-        over = np.max(probe @ pl[:, :3].T - pl[:, 3], axis=-1) <= 0.0
+        over = signed_distance(probe, pl) <= 0.0
         on = over & (p[..., 2] >= top - below_m)
         out = np.where(on, np.maximum(out, top), out)
     return out
