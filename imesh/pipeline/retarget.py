@@ -310,15 +310,15 @@ def orientation_targets(adapted: MarkerMotion, robot, arrangement: Arrangement,
 
 
 def lead_heights(surface_m: np.ndarray, markers_m: np.ndarray, names: MarkerMotion, scene,
-                 n_lead: int) -> np.ndarray:
+                 n_lead: int, planes: list[np.ndarray]) -> np.ndarray:
     """(T + 2 n_lead, 2) [m] support surface height of each foot over the clip with its lead-in
     and lead-out: the clip's ``surface_m`` (T, 2), and in the lead frames the highest prop top
     under the foot's toe and ankle markers (``markers_m`` (T + 2 n_lead, M, 3), named as
     ``names``), whatever their height (:func:`imesh.solve.add_lead` puts a foot down at z = 0
-    under where the clip has it; on a prop, its footprint goes on the top)."""
+    under where the clip has it; on a prop, its footprint goes on the top); ``planes``: the
+    props' (:func:`imesh.scene.surfaces.scene_planes`)."""
     out = np.pad(surface_m, ((n_lead, n_lead), (0, 0)), mode="edge")
     lead = np.r_[0:n_lead, len(out) - n_lead:len(out)]
-    planes = scene_planes(scene)
     for k, side in enumerate(SIDES):
         pts = markers_m[lead][:, [names.index(m) for m in FOOT_MARKERS[side]]].copy()
         pts[..., 2] = np.inf
@@ -366,9 +366,9 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     surface = None  # (T, 2) height of each foot's support surface, with a scene
     if scene is not None and scene.props:
         raw = foot_surface_heights(source, scene, config.contacts)
-        contacts = split_at_surface_changes(
-            detect_contacts(lowered_feet(source, raw), config.contacts), raw)
-        contacts = drop_hanging(contacts, lowered_feet(source, raw),
+        lowered = lowered_feet(source, raw)
+        contacts = split_at_surface_changes(detect_contacts(lowered, config.contacts), raw)
+        contacts = drop_hanging(contacts, lowered,
                                 3 * config.contacts.height_fraction * source.height_m)
         surface = phase_heights(contacts.support, raw)
         log.info("scene: %d of %d support frames on a prop's top", int(
@@ -491,8 +491,9 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         sliding[n_lead:n_lead + n_work] = flat.moving
         surface_z = planes = None
         if surface is not None:
-            surface_z = lead_heights(surface, ext.markers, fit_markers, scene, n_lead)
-            planes = pad_planes(scene_planes(scene))
+            faces = scene_planes(scene)
+            surface_z = lead_heights(surface, ext.markers, fit_markers, scene, n_lead, faces)
+            planes = pad_planes(faces)
         plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
                                            source.fps, limits, config.wholebody,
                                            rest_frames=3 if n_lead >= 3 else 0,
