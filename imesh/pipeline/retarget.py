@@ -24,6 +24,7 @@ from ..arms.config import ArmsConfig
 from ..arms.solve import refine_arms
 from ..balance import BalanceConfig, balance_loop, check_flight
 from ..balance.loop import BalanceResult
+from ..contacts.effectors import detect_effector_contacts, effector_targets
 from ..contacts.phases import (
     FOOT_MARKERS,
     SIDES,
@@ -364,7 +365,9 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
     arrangement = arrange_for_robot(human, robot)
     source = arrangement.motion
     surface = None  # (T, 2) height of each foot's support surface, with a scene
+    effectors = None  # hands and knees on prop tops, with a scene
     if scene is not None and scene.props:
+        effectors = detect_effector_contacts(source, scene)
         raw = foot_surface_heights(source, scene, config.contacts)
         lowered = lowered_feet(source, raw)
         contacts = split_at_surface_changes(detect_contacts(lowered, config.contacts), raw)
@@ -393,6 +396,12 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
             for k, side in enumerate(SIDES):
                 for m in FOOT_MARKERS[side]:
                     hard[:, source.index(m), 2] += surface[:, k]
+    if effectors is not None and effectors.contact.any():  # hands and knees still on the tops
+        held, held_w = effector_targets(source, effectors,
+                                        (config.support or SupportConfig()).horizontal_weight)
+        on = held_w > 0
+        soft = np.where(on[..., None], held, np.full(held.shape, np.nan) if soft is None else soft)
+        soft_w = np.where(on, held_w, 0.0 if soft_w is None else soft_w)
     seconds["prepare"] = time.perf_counter() - t0
     n_work = source.n_frames
     notify(progress, "prepare", 1, 1, n_work)
@@ -498,7 +507,9 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                                            source.fps, limits, config.wholebody,
                                            rest_frames=3 if n_lead >= 3 else 0,
                                            sliding=sliding, support_heights=surface_z,
-                                           props=planes)
+                                           props=planes,
+                                           effectors=(None if effectors is None
+                                                      else effectors.padded(n_lead, n_lead)))
         seconds["plan"] = time.perf_counter() - t3
         n_out = len(ext.q)
         notify(progress, "plan", 1, 1, n_out)
@@ -520,7 +531,7 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         seconds["wholebody"] = time.perf_counter() - t4
         q_out = solution.q
         lead = (n_lead, n_lead)
-        flight = runs(np.logical_not(plan.support.any(axis=1)))
+        flight = runs(plan.flight)
         adapted = adapted.with_positions(
             ext.markers[:, :adapted.n_markers], source=adapted.source)
         for f in footprints:  # and the pivots the plan adds (planted runs turning in the fit)

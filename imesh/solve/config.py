@@ -208,6 +208,11 @@ class SqpOptions:
 
     Attributes:
         iterations: largest number of SQP iterations.
+        cone_iterations: largest number of SQP iterations of a plan with contact wrench cone
+            rows (props, :mod:`.cwc`): a climb starts far from its tops and held points (the
+            initial fit knows neither), and the holosoma seq_1 window still lowered its merit
+            by 20-25 % per iteration at the 20th (soles 28 mm off, 75 frames outside the
+            cone).
         step_tolerance: stop when no coordinate of the update exceeds this [m or rad] ...
         merit_tolerance: ... or when the constraints hold (soles within 1 mm, ZMP and swing
             feet within 1 mm of their bounds) and an iteration lowered the merit by less than
@@ -228,6 +233,7 @@ class SqpOptions:
     """
 
     iterations: int = 20
+    cone_iterations: int = 40
     step_tolerance: float = 1e-4
     merit_tolerance: float = 3e-2
     settled_step: float = 1e-2
@@ -237,7 +243,7 @@ class SqpOptions:
     qp_tolerance: float = 1e-5
 
     def __post_init__(self) -> None:
-        require_count(self, ("iterations",))
+        require_count(self, ("iterations", "cone_iterations"))
         require_finite(self, ("step_tolerance", "qp_tolerance", "merit_tolerance"),
                        positive=True)
         require_finite(self, ("trust_region", "base_trust", "settled_step"), positive=False)

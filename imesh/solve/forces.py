@@ -47,7 +47,9 @@ def force_rows(out: Rows, lin: Linearization, plan: Plan, zl: ZmpLinearization,
     """Normal-force rows of the support frames, friction rows (``config.forces.friction > 0``),
     kinetic friction of the slides, then the ballistic flight frames (see the module
     docstring)."""
-    acc, acc_z, sup = lin.com_acceleration, zl.acc_z, zl.support
+    # the frames with any contact (soles, held points), not only the ZMP's: a frame on a
+    # prop's top or hanging on the hands is not ballistic
+    acc, acc_z, sup = lin.com_acceleration, zl.acc_z, plan.supported
     slack = lay.pick(lay.offset["zmp_slack"])
     vert = (acc_z + slack).tocsr()
     flight = ~sup

@@ -83,5 +83,5 @@ def bounds(plan: Plan, q: np.ndarray, config: WholeBodyConfig, lay: Layout
         config.sqp.trust_region * config.sqp.base_trust
     x_l[:, 6:nv] = np.maximum(plan.lower - qj, -config.sqp.trust_region)
     x_u[:, 6:nv] = np.minimum(plan.upper - qj, config.sqp.trust_region)
-    x_l[:, lay.offset["zmp_slack"]:] = 0.0
+    x_l[:, lay.offset["zmp_slack"]:lay.offset["collision_slack"] + 1] = 0.0
     return x_l, x_u

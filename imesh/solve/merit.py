@@ -15,9 +15,11 @@ from .collision import collision_violation
 from .config import WholeBodyConfig
 from .contacts import clearance, sole_errors
 from .costs import world_coordinates
+from .cwc import cone_violation
 from .forces import normal_bounds
 from .plan import GRAVITY, Linearization, Plan
 from .props import shared_violation
+from .touches import touch_violation
 from .zmp import zmp_frames
 
 
@@ -37,7 +39,7 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     if T >= 3 and config.costs.accel > 0:
         y = world_coordinates(q, lin.base_rotations)
         f += config.costs.accel * np.sum((np.diff(y, 2, axis=0) * (plan.fps / 30.0) ** 2) ** 2)
-    sup = plan.support.any(axis=1)
+    sup = plan.supported
     band = sup if plan.props is None else zmp_frames(plan)
     over = np.maximum(np.abs(lin.zmp_multibody - plan.desired_zmp)[band] - config.zmp.band_m,
                       0)
@@ -80,14 +82,19 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
         cap = config.forces.kinetic_friction * (GRAVITY + az[kin])
         penalty += config.slack.balance * np.sum(np.maximum.reduce(
             [np.maximum(-along, 0.0), np.maximum(along - cap, 0.0), np.abs(across)]))
+    if plan.cones is not None:
+        penalty += config.slack.balance * np.sum(cone_violation(lin, plan))
     if lin.torques is not None:
         penalty += config.slack.balance * np.sum(lin.torques.excess(1.0 - config.margins.torque))
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
         1 - config.margins.acceleration)
     penalty += config.slack.elastic * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
-    if lin.props is not None:  # one slack per frame for both (imesh.solve.props)
+    if lin.props is not None:  # one slack per frame for both (imesh.solve.props) and the
+        # held points (imesh.solve.touches)
+        held = (None if plan.points is None
+                else touch_violation(lin.held_points, plan.points))
         penalty += config.slack.elastic * shared_violation(lin.collision, lin.props,
-                                                            config.collision.margin_m)
+                                                            config.collision.margin_m, held)
     elif lin.collision is not None:
         penalty += config.slack.elastic * collision_violation(lin.collision,
                                                                config.collision.margin_m)

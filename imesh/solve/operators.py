@@ -23,6 +23,10 @@ from scipy.spatial.transform import Rotation
 AUXILIARIES: tuple[tuple[str, int], ...] = (
     ("com", 3), ("momentum", 2), ("zmp_slack", 1), ("sole_slack", 2), ("ground_slack", 1),
     ("accel_slack", 1), ("band_excess", 2), ("torque_slack", 1), ("collision_slack", 1))
+#: Appended with contact wrench cone rows (:mod:`imesh.solve.cwc`): the update of the vertical
+#: centroidal angular momentum, whose rate is a moment the cone bounds (the ZMP rows do not
+#: need it, so a plan without cones keeps the layout above and its solution bit for bit).
+CONE_AUXILIARIES: tuple[tuple[str, int], ...] = (("momentum_z", 1),)
 
 
 @dataclass(frozen=True)
@@ -37,19 +41,21 @@ class Layout:
     Attributes:
         n_frames: T.
         nv: tangent dimension of the robot.
+        cone: with :data:`CONE_AUXILIARIES` after :data:`AUXILIARIES`.
         offset: name of :data:`AUXILIARIES` -> its offset in x_t.
         nx: unknowns per frame; n: unknowns of the QP (T nx).
     """
 
     n_frames: int
     nv: int
+    cone: bool = False
     offset: dict[str, int] = field(init=False)
     nx: int = field(init=False)
     n: int = field(init=False)
 
     def __post_init__(self) -> None:
         offset, end = {}, self.nv
-        for name, width in AUXILIARIES:
+        for name, width in AUXILIARIES + (CONE_AUXILIARIES if self.cone else ()):
             offset[name] = end
             end += width
         object.__setattr__(self, "offset", offset)

@@ -9,12 +9,17 @@ measured again at every iterate (key points, soles, CoM, ZMP and their Jacobians
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .collision import CollisionLinearization
 from .props import PropLinearization
 from .torque import TorqueLinearization
+from .touches import ContactPoints
+
+if TYPE_CHECKING:
+    from .cwc import ConePlan
 
 #: Gravity [m/s^2], as the evaluator's ZMP and normal force use it.
 GRAVITY = 9.81
@@ -37,7 +42,7 @@ class Linearization:
         com_acceleration: (T, 3) [m/s^2] and angular_momentum_rate: (T, 3) [Nm] from
             pinocchio with the evaluator's finite-difference velocities and accelerations.
         centroidal_angular: (T, 2, nv) x, y rows of the centroidal momentum matrix's angular
-            part; mass: [kg].
+            part; mass: [kg]; centroidal_angular_z: (T, nv) its z row.
         zmp_multibody: (T, 2) [m] the evaluator's multibody ZMP of the trajectory.
         base_rotations: (T, 3, 3) world rotations of the base.
         torques: the net joint torques and their working-set rows (None: not linearized).
@@ -45,6 +50,8 @@ class Linearization:
             (:class:`imesh.solve.collision.CollisionLinearization`), or None.
         props: the samples of the robot's proxies against the scene's props
             (:class:`imesh.solve.props.PropLinearization`), or None (no props).
+        held_points: (T, C, 3) [m] the points held on prop tops (:attr:`Plan.points`);
+            held_jacobians: (T, C, 3, nv) their Jacobians; None without.
     """
 
     points: np.ndarray
@@ -68,6 +75,9 @@ class Linearization:
     torques: TorqueLinearization | None = None
     collision: CollisionLinearization | None = None
     props: PropLinearization | None = None
+    held_points: np.ndarray | None = None
+    held_jacobians: np.ndarray | None = None
+    centroidal_angular_z: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,6 +118,10 @@ class Plan:
         props: (P, K, 4) outward face planes ``(n, d)`` of the scene's convex props in the
             robot's world (``n . p <= d`` inside; :func:`imesh.solve.props.pad_planes`): no
             robot proxy enters them (:mod:`imesh.solve.props`); None: no props.
+        points: the robot points held on prop tops where the person's hands and knees are
+            on them (:mod:`imesh.solve.touches`), or None.
+        cones: the frames balanced by the contact wrench cone instead of the ZMP, and their
+            cones (:mod:`imesh.solve.cwc`), or None.
     """
 
     marker_points: np.ndarray
@@ -134,8 +148,16 @@ class Plan:
     normal_max: np.ndarray | None = None
     kinetic: np.ndarray | None = None
     props: np.ndarray | None = None
+    points: ContactPoints | None = None
+    cones: ConePlan | None = None
+
+    @property
+    def supported(self) -> np.ndarray:
+        """(T,) bool frames with a contact: a support foot or a held point."""
+        sup = np.asarray(self.support.any(axis=1))
+        return sup if self.points is None else sup | self.points.active.any(axis=1)
 
     @property
     def flight(self) -> np.ndarray:
-        """(T,) bool frames without a support foot: the body flies."""
-        return ~np.asarray(self.support.any(axis=1))
+        """(T,) bool frames without any contact: the body flies."""
+        return ~self.supported

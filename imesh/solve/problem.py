@@ -50,7 +50,11 @@ Constraints:
   ``p_t = c_xy,t - (c_z,t / g) (D c)_xy,t + delta_t`` inside the support polygon shrunk by
   ``ZmpOptions.margin``, where ``delta_t`` is the multibody ZMP minus the cart-table ZMP at the
   current iterate (Nishiwaki's correction idea in joint space: at convergence the constraint
-  holds for the multibody ZMP the evaluator computes).
+  holds for the multibody ZMP the evaluator computes);
+* with props (:attr:`Plan.props`): no proxy inside a prop (:mod:`.props`), the points held on
+  prop tops where the person's hands and knees rest (:mod:`.touches`), both elastic on the
+  frame's collision slack; and on the frames whose contacts are not all soles on the floor,
+  the contact wrench cone in place of the ZMP rows (:mod:`.cwc`, elastic on the ZMP slack).
 """
 
 from __future__ import annotations
@@ -62,12 +66,14 @@ from .collision import collision_qp_rows
 from .config import WholeBodyConfig
 from .contacts import ground_rows, sole_rows
 from .costs import add_smoothness, frame_blocks
+from .cwc import cone_rows
 from .forces import force_rows
 from .holds import drop_constant_rows, held_frames, held_rows, rest_rows
 from .limits import bounds, motion_rows, torque_rows
 from .operators import Layout, Rows
 from .plan import Linearization, Plan
 from .qp import QpProblem
+from .touches import touch_rows
 from .zmp import auxiliary_rows, band_cost, band_rows, linearize_zmp, polygon_rows
 
 
@@ -92,7 +98,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         are 0). :class:`~imesh.solve.operators.Layout` names the offsets.
     """
     T = lin.points.shape[0]
-    lay = Layout(n_frames=T, nv=lin.point_jacobians.shape[-1])
+    lay = Layout(n_frames=T, nv=lin.point_jacobians.shape[-1], cone=plan.cones is not None)
 
     # --- objective ---------------------------------------------------------------------------
     P, c = frame_blocks(lin, plan, q, config, lay)
@@ -123,6 +129,9 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     if lin.props is not None and len(lin.props.frames):  # props share the collision slack
         rows.add(*collision_qp_rows(lin.props, T, lay.nx, lay.offset["collision_slack"],
                                config.collision.margin_m))
+    if plan.points is not None:  # and so do the held points
+        touch_rows(rows, lin.held_points, lin.held_jacobians, plan.points, lay)
+    cone_rows(rows, lin, plan, lay, zl.grad, zl.Dacc)
     G = sp.vstack(rows.blocks, format="csc") if rows.blocks else sp.csc_matrix((0, lay.n))
     x_l, x_u = bounds(plan, q, config, lay)
     P = ((P + P.T) * 0.5).tocsc()

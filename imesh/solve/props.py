@@ -175,10 +175,15 @@ def linearize_props(planes: np.ndarray, seg_world: np.ndarray, radius: np.ndarra
 
 
 def shared_violation(collision: CollisionLinearization | None, props: PropLinearization,
-                     margin: float) -> float:
+                     margin: float, held: np.ndarray | None = None) -> float:
     """Sum over frames of the largest shortfall below ``margin`` [m] of a self-collision or a
-    prop distance: what the frame's shared slack would have to cover."""
+    prop distance, or of a held point's distance from its anchor (``held`` (T,),
+    :func:`imesh.solve.touches.touch_violation`): what the frame's shared slack would have to
+    cover."""
     low = props.min_distance
     if collision is not None:
         low = np.minimum(low, collision.min_distance)
-    return float(np.sum(np.maximum(margin - low, 0.0)))
+    short = np.maximum(margin - low, 0.0)
+    if held is not None:
+        short = np.maximum(short, held)
+    return float(np.sum(short))

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..contacts.effectors import EffectorContacts
 from ..contacts.phases import SIDES, runs
 from ..core.limits import JointLimits
 from ..errors import SolverError
@@ -31,6 +32,7 @@ from ..metrics.zmp import desired_zmp
 from .collision import collision_violation, linearize_collisions
 from .config import WholeBodyConfig
 from .contacts import sole_errors
+from .cwc import cone_violation, plan_cones
 from .footprints import (
     Footprint,
     footprint_tracks,
@@ -47,6 +49,7 @@ from .problem import build_qp
 from .props import linearize_props, shared_violation
 from .qp import solve_qp
 from .torque import linearize_torques
+from .touches import ContactPoints, plan_contact_points, touch_violation
 
 log = logging.getLogger(__name__)
 
@@ -118,7 +121,8 @@ class _Frames:
     """The robot frames one linearization asks for, and where each target finds its frame."""
 
     def __init__(self, robot, targets: CompiledTargets, config: WholeBodyConfig | None = None,
-                 props: np.ndarray | None = None, support: np.ndarray | None = None):
+                 props: np.ndarray | None = None, support: np.ndarray | None = None,
+                 held: ContactPoints | None = None):
         soles = [robot.frame_id(robot.soles[s].frame) for s in SIDES]
         ids = list(dict.fromkeys(list(targets.kp_frame_ids) + list(targets.dir_frame_ids)
                                  + soles + [robot.frame_id(robot.waist_frame)]))
@@ -170,6 +174,13 @@ class _Frames:
             self.prop_support = np.asarray(support, dtype=bool)
             self.prop_activation = config.collision.activation_m
             self.props = props
+        # points held on prop tops (imesh.solve.touches)
+        self.held = None
+        if held is not None:
+            hf = [robot.frame_id(f) for f in held.frames]
+            ids += [f for f in dict.fromkeys(hf) if f not in ids]
+            self.held = np.array([ids.index(f) for f in hf], dtype=int)
+            self.held_local = held.local_m
 
 
 def leg_ground_points(robot, below: float = 0.4) -> tuple[list[int], np.ndarray]:
@@ -281,6 +292,12 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
             Mc[..., :3, 3], Jc, np.broadcast_to(frames.prop_capsule_skip, (T, len(model.radius))),
             pts, origin, jac, skip, frames.prop_activation, point_owner=owner,
             point_radius=np.r_[np.zeros(2 * n_pts), frames.prop_points_radius])
+    held = held_j = None
+    if frames.held is not None:
+        Mh, Jh = M[:, frames.held], J[:, frames.held]
+        lever_h = np.einsum("tcij,cj->tci", Mh[..., :3, :3], frames.held_local)
+        held = Mh[..., :3, 3] + lever_h
+        held_j = Jh[:, :, :3] + _cross_rows(Jh[:, :, 3:], lever_h)
     return Linearization(points=points, point_jacobians=point_j, axes=axes,
                          axis_jacobians=J[:, frames.dirs, 3:], soles=soles, sole_jacobians=js,
                          corners=corners, corner_jacobians_z=cz, body_z=body_z,
@@ -289,7 +306,8 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
                          angular_momentum_rate=ld, centroidal_angular=ag[:, 3:5], mass=m,
                          zmp_multibody=zmp,
                          base_rotations=rot, torques=torques, collision=collision,
-                         props=prop_lin)
+                         props=prop_lin, held_points=held, held_jacobians=held_j,
+                         centroidal_angular_z=ag[:, 5])
 
 
 #: A frame whose ZMP is within this of the CoM's ground projection is quasi-static [m]
@@ -393,7 +411,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                     config: WholeBodyConfig,
                     transition_s: float = 0.1, rest_frames: int = 3,
                     sliding: np.ndarray | None = None, support_heights: np.ndarray | None = None,
-                    props: np.ndarray | None = None) -> tuple[Plan, list[Footprint]]:
+                    props: np.ndarray | None = None,
+                    effectors: EffectorContacts | None = None) -> tuple[Plan, list[Footprint]]:
     """Fix the targets, mesh, support, footprints and limits of a whole-body solve.
 
     Args:
@@ -417,6 +436,11 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
             at the median over its frames, and frames with a support above the floor get no
             ZMP rows (the ZMP is the evaluator's, on z = 0; docs/terrain.md). None: the floor.
         props: (P, K, 4) the props' face planes (:attr:`Plan.props`), or None.
+        effectors: (T frames) the person's hands and knees on prop tops
+            (:func:`imesh.contacts.effectors.detect_effector_contacts`, padded to the lead
+            frames): held points on the tops (:mod:`.touches`). With props, every supported
+            frame that is not all soles on the floor is balanced by the contact wrench cone
+            (:mod:`.cwc`) instead of the ZMP.
     """
     T = len(q_init)
     frames = _Frames(robot, targets)
@@ -459,10 +483,26 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                                                                 SIDES.index(f.side)])))
                       for f in footprints]
         halfplanes = floor_halfplanes(footprints, support)
-    flight = np.logical_not(support.any(axis=1))
+    points = None
+    if effectors is not None and props is not None and effectors.contact.any():
+        points = plan_contact_points(robot, q_init, effectors, list(props), prop_tops(props),
+                                     config.collision.margin_m)
+    held = np.zeros(T, dtype=bool) if points is None else points.active.any(axis=1)
+    flight = np.logical_not(support.any(axis=1) | held)
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
         sole_targets[f.start:f.stop, SIDES.index(f.side)] = f.frame_pose
+    cones = None
+    if props is not None and halfplanes is not None:
+        # the ZMP where every contact is a sole on the floor, the cone everywhere else
+        keep = ~held[halfplanes[0]]
+        halfplanes = tuple(h[keep] for h in halfplanes)
+        zmp = np.zeros(T, dtype=bool)
+        zmp[halfplanes[0]] = True
+        cones = plan_cones(robot, support, sole_targets,
+                           None if points is None else points.anchor_m,
+                           None if points is None else points.active,
+                           np.flatnonzero(~flight & ~zmp))
     tracks = footprint_tracks(footprints, T, fps)
     kp_markers = markers[:, targets.kp_markers]
     lap = keypoint_laplacians(kp_markers)
@@ -486,8 +526,14 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                                           config.forces.impact_normal, config.forces.impact_s)
                             if flight.any() else None),
                 kinetic=(kinetic_directions(footprints, support, fps) if sliding.any()
-                         else None), props=props)
+                         else None), props=props, points=points, cones=cones)
     return plan, footprints
+
+
+def prop_tops(planes: np.ndarray) -> np.ndarray:
+    """(P,) [m] the top height of each prop (P, K, 4): its highest upward face."""
+    up = planes[..., 2] > 0.9
+    return np.where(up, planes[..., 3] / np.where(up, planes[..., 2], 1.0), -np.inf).max(axis=1)
 
 
 def floor_halfplanes(footprints: list[Footprint], support: np.ndarray
@@ -533,7 +579,8 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
                            qp_iterations=qp_iterations)
 
 
-def _settled(lin: Linearization, r: IterationReport, config: WholeBodyConfig) -> bool:
+def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBodyConfig
+             ) -> bool:
     """Every other constraint the evaluator scores also holds at the iterate: joint velocities
     and accelerations within their limits, no self-collision distance more than 1 mm inside
     its margin, no torque more than 0.1 % of its limit above the margin-reduced limit."""
@@ -544,6 +591,10 @@ def _settled(lin: Linearization, r: IterationReport, config: WholeBodyConfig) ->
         return False
     if lin.props is not None and len(lin.props.min_distance) and \
             (config.collision.margin_m - lin.props.min_distance).max() > 1e-3:
+        return False
+    if plan.points is not None and touch_violation(lin.held_points, plan.points).max() > 1e-3:
+        return False
+    if plan.cones is not None and cone_violation(lin, plan).max() > 1e-3:
         return False
     return lin.torques is None or \
         lin.torques.excess(1.0 - config.margins.torque).max(initial=0.0) <= 1e-3
@@ -561,14 +612,16 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                      progress: Callable[[int, int], None] | None = None) -> WholeBodySolution:
     """Sequential QP from ``plan.q_init`` (see the module docstring).
 
-    ``progress(iteration, config.sqp.iterations)`` is called after every SQP iteration (the solve
-    may stop earlier).
+    ``progress(iteration, n)`` is called after every SQP iteration, n the largest number of
+    iterations (``config.sqp.iterations``, or ``cone_iterations`` with cone rows; the solve may
+    stop earlier).
 
     Raises:
         SolverError: a QP failed (infeasible linearization, non-finite result).
     """
     config = config or WholeBodyConfig()
-    frames = _Frames(robot, targets, config, props=plan.props, support=plan.support)
+    frames = _Frames(robot, targets, config, props=plan.props, support=plan.support,
+                     held=plan.points)
     q = (plan.q_init if plan.q_start is None else plan.q_start).copy()
     seconds = {"linearize": 0.0, "build": 0.0, "qp": 0.0}
     t_all = time.perf_counter()
@@ -582,7 +635,8 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     T, nv = len(q), robot.nv
     phi = merit(lin, plan, q, config)
     trust = config.sqp.trust_region
-    for it in range(config.sqp.iterations):
+    n_iter = config.sqp.iterations if plan.cones is None else config.sqp.cone_iterations
+    for it in range(n_iter):
         t0 = time.perf_counter()
         qp = build_qp(lin, plan, q, dataclasses.replace(
             config, sqp=dataclasses.replace(config.sqp, trust_region=trust)))
@@ -622,7 +676,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         seconds["linearize"] += time.perf_counter() - t0
         step = float(alpha * np.abs(dq).max())
         if progress is not None:
-            progress(it + 1, config.sqp.iterations)
+            progress(it + 1, n_iter)
         if phi_new >= phi:  # no decrease along the step: a smaller trust region next time
             trust *= 0.25
             log.info("whole-body iteration %d: no merit decrease (%.6g >= %.6g); trust region "
@@ -647,7 +701,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                     and r.lowest_swing_m > config.feet.clearance_m - 1e-3)
         if step < config.sqp.step_tolerance or (
                 feasible and gain < config.sqp.merit_tolerance * phi) or (
-                step < config.sqp.settled_step and feasible and _settled(lin, r, config)):
+                step < config.sqp.settled_step and feasible and _settled(lin, plan, r, config)):
             converged = True
             break
     seconds["total"] = time.perf_counter() - t_all

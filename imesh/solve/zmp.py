@@ -152,4 +152,11 @@ def auxiliary_rows(lin: Linearization, zl: ZmpLinearization, lay: Layout
     eq.append(lay.rows(np.repeat(frames_all, 2), np.tile(np.eye(2), (T, 1)), lay.offset["momentum"])
               - Mk)
     rhs.append(np.zeros(2 * T))
+    if "momentum_z" in lay.offset:  # the cone rows' vertical momentum (imesh.solve.cwc)
+        vals = gc.data[:, None] * lin.centroidal_angular_z[gc.row]  # (nnz, nv)
+        cols = gc.col[:, None] * nx + np.arange(nv)
+        Mz = sp.csr_matrix((vals.ravel(), (np.repeat(gc.row, nv), cols.ravel())),
+                           shape=(T, lay.n))
+        eq.append(lay.pick(lay.offset["momentum_z"]) - Mz)
+        rhs.append(np.zeros(T))
     return eq, rhs
