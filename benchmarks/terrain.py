@@ -129,7 +129,7 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
                                   else "the props in the solve"))
     print(f"{'seq':<6} {'robot':<6} {'frames':>6} {'solve s':>7} {'pen mm per box':<15} "
           f"{'>10mm':>5} {'deepest link (box)':<32} {'kept':>5} {'of':>4} {'skid':>5} "
-          f"{'ground':>6} {'self':>4} {'limit':>5}")
+          f"{'ground':>6} {'self':>4} {'limit':>5} {'cwc':>5}")
     for seq, folder, _ in SEQS:
         if seq not in args.seqs:
             continue
@@ -165,14 +165,16 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
                   f"{(worst[1]['worst_link'] or '-') + ' (' + worst[0] + ')':<32} "
                   f"{f(kept['value'], '.2f'):>5} {kept.get('samples', 0):>4} "
                   f"{f(skid, '.1f'):>5} {f(values['ground_penetration_mm'], '.1f'):>6} "
-                  f"{values['self_collision_frames']:>4} {values['limit_violation_frames']:>5}")
+                  f"{values['self_collision_frames']:>4} {values['limit_violation_frames']:>5} "
+                  f"{props['cwc_inside_fraction']['value']:>5.3f}")
     print("pen: deepest point of the robot's collision proxies inside each box [mm] (the "
           "distance to the box's nearest face: at most the box's half-thickness, 187 mm for "
           "box1 at the G1's scale); >10mm: frames with a box penetrated deeper than 10 mm; "
           "kept: the human's box contacts (toe/hand/knee samples on the clip's frames) whose "
           "robot link is within 20 mm of the box surface; skid: largest sole slide while "
           "supporting on any surface [mm per 1/30 s]; ground: the evaluator's ground "
-          "penetration [mm]")
+          "penetration [mm]; cwc: fraction of frames whose gravito-inertial wrench is "
+          "inside the contact wrench cone of the robot's own contacts")
     return 0
 
 

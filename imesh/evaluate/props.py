@@ -13,6 +13,9 @@
   (the evaluator's support detection measured from each surface), per 1/30 s.
 - ``human_prop_contact_frames``: the human's contact frames per prop and effector (a table,
   no single value: its ``value`` is the total).
+- ``cwc_inside_fraction``: fraction of frames whose gravito-inertial wrench is inside the
+  contact wrench cone of the robot's own contacts (soles and hand / knee points within 10 mm
+  of the floor or a prop's top; :mod:`imesh.metrics.cwc`).
 
 The props are measured in the robot's world (the scene's scaled props); the human's contacts in
 the human's world (the scene's unscaled props), with the thresholds of
@@ -30,6 +33,7 @@ from ..errors import ImeshError
 from ..human.standard import to_standard
 from ..io import load_motion
 from ..io.clip import read_clip
+from ..metrics.cwc import cwc_balance
 from ..metrics.props import (
     CONTACT_KEPT_M,
     PENETRATION_COUNT_M,
@@ -55,6 +59,7 @@ SCENE_METRICS = {
     "prop_contacts_kept": "fraction",
     "surface_skid_mm_per_frame": "mm per 1/30 s",
     "human_prop_contact_frames": "frames",
+    "cwc_inside_fraction": "fraction",
 }
 
 
@@ -144,6 +149,10 @@ def evaluate_scene(robot, motion: RobotMotion, scene: Scene, source=None) -> dic
                                     "unit": "frames",
                                     "depth_mm": 1e3 * PENETRATION_COUNT_M},
     }
+    cwc = cwc_balance(robot, motion.q, motion.fps, planes).summary()
+    out["cwc_inside_fraction"] = {
+        "value": cwc["cwc_inside_fraction"], "unit": "fraction",
+        **{k: v for k, v in cwc.items() if k != "cwc_inside_fraction"}}
     skid = surface_skid(robot, motion.q, motion.fps, planes, names)
     out["surface_skid_mm_per_frame"] = {
         "value": None if not skid.samples else skid.max_mm, "unit": "mm per 1/30 s",
@@ -188,6 +197,10 @@ def format_scene_table(report: dict) -> str:
         elif name == "human_prop_contact_frames" and e.get("props"):
             note = "; ".join(f"{p}: " + ", ".join(f"{k} {n}" for k, n in v.items())
                              for p, v in e["props"].items() if v)
+        elif name == "cwc_inside_fraction":
+            note = (f"{e['outside_frames']} of {e['frames']} frames outside "
+                    f"({e['no_contact_frames']} without contact), worst face "
+                    f"{e['worst_violation']:.2f} m/s^2")
         elif name == "surface_skid_mm_per_frame" and e.get("surfaces"):
             worst = e.get("max_by_surface_mm", {})
             note = "support samples (max mm) on " + ", ".join(
