@@ -18,10 +18,13 @@ Three tables, on ``IMESH_DATA/interaction/holosoma_climb`` (MANIFEST.md there):
    200-800, 150 frames at the retarget's 30 fps, plus its 1 s standing lead-in and lead-out)
    retargeted with default settings; the motion and its scene written to ``--out`` and read
    back, then measured: prop penetration (deepest, frames deeper than 10 mm), the human's prop
-   contacts kept within 20 mm, skid on any surface, and the evaluator's ground penetration,
-   self-collision frames and limit violations. The props are in the solve (supports on their
-   tops, no link inside them: docs/terrain.md); ``--floor-only`` retargets without them (the
-   solve knows only the floor z = 0, as before issue 34's part 3).
+   contacts kept within 20 mm, skid on any surface, the evaluator's ground penetration,
+   self-collision frames and limit violations, and the fraction of frames whose
+   gravito-inertial wrench is inside the contact wrench cone of the robot's own contacts
+   (``cwc_inside_fraction``, :mod:`imesh.metrics.cwc`). The props are in the solve (supports on
+   their tops, hands and knees held on them, no link inside them, the contact wrench cone:
+   docs/terrain.md); ``--floor-only`` retargets without them (the solve knows only the floor
+   z = 0, as before issue 34's part 3).
 """
 
 from __future__ import annotations

@@ -56,3 +56,16 @@ def test_no_link_in_the_boxes(standing):
     assert deep_before > 50.0
     assert deep_after <= 10.0
     assert after["prop_penetration_frames"]["value"] == 0
+
+
+def test_balanced_by_the_cone_on_the_box(standing):
+    """On box2's top the ZMP rows do not hold (the evaluator's ZMP is on z = 0); the contact
+    wrench cone does: the evaluator finds the gravito-inertial wrench inside the cone of the
+    robot's soles on every frame (measured 1.00, 0 outside; the soles on the top, no skid)."""
+    robot, window, scene, with_props, _ = standing
+    after = evaluate_scene(robot, with_props.motion, scene, source=window)
+    cwc = after["cwc_inside_fraction"]
+    assert cwc["value"] == 1.0 and cwc["no_contact_frames"] == 0
+    assert with_props.wholebody.plan.cones is not None
+    assert len(with_props.wholebody.plan.cones.frames) == with_props.motion.n_frames
+    assert after["surface_skid_mm_per_frame"]["value"] < 0.5

@@ -40,7 +40,7 @@ def run(args) -> int:
     if scene is not None:
         scene_report = evaluate_scene(robot, motion, scene, source=source)
         print(f"scene: {len(scene.props)} props ({', '.join(scene.names)}) at scale "
-              f"{scene.scale:.4f}; props are not in the solve yet (docs/terrain.md)")
+              f"{scene.scale:.4f} (docs/terrain.md)")
         print(format_scene_table(scene_report))
         report = {**report, "scene": scene_report}
     if args.report:
