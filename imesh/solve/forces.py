@@ -3,7 +3,8 @@
 The ground's total force is ``m (c'' - g)`` (``c'' = D c``, the evaluator's difference
 operator, linearized in the CoM auxiliaries: :class:`~imesh.solve.zmp.ZmpLinearization`):
 
-* normal force: ``min_normal g <= g + c_z'' <= max_normal g`` in support frames: the ground
+* normal force: ``min_normal g <= g + c_z'' <= max_normal g`` in the frames with a contact
+  (support soles or points held on a prop's top; every contact normal is vertical): the ground
   only pushes (which also keeps the ZMP's denominator away from 0, where its linearization
   means nothing), and the support joints carry at most ``max_normal`` times the weight
   (``impact_normal`` around take-offs and landings, ``Plan.normal_max``);
@@ -15,7 +16,9 @@ operator, linearized in the CoM auxiliaries: :class:`~imesh.solve.zmp.ZmpLineari
   force of a floor whose kinetic mu is at most ``mu_k`` (a human slide carries ~0: the zombie
   walk's single-support slides need -0.2..0.14 of the normal force), never pushing along the
   slide nor across it;
-* flight: there is no ground, only gravity acts: the CoM is ballistic, ``c'' = (0, 0, -g)``,
+* flight (no contact at all: no support sole and no point held on a prop's top,
+  :attr:`~imesh.solve.plan.Plan.supported`): there is no ground, only gravity acts: the CoM is
+  ballistic, ``c'' = (0, 0, -g)``,
   and the angular momentum about the CoM is conserved, ``Ld_x = Ld_y = 0`` (the rows hold the
   horizontal components the ZMP's linearization carries; ``Ld = grad k``).
 
