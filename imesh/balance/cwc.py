@@ -1,22 +1,25 @@
 """The contact wrench cone (CWC): balance with contacts that are not coplanar.
 
 Caron, Pham & Nakamura, "Leveraging Cone Double Description for Multi-contact Stability of
-Humanoids with Applications to Statics and Dynamics", RSS 2015 (section III). The contact
+Humanoids with Applications to Statics and Dynamics", RSS 2015 (its gravito-inertial wrench
+cone, GIWC). The paper is not in the project's shared papers: the terms below are the paper's
+(span and face forms, span matrix V, face matrix U), its equation numbers are not cited
+because they could not be checked here. The contact
 forces ``f_i`` at points ``p_i`` (each in its friction cone, here the pyramid with edges
 ``n_i +- mu' t_1``, ``n_i +- mu' t_2``, ``mu' = mu / sqrt 2`` inside the cone, as
 :mod:`imesh.solve.forces` uses it) sum to a contact wrench about a reference point ``o``
 
     w_c = sum_i [f_i; (p_i - o) x f_i],
 
-and the motion is feasible with these contacts iff the Newton-Euler equations (the paper's
-eq. 1-2) can be met by such forces: the gravito-inertial wrench, written here as the wrench the
+and the motion is feasible with these contacts iff the Newton-Euler equations of the whole
+body can be met by such forces: the gravito-inertial wrench, written here as the wrench the
 contacts must supply per unit mass,
 
     w = [c'' - g; (c - o) x (c'' - g) + Ld_G / m]     (g = (0, 0, -9.81)),
 
 lies in the cone ``CWC = {sum_j lambda_j v_j, lambda >= 0}`` spanned by the generators ``v_j``
-of every contact's pyramid edges (the span form, V-representation, the paper's eq. 7). The face
-form (H-representation, eq. 8) ``CWC = {w : U w <= 0}`` is what a QP can use; the paper gets it
+of every contact's pyramid edges (the span form, V-representation). The face form
+(H-representation) ``CWC = {w : U w <= 0}`` is what a QP can use; the paper gets it
 from the span form by the double description method (cdd). Here the same conversion is a
 convex hull: every generator has a positive vertical force (contacts on the floor and on prop
 tops, ``n_z > 0``), so the cone is pointed and its slice ``w_z = 1`` is the polytope
@@ -79,7 +82,7 @@ class WrenchCone:
 def pyramid_generators(points_m: np.ndarray, normals: np.ndarray, ref_m: np.ndarray,
                        mu: float = FRICTION) -> np.ndarray:
     """(4 N, 6) the wrenches about ``ref_m`` of the edges of each contact's friction pyramid
-    (the paper's span form, eq. 7): ``v = [u; (p - o) x u]`` with
+    (the span form's columns): ``v = [u; (p - o) x u]`` with
     ``u = n +- mu' t_1``, ``n +- mu' t_2``, ``mu' = mu / sqrt 2``.
 
     Args:

@@ -7,7 +7,7 @@ the contacts must supply per unit mass about the cone's reference point ``o``,
 
     w_t = [f_t; (c_t - o) x f_t + Ld_t / m],   f_t = c''_t - g,
 
-stays in the cone's face form ``U w_t <= -margin`` (the paper's eq. 8; ``E w_t = 0`` where the
+stays in the cone's face form ``U w_t <= -margin`` (``E w_t = 0`` where the
 contacts span less than six dimensions). The cone of a frame is built from the plan (the
 support soles' corners on their footprints, the held points' anchors), so frames with the same
 contact set share one (:func:`plan_cones`: one convex hull per distinct set).
