@@ -202,6 +202,27 @@ def test_motion_derivatives_of_a_constant_twist(jvrc1):
     assert np.abs(a[2:-2]).max() < 1e-2
 
 
+def test_zmp_jitter_is_the_zig_zag_central_differences_do_not_see(jvrc1):
+    """A standing robot whose base zig-zags +-1 mm in x between frames has a CoM accelerating
+    by 4 A / h^2 from frame to frame, a ZMP swinging z_c / g of that, which central
+    differences (and so zmp_inside_fraction, but at the clip's ends, where they are one-sided)
+    do not see; still, it is 0."""
+    from imesh.metrics.zmp import zmp_jitter_mm
+
+    fps, n, amp = 30.0, 40, 1e-3
+    still = standing_q(jvrc1, n)
+    q = still.copy()
+    q[:, 0] += amp * (-1.0) ** np.arange(n)
+    com = np.array([jvrc1.com(qt) for qt in q])
+    expect = 1e3 * np.mean(com[:, 2]) / 9.81 * 4 * amp * fps ** 2
+    assert zmp_jitter_mm(com, fps) == pytest.approx(expect, rel=1e-9)
+    assert expect > 300.0  # a 1 mm zig-zag swings the ZMP by a third of a metre
+    assert zmp_jitter_mm(np.array([jvrc1.com(qt) for qt in still]), fps) < 1e-9
+    rep = evaluate_motion(jvrc1, motion_of(jvrc1, q, fps))
+    assert rep["zmp_inside_fraction"]["value"] >= 0.9
+    assert rep["zmp_inside_fraction"]["zmp_jitter_mm"] == pytest.approx(expect, rel=1e-6)
+
+
 # ----------------------------------------------------------------------------------------------
 # marker metrics
 

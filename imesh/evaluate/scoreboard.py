@@ -45,7 +45,7 @@ from ..metrics.markers import (
 from ..metrics.skid import SKID_THRESHOLD_MM, foot_skid, sole_deviation
 from ..metrics.soles import SoleTracks, sole_tracks
 from ..metrics.support import EVALUATOR_SUPPORT, SupportDetection, detect_support, planted_feet
-from ..metrics.zmp import zmp_report, zmp_trajectory
+from ..metrics.zmp import zmp_jitter_mm, zmp_report, zmp_trajectory
 from ..physics import PhysicsConfig, simulate_motion
 from ..viz.physics import plot_physics
 from .motion_files import align_markers, arranged_source, clip_frames_of, read_markers
@@ -358,9 +358,12 @@ def _dynamics_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
 def _zmp_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, soles: SoleTracks,
                  support: np.ndarray) -> dict[str, dict]:
     """``zmp_inside_fraction`` and ``zmp_error_mm`` of the multibody ZMP, with the frame counts
-    of the support phases."""
+    of the support phases and the ZMP's frame-to-frame swing the central differences do not
+    see (``zmp_jitter_mm``, :func:`imesh.metrics.zmp.zmp_jitter_mm`)."""
     zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
     sup_frames = int(support.any(axis=1).sum())
+    com = robot.centroidal_trajectory(q, v, a)[0]
+    jitter = _clean(zmp_jitter_mm(com, soles.fps, support.any(axis=1)))
     phases = {"support_frames": sup_frames, "double_support_frames":
               int(support.all(axis=1).sum()), "flight_frames": int(len(q) - sup_frames)}
     if not sup_frames:
@@ -369,7 +372,8 @@ def _zmp_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, soles: Sole
                 "zmp_error_mm": _missing("zmp_error_mm", reason, **phases)}
     return {
         "zmp_inside_fraction": _metric("zmp_inside_fraction", zmp.inside_fraction,
-                                       max_outside_mm=zmp.max_outside_mm, **phases),
+                                       max_outside_mm=zmp.max_outside_mm,
+                                       zmp_jitter_mm=jitter, **phases),
         "zmp_error_mm": _metric("zmp_error_mm", zmp.error_mm,
                                 desired="sole centre (single), hull centre (double)", **phases),
     }

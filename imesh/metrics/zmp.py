@@ -121,3 +121,29 @@ def zmp_report(zmp: np.ndarray, soles: SoleTracks, support: np.ndarray,
     return ZmpReport(zmp_m=zmp, desired_m=desired, inside=inside, support_frames=sup,
                      inside_fraction=fraction, error_mm=error_mm, max_outside_mm=1e3 * worst,
                      polygons=polys)
+
+
+def zmp_jitter_mm(com: np.ndarray, fps: float, frames: np.ndarray | None = None) -> float:
+    """RMS [mm] of the ZMP's swing from frame to frame that the evaluator's central
+    differences average away: ``z_c / g |a3 - a_cd|`` of the CoM's horizontal acceleration,
+    ``a3 = (c_{t+1} - 2 c_t + c_{t-1}) / h^2`` (what a robot playing the frames goes through)
+    against ``a_cd`` (central differences twice, ``(c_{t+2} - 2 c_t + c_{t-2}) / 4h^2``, which
+    the ZMP uses: their difference is a fourth difference and a zig-zag ``+-A`` of the CoM is
+    ``4 A / h^2`` of it). 0 for a smooth motion; NaN below 5 frames.
+
+    Args:
+        com: (T, 3) float CoM [m]; fps: frame rate [1/s]; frames: (T,) bool frames to count
+            (None: all), of which the first and last two never count.
+    """
+    c = np.asarray(com, dtype=float)
+    T = len(c)
+    if T < 5:
+        return float("nan")
+    h2 = fps * fps
+    a3 = (c[2:, :2] - 2.0 * c[1:-1, :2] + c[:-2, :2]) * h2  # frames 1..T-2
+    a_cd = (c[4:, :2] - 2.0 * c[2:-2, :2] + c[:-4, :2]) * h2 / 4.0  # frames 2..T-3
+    diff = np.linalg.norm(a3[1:-1] - a_cd, axis=1) * np.mean(c[:, 2]) / 9.81
+    use = np.ones(T - 4, dtype=bool) if frames is None else np.asarray(frames)[2:-2]
+    if not use.any():
+        return float("nan")
+    return float(1e3 * np.sqrt(np.mean(diff[use] ** 2)))
