@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .collision import CollisionLinearization
+from .obstacles import ObstacleLinearization, Obstacles
 from .props import PropLinearization
 from .torque import TorqueLinearization
 
@@ -45,6 +46,8 @@ class Linearization:
             (:class:`imesh.solve.collision.CollisionLinearization`), or None.
         props: the samples of the robot's proxies against the scene's props
             (:class:`imesh.solve.props.PropLinearization`), or None (no props).
+        obstacles: the samples of the robot's capsules against the plan's moving obstacles
+            (:class:`imesh.solve.obstacles.ObstacleLinearization`), or None.
     """
 
     points: np.ndarray
@@ -68,6 +71,7 @@ class Linearization:
     torques: TorqueLinearization | None = None
     collision: CollisionLinearization | None = None
     props: PropLinearization | None = None
+    obstacles: ObstacleLinearization | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,6 +112,8 @@ class Plan:
         props: (P, K, 4) outward face planes ``(n, d)`` of the scene's convex props in the
             robot's world (``n . p <= d`` inside; :func:`imesh.solve.props.pad_planes`): no
             robot proxy enters them (:mod:`imesh.solve.props`); None: no props.
+        obstacles: capsules moving with the frames (a partner robot's,
+            :mod:`imesh.solve.obstacles`) that no capsule of the robot enters; None: none.
     """
 
     marker_points: np.ndarray
@@ -134,6 +140,7 @@ class Plan:
     normal_max: np.ndarray | None = None
     kinetic: np.ndarray | None = None
     props: np.ndarray | None = None
+    obstacles: Obstacles | None = None
 
     @property
     def flight(self) -> np.ndarray:

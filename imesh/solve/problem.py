@@ -123,6 +123,9 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     if lin.props is not None and len(lin.props.frames):  # props share the collision slack
         rows.add(*collision_qp_rows(lin.props, T, lay.nx, lay.offset["collision_slack"],
                                config.collision.margin_m))
+    if lin.obstacles is not None and len(lin.obstacles.frames):  # and moving obstacles
+        rows.add(*collision_qp_rows(lin.obstacles, T, lay.nx, lay.offset["collision_slack"],
+                                    config.collision.margin_m))
     G = sp.vstack(rows.blocks, format="csc") if rows.blocks else sp.csc_matrix((0, lay.n))
     x_l, x_u = bounds(plan, q, config, lay)
     P = ((P + P.T) * 0.5).tocsc()

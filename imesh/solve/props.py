@@ -174,11 +174,12 @@ def linearize_props(planes: np.ndarray, seg_world: np.ndarray, radius: np.ndarra
                              depth_by_prop=depth)
 
 
-def shared_violation(collision: CollisionLinearization | None, props: PropLinearization,
-                     margin: float) -> float:
-    """Sum over frames of the largest shortfall below ``margin`` [m] of a self-collision or a
-    prop distance: what the frame's shared slack would have to cover."""
-    low = props.min_distance
-    if collision is not None:
-        low = np.minimum(low, collision.min_distance)
-    return float(np.sum(np.maximum(margin - low, 0.0)))
+def shared_violation(collision: CollisionLinearization | None, props: PropLinearization | None,
+                     margin: float, obstacles=None) -> float:
+    """Sum over frames of the largest shortfall below ``margin`` [m] of a self-collision, a
+    prop or a moving-obstacle distance (:mod:`imesh.solve.obstacles`): what the frame's shared
+    slack would have to cover."""
+    lows = [x.min_distance for x in (collision, props, obstacles) if x is not None]
+    if not lows:
+        return 0.0
+    return float(np.sum(np.maximum(margin - np.minimum.reduce(lows), 0.0)))

@@ -99,6 +99,7 @@ def plan_window(plan: Plan, start: int, stop: int, *, fixed_frames: int = 0,
         clearance=None if plan.clearance is None else plan.clearance[part],
         normal_max=None if plan.normal_max is None else plan.normal_max[part],
         kinetic=None if plan.kinetic is None else plan.kinetic[part],
+        obstacles=None if plan.obstacles is None else plan.obstacles.frames(start, stop),
         fixed_frames=fixed_frames, rest_ends=rest_ends, q_start=q_start,
         fixed_end_frames=fixed_end_frames)
 
