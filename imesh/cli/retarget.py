@@ -26,6 +26,7 @@ from ..viz.balance import plot_balance
 from ..viz.report import write_report
 from .arms import run_arms
 from .loading import load_clip
+from .partners import run_pair
 
 log = logging.getLogger(__name__)
 
@@ -48,9 +49,11 @@ def run(args) -> int:
                     "phases are planned by default (ballistic CoM, bounded landings; "
                     "docs/clips-flight.md); it applies to --balance nishiwaki only",
                     args.balance)
-    motion = load_clip(args)
     config = _retarget_config(args, args.steps, args.window_frames, support=not args.no_support,
                               balance=args.balance)
+    if getattr(args, "partner", None):  # two people, two robots (imesh.partners)
+        return run_pair(args, config)
+    motion = load_clip(args)
     bar = retarget_bar(args.quiet, f"{Path(args.clip).name} -> {args.robot}", motion, config)
     try:
         bar.stage("load", detail=f"robot {args.robot}")

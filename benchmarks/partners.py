@@ -1,0 +1,102 @@
+"""The acceptance table of issue 35: the CMU salsa couple on two robots (docs/partners.md).
+
+    PYTHONPATH=. IMESH_DATA=../shared/data python benchmarks/partners.py [--frames 400:760]
+        [--pairs g1:g1 g1:jvrc1] [--json OUT.json]
+
+For every robot pair, the couple is retargeted together (one interaction mesh, robot b
+avoiding robot a and meeting its hands where the people hold hands) and each person alone
+(own mesh, no avoidance, no holds; same world, same settings): the baseline of the
+inter-person close-pair error. One row per robot and mode with the single-robot gates and the
+pair's figures. ``--frames`` takes clip frames at the file's header rate (120 fps); the
+default window 400:760 (3 s) holds the couple's hand hold (clip frames 504-611) and not
+partner A's hop (304-318); ``--frames all`` runs the whole clip.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import time
+
+from _data import data_root
+
+from imesh.io.clip import read_clip
+from imesh.partners import PairConfig, evaluate_pair, retarget_pair
+from imesh.robot import load_robot
+
+MOCAP = data_root() / "mocap"
+CLIP_A = MOCAP / "cmu_60_10_salsa_partnerA_sl_scaled.bvh"
+CLIP_B = MOCAP / "cmu_61_10_salsa_partnerB_sl_scaled.bvh"
+
+HEADER = (f"{'robots':12s} {'mode':8s} {'robot':6s} {'frames':>6s} {'rms mm':>7s} {'lim':>4s} "
+          f"{'coll':>4s} {'sole mm':>8s} {'skid':>6s} {'zmp in':>6s} | {'pen mm':>7s} "
+          f"{'pen fr':>6s} {'hold max':>8s} {'hold<=30':>8s} {'inter cpe':>9s} {'s':>6s}")
+
+
+def value(report: dict, key: str) -> float:
+    v = report[key]["value"]
+    return float("nan") if v is None else float(v)
+
+
+def rows(pair: str, mode: str, result, metrics) -> list[dict]:
+    out = []
+    for key, rep, res in (("a", metrics.robot_a, result.a), ("b", metrics.robot_b, result.b)):
+        out.append({"robots": pair, "mode": mode, "robot": f"{key}:{res.arrangement.robot}",
+                    "frames": res.motion.n_frames,
+                    "marker_rms_mm": value(rep, "marker_rms_mm"),
+                    "limit_violation_frames": value(rep, "limit_violation_frames"),
+                    "self_collision_frames": value(rep, "self_collision_frames"),
+                    "sole_deviation_mm": value(rep, "sole_deviation_mm"),
+                    "foot_skid_mm_per_frame": value(rep, "foot_skid_mm_per_frame"),
+                    "zmp_inside_fraction": value(rep, "zmp_inside_fraction"),
+                    **metrics.summary(), "seconds": result.seconds["total"]})
+    return out
+
+
+def line(r: dict) -> str:
+    return (f"{r['robots']:12s} {r['mode']:8s} {r['robot'][:6]:6s} {r['frames']:6d} "
+            f"{r['marker_rms_mm']:7.1f} {r['limit_violation_frames']:4.0f} "
+            f"{r['self_collision_frames']:4.0f} {r['sole_deviation_mm']:8.2f} "
+            f"{r['foot_skid_mm_per_frame']:6.2f} {r['zmp_inside_fraction']:6.3f} | "
+            f"{r['robot_penetration_mm']:7.1f} {r['penetration_frames']:6d} "
+            f"{r['hold_error_max_mm']:8.1f} {r['hold_within_30mm']:8.2f} "
+            f"{r['inter_close_pair_error']:9.4f} {r['seconds']:6.0f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", default="400:760", help="START:STOP clip frames, or 'all'")
+    ap.add_argument("--pairs", nargs="+", default=["g1:g1", "g1:jvrc1"])
+    ap.add_argument("--modes", nargs="+", default=["together", "alone"])
+    ap.add_argument("--json", help="write the rows here")
+    args = ap.parse_args()
+    logging.basicConfig(level=logging.WARNING)
+    a, b = read_clip(CLIP_A, {}), read_clip(CLIP_B, {})
+    if args.frames != "all":
+        start, stop = (int(x) for x in args.frames.split(":"))
+        a, b = a.frames(start, stop), b.frames(start, stop)
+    print(f"CMU 60_10 / 61_10 salsa, clip frames {args.frames} at the header's "
+          f"{a.fps:.0f} fps ({a.n_frames} frames), working rate 30 fps")
+    print(HEADER)
+    print("-" * len(HEADER))
+    table = []
+    for pair in args.pairs:
+        name_a, name_b = pair.split(":")
+        robot_a, robot_b = load_robot(name_a), load_robot(name_b)
+        for mode in args.modes:
+            t0 = time.perf_counter()
+            result = retarget_pair(a, b, robot_a, robot_b,
+                                   config=PairConfig(together=mode == "together"))
+            metrics = evaluate_pair(result, source_a=a, source_b=b)
+            for r in rows(pair, mode, result, metrics):
+                r["wall_s"] = time.perf_counter() - t0
+                table.append(r)
+                print(line(r), flush=True)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(table, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

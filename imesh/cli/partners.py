@@ -1,0 +1,108 @@
+"""``imesh retarget A --partner B -o OUT``: two people, two robots (:mod:`imesh.partners`).
+
+Writes robot a's motion to OUT, robot b's beside it as ``OUT.partner.<suffix>`` (each with its
+adapted markers, as ``imesh retarget`` writes one), and ``OUT.pair.json``: both files, both
+robots, the shared scale, the source's hand holds and the pair's metrics. Both motions are
+verified before anything is written (exit 3 unless ``--force``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+from ..evaluate.table import format_table
+from ..evaluate.verify import verify_motion
+from ..io.atomic import write_json
+from ..io.robot_motion import save_robot_motion
+from ..partners import PairConfig, evaluate_pair, retarget_pair
+from ..partners.pair import PartnerError
+from ..robot import load_robot
+from .loading import load_clip
+
+log = logging.getLogger(__name__)
+
+
+def partner_path(output: str | Path) -> Path:
+    """``OUT.partner.npz`` beside ``OUT.npz``: robot b's motion."""
+    p = Path(output)
+    return p.with_name(f"{p.stem}.partner{p.suffix}")
+
+
+def pair_path(output: str | Path) -> Path:
+    """``OUT.pair.json`` beside ``OUT.npz``: the pair's manifest and metrics."""
+    p = Path(output)
+    return p.with_name(f"{p.stem}.pair.json")
+
+
+def parse_frames(text: str | None) -> tuple[int, int] | None:
+    """``START:STOP`` clip frames (at the file's rate) -> (start, stop); None -> None."""
+    if text is None:
+        return None
+    try:
+        start, stop = (int(x) for x in text.split(":"))
+    except ValueError:
+        raise PartnerError(f"--frames {text!r}: expected START:STOP (clip frames at the file's "
+                           "rate, e.g. 400:760)") from None
+    if not 0 <= start < stop:
+        raise PartnerError(f"--frames {text!r}: need 0 <= START < STOP")
+    return start, stop
+
+
+def run_pair(args, config) -> int:
+    """Retarget the pair, verify both motions, write (see the module docstring)."""
+    if args.format not in (None, "npz"):
+        raise PartnerError(f"--format {args.format} with --partner: a pair is written as "
+                           "imesh .npz files (export each one with imesh export)")
+    if args.balance != "wholebody":
+        raise PartnerError(f"--balance {args.balance} with --partner: the pair's avoidance and "
+                           "hand holds are rows of the whole-body solve (--balance wholebody)")
+    frames = parse_frames(getattr(args, "frames", None))
+    motion_a = load_clip(args)
+    motion_b = load_clip(argparse.Namespace(**{**vars(args), "clip": args.partner}))
+    if frames is not None:
+        for m, path in ((motion_a, args.clip), (motion_b, args.partner)):
+            if frames[1] > m.n_frames:
+                raise PartnerError(f"{path}: --frames {frames[0]}:{frames[1]} beyond its "
+                                   f"{m.n_frames} frames")
+        motion_a, motion_b = motion_a.frames(*frames), motion_b.frames(*frames)
+    robot_a = load_robot(args.robot, urdf=args.urdf)
+    robot_b = load_robot(args.partner_robot or args.robot,
+                         urdf=args.urdf if args.partner_robot is None else None)
+    result = retarget_pair(motion_a, motion_b, robot_a, robot_b,
+                           config=PairConfig(retarget=config, together=not args.alone))
+    reports, failed = [], {}
+    for key, robot, res, motion, name in (("a", robot_a, result.a, motion_a, args.clip),
+                                          ("b", robot_b, result.b, motion_b, args.partner)):
+        metrics, bad = verify_motion(robot, res.motion, adapted=res.adapted,
+                                     seconds=res.seconds, name=name, force=args.force,
+                                     source=motion)
+        reports.append(metrics)
+        failed.update({f"{key}:{k}": v for k, v in bad.items()})
+    pair = evaluate_pair(result, reports=(reports[0], reports[1]))
+    out_b = partner_path(args.output)
+    save_robot_motion(args.output, result.a.motion, markers=result.a.adapted)
+    save_robot_motion(out_b, result.b.motion, markers=result.b.adapted)
+    report = {"files": {"a": str(args.output), "b": str(out_b)},
+              "robots": {"a": robot_a.name, "b": robot_b.name},
+              "clips": {"a": str(args.clip), "b": str(args.partner)},
+              "frames": list(frames) if frames is not None else None,
+              "pair": result.report(), "pair_metrics": pair.summary(),
+              "metrics": {"a": reports[0], "b": reports[1]},
+              "verification": {"passed": not failed,
+                               "failed": {k: {"value": v[0], "gate": v[1]}
+                                          for k, v in failed.items()}}}
+    write_json(pair_path(args.output), report)
+    if args.report:
+        write_json(args.report, report)
+    print(f"retargeted the pair: {Path(args.clip).name} -> {robot_a.name} ({args.output}), "
+          f"{Path(args.partner).name} -> {robot_b.name} ({out_b}) in "
+          f"{result.seconds['total']:.1f} s")
+    for key, metrics in (("a", reports[0]), ("b", reports[1])):
+        print(f"robot {key}:")
+        print(format_table(metrics))
+    print("pair:")
+    for k, v in pair.summary().items():
+        print(f"  {k:24s} {v:.4g}" if isinstance(v, float) else f"  {k:24s} {v}")
+    return 0

@@ -1,0 +1,115 @@
+"""The partners' hand holds: detected in the source, kept between the robots.
+
+A hold is a frame where a hand marker of one person is closer than ``distance_m`` (10 cm) to a
+hand marker of the other in the source. The joint morph (:mod:`.mesh`) keeps the two people's
+hands together, but each robot then tracks its own markers with its own error (tens of mm of
+key-point RMS), so the robots' hands can still drift apart. The second robot's solve therefore
+aims its holding hand where the first robot's hand actually is, offset as the morphed markers
+are:
+
+    M'_b,k(t) = M_b,k(t) + (X_a,j(t) - M_a,j(t))
+
+(``X_a,j`` the first robot's key point of hand j in its solved motion, ``M`` the morphed
+markers), so ``X_b,k - X_a,j -> M_b,k - M_a,j``, the morphed relation, whose length is the
+source's scaled by the arrangement (the mesh's Laplacian keeps it). The target is weighted by
+``weight^2`` on the diagonal of that frame's key-point metric ``W + w_L L^T L``
+(:attr:`imesh.solve.plan.Plan.mesh_metric`), as a foot's target is (weight 10).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.motion import MarkerMotion
+
+#: The hand markers of the standard set whose closeness to the partner's is a hold.
+HAND_MARKERS = ("hand_l", "hand_r")
+
+
+@dataclass(frozen=True, eq=False)
+class Holds:
+    """Frames where the people hold hands (source distance below the threshold).
+
+    Attributes:
+        frames: (N,) int clip frames (of the working markers) of each held pair.
+        marker_a, marker_b: (N,) the hand marker of person a and of person b.
+        source_distance_m: (N,) [m] their distance in the source.
+        distance_m: the threshold [m].
+    """
+
+    frames: np.ndarray
+    marker_a: tuple[str, ...]
+    marker_b: tuple[str, ...]
+    source_distance_m: np.ndarray
+    distance_m: float
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def summary(self) -> dict:
+        """Held frames per hand pair (clip frames)."""
+        out: dict[str, list[int]] = {}
+        for t, a, b in zip(self.frames, self.marker_a, self.marker_b, strict=True):
+            out.setdefault(f"{a}-{b}", []).append(int(t))
+        return out
+
+
+def detect_holds(human_a: MarkerMotion, human_b: MarkerMotion, distance_m: float = 0.10
+                 ) -> Holds:
+    """Every (frame, hand of a, hand of b) closer than ``distance_m`` [m] in the source
+    (both motions standard markers, one world, same frames); where both hands of a are that
+    close to one hand of b, the nearer one."""
+    frames, ma, mb, dist = [], [], [], []
+    for ha in HAND_MARKERS:
+        for hb in HAND_MARKERS:
+            d = np.linalg.norm(human_a.positions_m[:, human_a.index(ha)]
+                               - human_b.positions_m[:, human_b.index(hb)], axis=1)
+            t = np.flatnonzero(d < distance_m)
+            frames.append(t)
+            ma += [ha] * len(t)
+            mb += [hb] * len(t)
+            dist.append(d[t])
+    t, d = np.concatenate(frames).astype(int), np.concatenate(dist)
+    # one hold per hand of b and frame: the nearest hand of a (b's hand gets one target)
+    order = np.lexsort((d, [HAND_MARKERS.index(m) for m in mb], t))
+    seen, keep = set(), []
+    for i in order:
+        if (t[i], mb[i]) not in seen:
+            seen.add((t[i], mb[i]))
+            keep.append(i)
+    keep = np.array(sorted(keep, key=lambda i: (t[i], mb[i])), dtype=int)
+    return Holds(frames=t[keep], marker_a=tuple(ma[i] for i in keep),
+                 marker_b=tuple(mb[i] for i in keep), source_distance_m=d[keep],
+                 distance_m=distance_m)
+
+
+def hold_targets(plan, names: tuple[str, ...], kp_markers: np.ndarray, holds: Holds,
+                 lead_frames: int, robot_a_points: MarkerMotion, adapted_a: MarkerMotion,
+                 weight: float):
+    """The plan of the second robot with its holding hands aimed at the first robot's (see the
+    module docstring).
+
+    Args:
+        plan: the second robot's :class:`imesh.solve.plan.Plan` (output frames).
+        names: the plan's target marker names; kp_markers: (K,) the key points' indices into
+            them (:class:`imesh.fit.targets.CompiledTargets`).
+        holds: the source's holds (clip frames: output frame = clip frame + ``lead_frames``).
+        robot_a_points: the first robot's hand key points over the output frames.
+        adapted_a: the first robot's morphed markers over the output frames.
+        weight: the targets' weight.
+
+    Returns:
+        The plan with the held frames' hand targets moved and weighted.
+    """
+    kp_names = [names[i] for i in kp_markers]
+    points = plan.marker_points.copy()
+    metric = plan.mesh_metric.copy()
+    for t, a, b in zip(holds.frames + lead_frames, holds.marker_a, holds.marker_b, strict=True):
+        k = kp_names.index(b)
+        points[t, k] += (robot_a_points.positions_m[t, robot_a_points.index(a)]
+                         - adapted_a.positions_m[t, adapted_a.index(a)])
+        metric[t, k, k] += weight ** 2
+    return dataclasses.replace(plan, marker_points=points, mesh_metric=metric)
