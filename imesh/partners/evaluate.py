@@ -7,13 +7,15 @@
   d' the robots' key points' (both people's markers in one motion, H and H' its height: the
   vertical extent of both bodies), averaged;
 * ``robot_penetration_mm``: the deepest penetration of a capsule of one robot into a capsule
-  of the other over all output frames, and the frames deeper than 5 mm;
+  of the other over all output frames, and the frames deeper than 5 mm; the held hands'
+  capsules around a hold are a contact, not counted (:func:`~.holds.held_pairs`);
 * ``hold_error_mm``: in the source's hand holds (:mod:`.holds`), ``| |X_a - X_b| - s d_src |``
   of the held hands' key points against the source distance scaled by the shared scale s.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +25,7 @@ from ..evaluate.scoreboard import evaluate_motion
 from ..metrics.markers import CLOSE_PAIR_FRACTION, close_pair_error, keypoint_motion
 from ..morph.adapt import PERSON_PREFIXES
 from ..solve.obstacles import capsule_obstacle_distances, robot_obstacles
+from .holds import held_pairs
 
 #: A robot-robot penetration deeper than this [m] counts the frame (as self-collision).
 PENETRATION_M = 0.005
@@ -71,7 +74,8 @@ def inter_person_pairs(n: int) -> np.ndarray:
 
 
 def evaluate_pair(result, source_a=None, source_b=None,
-                  reports: tuple[dict, dict] | None = None) -> PairMetrics:
+                  reports: tuple[dict, dict] | None = None, release_s: float = 0.2
+                  ) -> PairMetrics:
     """Score a :class:`~imesh.partners.pair.PairResult` (see the module docstring).
 
     Args:
@@ -79,6 +83,8 @@ def evaluate_pair(result, source_a=None, source_b=None,
         source_a, source_b: the raw clips for each robot's ``close_pair_error`` (None: null).
         reports: each robot's :func:`evaluate_motion` report already computed (the command
             line's verification), or None (computed here).
+        release_s: the held hands' capsules touching within this of a hold [s] are a contact,
+            not a penetration (:func:`~imesh.partners.holds.held_pairs`).
     """
     a, b = result.a, result.b
     robot_a, robot_b = result.robot_a, result.robot_b
@@ -102,9 +108,14 @@ def evaluate_pair(result, source_a=None, source_b=None,
     n_close = int((d < CLOSE_PAIR_FRACTION * src.height_m).sum())
     cpe = close_pair_error(src, out, pairs=pairs)
     # robot-robot penetration over every output frame (lead-in and lead-out too)
-    obs = robot_obstacles(robot_b, b.motion.q)
-    model = robot_a.capsule_model()
-    placements = np.stack([robot_a.frame_placements(q, model.frames) for q in a.motion.q])
+    # (robot b's capsules against robot a's, as in b's solve; the held hands excepted)
+    obs = robot_obstacles(robot_a, a.motion.q)
+    if len(result.holds):
+        obs = dataclasses.replace(obs, ignored=held_pairs(
+            robot_a, robot_b, result.holds, len(a.motion.q), lead,
+            int(round(release_s * a.motion.fps))))
+    model = robot_b.capsule_model()
+    placements = np.stack([robot_b.frame_placements(q, model.frames) for q in b.motion.q])
     tt, _, _, dist, _, _ = capsule_obstacle_distances(model.world_segments(placements),
                                                       model.radius, obs, 0.0)
     low = np.full(len(a.motion.q), np.inf)

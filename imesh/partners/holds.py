@@ -11,9 +11,11 @@ are:
 
 (``X_a,j`` the first robot's key point of hand j in its solved motion, ``M`` the morphed
 markers), so ``X_b,k - X_a,j -> M_b,k - M_a,j``, the morphed relation, whose length is the
-source's scaled by the arrangement (the mesh's Laplacian keeps it). The target is weighted by
-``weight^2`` on the diagonal of that frame's key-point metric ``W + w_L L^T L``
-(:attr:`imesh.solve.plan.Plan.mesh_metric`), as a foot's target is (weight 10).
+source's scaled by the arrangement (the mesh's Laplacian keeps it). The first robot's holding
+hand keeps its own morphed marker ``M_a,j`` (so its error, which the second inherits, is
+small). Both targets are weighted by ``weight^2`` on the diagonal of that frame's key-point
+metric ``W + w_L L^T L`` (:attr:`imesh.solve.plan.Plan.mesh_metric`), as a foot's target is
+(weight 10).
 """
 
 from __future__ import annotations
@@ -86,19 +88,18 @@ def detect_holds(human_a: MarkerMotion, human_b: MarkerMotion, distance_m: float
                  distance_m=distance_m)
 
 
-def hold_targets(plan, names: tuple[str, ...], kp_markers: np.ndarray, holds: Holds,
-                 lead_frames: int, robot_a_points: MarkerMotion, adapted_a: MarkerMotion,
-                 weight: float):
-    """The plan of the second robot with its holding hands aimed at the first robot's (see the
-    module docstring).
+def hold_targets(plan, names: tuple[str, ...], kp_markers: np.ndarray, frames: np.ndarray,
+                 markers: tuple[str, ...], shifts_m: np.ndarray | None, weight: float):
+    """A plan with the holding hands' targets moved and weighted (see the module docstring).
 
     Args:
-        plan: the second robot's :class:`imesh.solve.plan.Plan` (output frames).
+        plan: a robot's :class:`imesh.solve.plan.Plan` (output frames).
         names: the plan's target marker names; kp_markers: (K,) the key points' indices into
             them (:class:`imesh.fit.targets.CompiledTargets`).
-        holds: the source's holds (clip frames: output frame = clip frame + ``lead_frames``).
-        robot_a_points: the first robot's hand key points over the output frames.
-        adapted_a: the first robot's morphed markers over the output frames.
+        frames: (N,) output frames of the holds; markers: (N,) the robot's holding hand in
+            each.
+        shifts_m: (N, 3) [m] added to each hand's target (the partner robot's hand minus the
+            partner's morphed marker), or None (the first robot: its own morphed markers).
         weight: the targets' weight.
 
     Returns:
@@ -107,9 +108,43 @@ def hold_targets(plan, names: tuple[str, ...], kp_markers: np.ndarray, holds: Ho
     kp_names = [names[i] for i in kp_markers]
     points = plan.marker_points.copy()
     metric = plan.mesh_metric.copy()
-    for t, a, b in zip(holds.frames + lead_frames, holds.marker_a, holds.marker_b, strict=True):
-        k = kp_names.index(b)
-        points[t, k] += (robot_a_points.positions_m[t, robot_a_points.index(a)]
-                         - adapted_a.positions_m[t, adapted_a.index(a)])
+    for n, (t, m) in enumerate(zip(frames, markers, strict=True)):
+        k = kp_names.index(m)
+        if shifts_m is not None:
+            points[t, k] += shifts_m[n]
         metric[t, k, k] += weight ** 2
     return dataclasses.replace(plan, marker_points=points, mesh_metric=metric)
+
+
+def hand_capsules(robot, marker: str, reach_m: float = 0.12) -> np.ndarray:
+    """Indices of the robot's capsules (:meth:`imesh.robot.Robot.capsule_model`) that make up
+    the hand of key point ``marker``: those whose segment passes within ``reach_m`` [m] of the
+    key point in the nominal pose (G1: the wrist roll, pitch and yaw links; JVRC-1: the wrist
+    and the forearm's end)."""
+    model = robot.capsule_model()
+    kp = robot.markers.keypoints[marker]
+    point = robot.frame_positions(robot.q_nominal, [robot.frame_id(kp.frame)],
+                                  np.asarray([kp.offset], dtype=float))[0]
+    M = robot.frame_placements(robot.q_nominal, model.frames)[None]
+    seg = model.world_segments(M)[0]
+    ab = seg[:, 1] - seg[:, 0]
+    s = np.clip(np.sum((point - seg[:, 0]) * ab, axis=1) / np.maximum(np.sum(ab * ab, axis=1),
+                                                                      1e-12), 0.0, 1.0)
+    dist = np.linalg.norm(seg[:, 0] + s[:, None] * ab - point, axis=1)
+    return np.flatnonzero(dist <= reach_m)
+
+
+def held_pairs(robot_a, robot_b, holds: Holds, n_frames: int, lead_frames: int,
+               release_frames: int) -> np.ndarray:
+    """(T, C_b, O_a) bool the (capsule of robot b, capsule of robot a) samples of the held
+    hands, from ``release_frames`` before a hold to as many after it (the hands approach and
+    part: at the 10 cm threshold two G1 hands' capsules, radii 39 mm, already touch):
+    a contact meant to be, neither avoided in the solve nor counted as penetration."""
+    C_b, O_a = len(robot_b.capsule_model().capsules), len(robot_a.capsule_model().capsules)
+    out = np.zeros((n_frames, C_b, O_a), dtype=bool)
+    caps_a = {m: hand_capsules(robot_a, m) for m in set(holds.marker_a)}
+    caps_b = {m: hand_capsules(robot_b, m) for m in set(holds.marker_b)}
+    for t, a, b in zip(holds.frames + lead_frames, holds.marker_a, holds.marker_b, strict=True):
+        lo, hi = max(t - release_frames, 0), min(t + release_frames + 1, n_frames)
+        out[lo:hi, caps_b[b][:, None], caps_a[a][None, :]] = True
+    return out

@@ -43,7 +43,7 @@ from ..pipeline.retarget import (
     working_markers,
 )
 from ..solve.obstacles import robot_obstacles
-from .holds import HAND_MARKERS, Holds, detect_holds, hold_targets
+from .holds import HAND_MARKERS, Holds, detect_holds, held_pairs, hold_targets
 from .mesh import morph_together
 from .world import SharedWorld, shared_world
 
@@ -67,6 +67,8 @@ class PairConfig:
         hold_distance_m: hands closer than this in the source hold [m] (10 cm).
         hold_weight: weight of the second robot's held-hand targets (a foot's is 10).
         avoid: the second robot keeps out of the first's capsules (with ``together``).
+        release_s: the held hands' capsules may touch from this long before a hold to this
+            long after it [s] (:func:`~imesh.partners.holds.held_pairs`).
     """
 
     retarget: RetargetConfig = field(default_factory=RetargetConfig)
@@ -74,6 +76,7 @@ class PairConfig:
     hold_distance_m: float = 0.10
     hold_weight: float = 10.0
     avoid: bool = True
+    release_s: float = 0.2
 
     def __post_init__(self) -> None:
         if self.retarget.balance != "wholebody":
@@ -167,11 +170,17 @@ def retarget_pair(motion_a: MarkerMotion, motion_b: MarkerMotion, robot_a, robot
         log.info("partners: joint morph of %d markers, bone residual %.2e m",
                  joint.positions_m.shape[1], joint.bone_residual_m)
     t1 = time.perf_counter()
-    res_a = solve_prepared(prep_a, motion_a, robot_a, rc, morph=morph_a)
+    hook_a = None
+    if config.together and len(holds) and config.hold_weight > 0:
+        def hook_a(plan, ctx: PlanContext):  # robot a's holding hands on their markers
+            return hold_targets(plan, ctx.names, ctx.targets.kp_markers,
+                                holds.frames + ctx.lead_frames, holds.marker_a, None,
+                                config.hold_weight)
+    res_a = solve_prepared(prep_a, motion_a, robot_a, rc, morph=morph_a, plan_hook=hook_a)
     seconds["a"] = time.perf_counter() - t1
     hook = None
     if config.together:
-        hook = _partner_hook(robot_a, res_a, holds, config)
+        hook = _partner_hook(robot_a, robot_b, res_a, holds, config)
     t1 = time.perf_counter()
     res_b = solve_prepared(prep_b, motion_b, robot_b, rc, morph=morph_b, plan_hook=hook)
     seconds["b"] = time.perf_counter() - t1
@@ -181,7 +190,7 @@ def retarget_pair(motion_a: MarkerMotion, motion_b: MarkerMotion, robot_a, robot
                       seconds=seconds)
 
 
-def _partner_hook(robot_a, res_a: RetargetResult, holds: Holds, config: PairConfig):
+def _partner_hook(robot_a, robot_b, res_a: RetargetResult, holds: Holds, config: PairConfig):
     """The plan edit of robot b: robot a's capsules as obstacles, its hands as b's hold
     targets."""
     q_a = res_a.motion.q
@@ -192,10 +201,18 @@ def _partner_hook(robot_a, res_a: RetargetResult, holds: Holds, config: PairConf
             raise PartnerError(f"partner robots' motions differ in frames ({len(q_a)} and "
                                f"{len(plan.q_init)}): both need the same lead-in and lead-out")
         if config.avoid:
-            plan = dataclasses.replace(plan, obstacles=robot_obstacles(robot_a, q_a))
+            obstacles = robot_obstacles(robot_a, q_a)
+            if len(holds):
+                obstacles = dataclasses.replace(obstacles, ignored=held_pairs(
+                    robot_a, robot_b, holds, len(q_a), ctx.lead_frames,
+                    int(round(config.release_s * res_a.motion.fps))))
+            plan = dataclasses.replace(plan, obstacles=obstacles)
         if len(holds) and config.hold_weight > 0:
-            plan = hold_targets(plan, ctx.names, ctx.targets.kp_markers, holds,
-                                ctx.lead_frames, hands_a, res_a.adapted, config.hold_weight)
+            t = holds.frames + ctx.lead_frames
+            shifts = (hands_a.positions_m[t, [hands_a.index(m) for m in holds.marker_a]]
+                      - res_a.adapted.positions_m[t, res_a.adapted.indices(holds.marker_a)])
+            plan = hold_targets(plan, ctx.names, ctx.targets.kp_markers, t, holds.marker_b,
+                                shifts, config.hold_weight)
         return plan
 
     return hook

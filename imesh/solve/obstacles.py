@@ -32,14 +32,18 @@ class Obstacles:
     Attributes:
         segments_m: (T, O, 2, 3) [m] end points of each obstacle capsule per frame.
         radius_m: (O,) [m] their radii.
+        ignored: (T, C, O) bool samples (robot capsule c, obstacle o) not checked at frame t
+            (a contact meant to be: two partners' held hands), or None.
     """
 
     segments_m: np.ndarray
     radius_m: np.ndarray
+    ignored: np.ndarray | None = None
 
     def frames(self, start: int, stop: int) -> Obstacles:
         """The frames [start, stop) (a window of the solve)."""
-        return Obstacles(segments_m=self.segments_m[start:stop], radius_m=self.radius_m)
+        return Obstacles(segments_m=self.segments_m[start:stop], radius_m=self.radius_m,
+                         ignored=None if self.ignored is None else self.ignored[start:stop])
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,7 +89,10 @@ def capsule_obstacle_distances(seg_world: np.ndarray, radius: np.ndarray,
     bound_o = np.linalg.norm(obs[:, :, 1] - obs[:, :, 0], axis=-1) / 2 + obstacles.radius_m
     gap = (np.linalg.norm(mid_c[:, :, None] - mid_o[:, None], axis=-1)
            - bound_c[:, :, None] - bound_o[:, None])  # (T, C, O)
-    tt, cc, oo = np.nonzero(gap < cutoff)
+    near = gap < cutoff
+    if obstacles.ignored is not None:
+        near &= ~obstacles.ignored
+    tt, cc, oo = np.nonzero(near)
     xc, xo = segment_closest_points(seg_world[tt, cc, 0], seg_world[tt, cc, 1],
                                     obs[tt, oo, 0], obs[tt, oo, 1])
     diff = xc - xo
