@@ -43,6 +43,12 @@ class PairMetrics:
         hold_frames: held (frame, hand) samples; hold_error_max_mm, hold_error_mean_mm: the
             hand distance's error against the scaled source [mm] (NaN without holds);
         hold_within_30mm: fraction of held samples within 30 mm.
+        robot_distance_m: (T,) [m] the robots' smallest capsule distance per output frame
+            (+inf beyond the broad phase; the held hands excepted).
+        hold_distance_m, hold_target_m: (N,) [m] the held hands' key-point distance and the
+            scaled source distance of each held sample.
+        deepest: the deepest robot-robot sample: output frame, robot a's capsule, robot b's
+            capsule (None without penetration).
     """
 
     robot_a: dict
@@ -55,11 +61,16 @@ class PairMetrics:
     hold_error_max_mm: float
     hold_error_mean_mm: float
     hold_within_30mm: float
+    robot_distance_m: np.ndarray
+    hold_distance_m: np.ndarray
+    hold_target_m: np.ndarray
+    deepest: tuple | None = None
 
     def summary(self) -> dict:
-        """The pair's own figures (without the per-robot reports)."""
-        return {k: v for k, v in self.__dict__.items() if not k.startswith("robot_")
-                or k == "robot_penetration_mm"}
+        """The pair's own figures (without the per-robot reports and per-frame arrays)."""
+        return {k: v for k, v in self.__dict__.items()
+                if not isinstance(v, (dict, np.ndarray)) and k != "deepest"} | {
+                    "deepest": None if self.deepest is None else list(self.deepest)}
 
 
 def _both(a: MarkerMotion, b: MarkerMotion, names: list[str]) -> MarkerMotion:
@@ -116,26 +127,33 @@ def evaluate_pair(result, source_a=None, source_b=None,
             int(round(release_s * a.motion.fps))))
     model = robot_b.capsule_model()
     placements = np.stack([robot_b.frame_placements(q, model.frames) for q in b.motion.q])
-    tt, _, _, dist, _, _ = capsule_obstacle_distances(model.world_segments(placements),
-                                                      model.radius, obs, 0.0)
+    tt, cc, oo, dist, _, _ = capsule_obstacle_distances(model.world_segments(placements),
+                                                        model.radius, obs, 0.0)
+    deepest = None
+    if len(dist) and dist.min() < 0:
+        k = int(np.argmin(dist))
+        deepest = (int(tt[k]), robot_a.capsule_model().capsules[oo[k]].name,
+                   model.capsules[cc[k]].name)
     low = np.full(len(a.motion.q), np.inf)
     np.minimum.at(low, tt, dist)
     depth = np.maximum(-low, 0.0)
     # hand holds
     holds = result.holds
-    err = np.zeros(len(holds))
+    err = dist_h = np.zeros(len(holds))
+    target_h = result.world.scale * holds.source_distance_m
     hands = sorted(set(holds.marker_a) | set(holds.marker_b))
     if len(holds):
         ha = keypoint_motion(robot_a, a.motion.q[clip], a.motion.fps, names=hands)
         hb = keypoint_motion(robot_b, b.motion.q[clip], b.motion.fps, names=hands)
         xa = ha.positions_m[holds.frames, [ha.index(m) for m in holds.marker_a]]
         xb = hb.positions_m[holds.frames, [hb.index(m) for m in holds.marker_b]]
-        err = np.abs(np.linalg.norm(xa - xb, axis=1)
-                     - result.world.scale * holds.source_distance_m)
+        dist_h = np.linalg.norm(xa - xb, axis=1)
+        err = np.abs(dist_h - target_h)
     return PairMetrics(
         robot_a=rep_a, robot_b=rep_b, inter_close_pair_error=cpe, inter_close_pairs=n_close,
         robot_penetration_mm=float(1e3 * depth.max(initial=0.0)),
         penetration_frames=int((depth > PENETRATION_M).sum()), hold_frames=len(holds),
         hold_error_max_mm=float(1e3 * err.max()) if len(err) else float("nan"),
         hold_error_mean_mm=float(1e3 * err.mean()) if len(err) else float("nan"),
-        hold_within_30mm=float(np.mean(err <= 0.030)) if len(err) else float("nan"))
+        hold_within_30mm=float(np.mean(err <= 0.030)) if len(err) else float("nan"),
+        robot_distance_m=low, hold_distance_m=dist_h, hold_target_m=target_h, deepest=deepest)

@@ -29,6 +29,9 @@ from ..core.motion import MarkerMotion
 
 #: The hand markers of the standard set whose closeness to the partner's is a hold.
 HAND_MARKERS = ("hand_l", "hand_r")
+#: The markers of a hand whose closeness to any marker of the partner is a touch (a contact
+#: whose capsules are not avoided: joined hands and wrists, a hand on the partner's back).
+TOUCHING_MARKERS = ("hand_l", "wrist_l", "hand_r", "wrist_r")
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,6 +43,11 @@ class Holds:
         marker_a, marker_b: (N,) the hand marker of person a and of person b.
         source_distance_m: (N,) [m] their distance in the source.
         distance_m: the threshold [m].
+        touch: (T, M_a, M_b) bool clip frames where marker i of a and marker j of b (the
+            people's marker order) are closer than the threshold and one of them is a hand or
+            wrist (TOUCHING_MARKERS): the contacts of the dance (joined hands, a hand on the
+            partner's back).
+        names_a, names_b: the marker names of ``touch``'s axes.
     """
 
     frames: np.ndarray
@@ -47,6 +55,9 @@ class Holds:
     marker_b: tuple[str, ...]
     source_distance_m: np.ndarray
     distance_m: float
+    touch: np.ndarray
+    names_a: tuple[str, ...]
+    names_b: tuple[str, ...]
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -65,6 +76,10 @@ def detect_holds(human_a: MarkerMotion, human_b: MarkerMotion, distance_m: float
     (both motions standard markers, one world, same frames); where both hands of a are that
     close to one hand of b, the nearer one."""
     frames, ma, mb, dist = [], [], [], []
+    touch = np.linalg.norm(human_a.positions_m[:, :, None] - human_b.positions_m[:, None],
+                           axis=-1) < distance_m
+    touch &= (np.isin(human_a.names, TOUCHING_MARKERS)[:, None]
+              | np.isin(human_b.names, TOUCHING_MARKERS)[None, :])[None]
     for ha in HAND_MARKERS:
         for hb in HAND_MARKERS:
             d = np.linalg.norm(human_a.positions_m[:, human_a.index(ha)]
@@ -85,7 +100,8 @@ def detect_holds(human_a: MarkerMotion, human_b: MarkerMotion, distance_m: float
     keep = np.array(sorted(keep, key=lambda i: (t[i], mb[i])), dtype=int)
     return Holds(frames=t[keep], marker_a=tuple(ma[i] for i in keep),
                  marker_b=tuple(mb[i] for i in keep), source_distance_m=d[keep],
-                 distance_m=distance_m)
+                 distance_m=distance_m, touch=touch, names_a=human_a.names,
+                 names_b=human_b.names)
 
 
 def hold_targets(plan, names: tuple[str, ...], kp_markers: np.ndarray, frames: np.ndarray,
@@ -116,11 +132,13 @@ def hold_targets(plan, names: tuple[str, ...], kp_markers: np.ndarray, frames: n
     return dataclasses.replace(plan, marker_points=points, mesh_metric=metric)
 
 
-def hand_capsules(robot, marker: str, reach_m: float = 0.12) -> np.ndarray:
-    """Indices of the robot's capsules (:meth:`imesh.robot.Robot.capsule_model`) that make up
-    the hand of key point ``marker``: those whose segment passes within ``reach_m`` [m] of the
-    key point in the nominal pose (G1: the wrist roll, pitch and yaw links; JVRC-1: the wrist
-    and the forearm's end)."""
+def near_capsules(robot, marker: str, reach_m: float = 0.12) -> np.ndarray:
+    """Indices of the robot's capsules (:meth:`imesh.robot.Robot.capsule_model`) around key
+    point ``marker``: those whose segment passes within ``reach_m`` [m] of the key point in the
+    nominal pose (a G1 hand: the wrist roll, pitch and yaw links; JVRC-1's: the wrist and the
+    forearm's end; the chest: the torso). Empty for a marker the robot has no key point for."""
+    if marker not in robot.markers.keypoints:
+        return np.zeros(0, dtype=int)
     model = robot.capsule_model()
     kp = robot.markers.keypoints[marker]
     point = robot.frame_positions(robot.q_nominal, [robot.frame_id(kp.frame)],
@@ -136,15 +154,18 @@ def hand_capsules(robot, marker: str, reach_m: float = 0.12) -> np.ndarray:
 
 def held_pairs(robot_a, robot_b, holds: Holds, n_frames: int, lead_frames: int,
                release_frames: int) -> np.ndarray:
-    """(T, C_b, O_a) bool the (capsule of robot b, capsule of robot a) samples of the held
-    hands, from ``release_frames`` before a hold to as many after it (the hands approach and
-    part: at the 10 cm threshold two G1 hands' capsules, radii 39 mm, already touch):
-    a contact meant to be, neither avoided in the solve nor counted as penetration."""
+    """(T, C_b, O_a) bool the (capsule of robot b, capsule of robot a) samples of the
+    source's touches (:attr:`Holds.touch`: a hand or wrist within the hold distance of a
+    marker of the partner; the capsules around each marker, :func:`near_capsules`), from
+    ``release_frames`` before a touch to as many after it (the hands approach and part: at the
+    10 cm threshold two G1 hands' capsules, radii 39 mm, already touch): a contact meant to
+    be, neither avoided in the solve nor counted as penetration."""
     C_b, O_a = len(robot_b.capsule_model().capsules), len(robot_a.capsule_model().capsules)
     out = np.zeros((n_frames, C_b, O_a), dtype=bool)
-    caps_a = {m: hand_capsules(robot_a, m) for m in set(holds.marker_a)}
-    caps_b = {m: hand_capsules(robot_b, m) for m in set(holds.marker_b)}
-    for t, a, b in zip(holds.frames + lead_frames, holds.marker_a, holds.marker_b, strict=True):
+    caps_a = [near_capsules(robot_a, m) for m in holds.names_a]
+    caps_b = [near_capsules(robot_b, m) for m in holds.names_b]
+    for t, i, j in zip(*np.nonzero(holds.touch), strict=True):
+        t = t + lead_frames
         lo, hi = max(t - release_frames, 0), min(t + release_frames + 1, n_frames)
-        out[lo:hi, caps_b[b][:, None], caps_a[a][None, :]] = True
+        out[lo:hi, caps_b[j][:, None], caps_a[i][None, :]] = True
     return out
