@@ -4,14 +4,14 @@
         [--pairs g1:g1 g1:jvrc1] [--json OUT.json]
 
 For every robot pair, the couple is retargeted together (one interaction mesh, robot b
-avoiding robot a and meeting its hands where the people hold hands) and each person alone
-(own mesh, no avoidance, no holds; same world, same settings): the baseline of the
-inter-person close-pair error. One row per robot and mode with the single-robot gates and the
-pair's figures. ``--frames`` takes clip frames at the file's header rate (120 fps); the
-default window 400:760 (3 s) holds the couple's hand hold (clip frames 504-611) and not
-partner A's hop (304-318); ``--frames all`` runs the whole clip. ``--plot DIR`` writes one
-figure per robot pair (the held hands' distance and the robots' smallest distance per frame,
-together and alone; docs/partners/).
+avoiding robot a and meeting its hands where the people hold hands), together without the
+avoidance (``no-avoid``: mesh and holds), and each person alone (own mesh, no avoidance, no
+holds; same world, same settings): the baseline of the inter-person close-pair error. One
+row per robot and mode with the single-robot gates and the pair's figures. ``--frames``
+takes clip frames at the file's header rate (120 fps); the default window 400:760 (3 s)
+holds the couple's hand hold (clip frames 504-611) and not partner A's hop (304-318);
+``--frames all`` runs the whole clip. ``--plot DIR`` writes one figure per robot pair (the
+held hands' distance and the robots' smallest distance per frame, per mode; docs/partners/).
 """
 
 from __future__ import annotations
@@ -32,6 +32,10 @@ from imesh.robot import load_robot
 MOCAP = data_root() / "mocap"
 CLIP_A = MOCAP / "cmu_60_10_salsa_partnerA_sl_scaled.bvh"
 CLIP_B = MOCAP / "cmu_61_10_salsa_partnerB_sl_scaled.bvh"
+
+#: mode -> the pair's settings
+MODES = {"together": PairConfig(), "no-avoid": PairConfig(avoid=False),
+         "alone": PairConfig(together=False)}
 
 HEADER = (f"{'robots':12s} {'mode':8s} {'robot':6s} {'frames':>6s} {'rms mm':>7s} {'lim':>4s} "
           f"{'coll':>4s} {'sole mm':>8s} {'skid':>6s} {'zmp in':>6s} | {'pen mm':>7s} "
@@ -100,7 +104,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", default="400:760", help="START:STOP clip frames, or 'all'")
     ap.add_argument("--pairs", nargs="+", default=["g1:g1", "g1:jvrc1"])
-    ap.add_argument("--modes", nargs="+", default=["together", "alone"])
+    ap.add_argument("--modes", nargs="+", default=list(MODES), choices=list(MODES))
     ap.add_argument("--json", help="write the rows here")
     ap.add_argument("--plot", help="write one figure per robot pair into this folder")
     ap.add_argument("--clip-fps", type=float,
@@ -125,8 +129,7 @@ def main() -> None:
         runs = {}
         for mode in args.modes:
             t0 = time.perf_counter()
-            result = retarget_pair(a, b, robot_a, robot_b,
-                                   config=PairConfig(together=mode == "together"))
+            result = retarget_pair(a, b, robot_a, robot_b, config=MODES[mode])
             metrics = evaluate_pair(result, source_a=a, source_b=b)
             runs[mode] = (result, metrics)
             for r in rows(pair, mode, result, metrics):

@@ -50,6 +50,20 @@ def parse_frames(text: str | None) -> tuple[int, int] | None:
     return start, stop
 
 
+def check_partner_options(args) -> None:
+    """``--frames``, ``--alone`` and ``--partner-robot`` mean nothing without ``--partner``.
+
+    Raises:
+        PartnerError: naming the options given.
+    """
+    given = [opt for opt, v in (("--frames", getattr(args, "frames", None)),
+                                ("--alone", getattr(args, "alone", False)),
+                                ("--partner-robot", getattr(args, "partner_robot", None))) if v]
+    if given and not getattr(args, "partner", None):
+        raise PartnerError(f"{', '.join(given)} without --partner: these options are for a "
+                           "pair (imesh retarget A.bvh --partner B.bvh ...)")
+
+
 def run_pair(args, config) -> int:
     """Retarget the pair, verify both motions, write (see the module docstring)."""
     if args.format not in (None, "npz"):
@@ -58,6 +72,16 @@ def run_pair(args, config) -> int:
     if args.balance != "wholebody":
         raise PartnerError(f"--balance {args.balance} with --partner: the pair's avoidance and "
                            "hand holds are rows of the whole-body solve (--balance wholebody)")
+    unsupported = [opt for opt, given in (("--physics", args.physics),
+                                          ("--scene", getattr(args, "scene", None)),
+                                          ("--report", args.report_html),
+                                          ("--markers", args.markers),
+                                          ("--mode arms", args.mode == "arms"))
+                   if given]
+    if unsupported:
+        raise PartnerError(f"{', '.join(unsupported)} with --partner: not supported for a pair "
+                           "yet (each robot's file carries its adapted markers; imesh evaluate "
+                           "and imesh view take each file; docs/partners.md)")
     frames = parse_frames(getattr(args, "frames", None))
     motion_a = load_clip(args)
     motion_b = load_clip(argparse.Namespace(**{**vars(args), "clip": args.partner}))

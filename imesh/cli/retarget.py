@@ -26,7 +26,7 @@ from ..viz.balance import plot_balance
 from ..viz.report import write_report
 from .arms import run_arms
 from .loading import load_clip
-from .partners import run_pair
+from .partners import check_partner_options, run_pair
 
 log = logging.getLogger(__name__)
 
@@ -34,6 +34,11 @@ log = logging.getLogger(__name__)
 def run(args) -> int:
     """Retarget, verify and write (motion, markers, reports, plots), print the summary and the
     metrics table; returns the exit status (VerificationError: 3, unless ``--force``)."""
+    check_partner_options(args)
+    if getattr(args, "partner", None):  # two people, two robots (imesh.partners)
+        return run_pair(args, _retarget_config(args, args.steps, args.window_frames,
+                                               support=not args.no_support,
+                                               balance=args.balance))
     if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
         if getattr(args, "scene", None):
             log.warning("--scene is ignored by --mode arms (the base stays at the nominal pose)")
@@ -51,8 +56,6 @@ def run(args) -> int:
                     args.balance)
     config = _retarget_config(args, args.steps, args.window_frames, support=not args.no_support,
                               balance=args.balance)
-    if getattr(args, "partner", None):  # two people, two robots (imesh.partners)
-        return run_pair(args, config)
     motion = load_clip(args)
     bar = retarget_bar(args.quiet, f"{Path(args.clip).name} -> {args.robot}", motion, config)
     try:
