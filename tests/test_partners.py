@@ -173,6 +173,14 @@ def test_retarget_partner_command_line_writes_both_robots(tmp_path, mocap):
         with np.load(f) as z:
             assert z["joint_positions"].shape[0] == 30  # 120 clip frames at 120 fps -> 30 at 30 fps
     assert report["pair_metrics"]["hold_frames"] > 0
+    # imesh evaluate --pair scores the written files as the retarget did
+    assert main(["-q", "evaluate", str(out), "--pair", str(tmp_path / "pair.pair.json"),
+                 "--json", str(tmp_path / "eval.json")]) == 0
+    again = json.loads((tmp_path / "eval.json").read_text())["pair_metrics"]
+    for key in ("hold_frames", "inter_close_pairs", "penetration_frames"):
+        assert again[key] == report["pair_metrics"][key]
+    for key in ("inter_close_pair_error", "robot_penetration_mm", "hold_error_mean_mm"):
+        assert again[key] == pytest.approx(report["pair_metrics"][key], abs=1e-6)
     assert main(["-q", "retarget", str(mocap(SALSA_A)), "--partner", str(mocap(SALSA_B)),
                  "--frames", "640:520", "-o", str(tmp_path / "x.npz")]) == 2
     assert not (tmp_path / "x.npz").exists()

@@ -301,6 +301,10 @@ def add_evaluate(sub) -> argparse.ArgumentParser:
         "base position [m], base quaternion; see docs/checking.md), print a table and "
         "optionally write them as JSON (keys = the metric names).")
     p.add_argument("--source", help="the human clip the motion was retargeted from")
+    p.add_argument("--pair", metavar="PAIR.json",
+                   help="the motion is robot a of imesh retarget --partner: score both robots "
+                        "and the pair (inter-person close-pair error, robot-robot penetration, "
+                        "held hands) from the manifest it wrote (docs/partners.md)")
     p.add_argument("--body-model", metavar="DIR",
                    help="the body-model folder of an AMASS --source (default: the one the "
                    "motion's provenance records; docs/amass.md)")

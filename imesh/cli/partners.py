@@ -9,15 +9,20 @@ verified before anything is written (exit 3 unless ``--force``).
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 from pathlib import Path
 
+from ..evaluate.motion_files import load_motion_file
 from ..evaluate.table import format_table
 from ..evaluate.verify import verify_motion
 from ..io.atomic import write_json
+from ..io.clip import read_clip
 from ..io.robot_motion import save_robot_motion
-from ..partners import PairConfig, evaluate_pair, retarget_pair
+from ..partners import PairConfig, detect_holds, evaluate_pair, retarget_pair
+from ..partners.evaluate import evaluate_pair_motions
 from ..partners.pair import PartnerError
+from ..pipeline.retarget import RetargetConfig, working_markers
 from ..robot import load_robot
 from .loading import load_clip
 
@@ -129,4 +134,51 @@ def run_pair(args, config) -> int:
     print("pair:")
     for k, v in pair.summary().items():
         print(f"  {k:24s} {v:.4g}" if isinstance(v, float) else f"  {k:24s} {v}")
+    return 0
+
+
+def evaluate_pair_files(args) -> int:
+    """``imesh evaluate OUT.npz --pair OUT.pair.json``: both robots' metrics and the pair's
+    (:func:`imesh.partners.evaluate.evaluate_pair_motions`), from the files ``imesh retarget
+    --partner`` wrote; the people's markers are read again from the clips the manifest names
+    (same frames, the working rate and low-pass of the retarget's defaults)."""
+    manifest_path = Path(args.pair)
+    try:
+        manifest = json.loads(manifest_path.read_text())
+        files, robots, clips = manifest["files"], manifest["robots"], manifest["clips"]
+        pair = manifest["pair"]
+    except (OSError, ValueError, KeyError) as exc:
+        raise PartnerError(f"{manifest_path}: not a pair manifest of imesh retarget --partner "
+                           f"({exc})") from None
+
+    def beside(f: str) -> Path:  # as written, or beside the manifest
+        p = Path(f)
+        return p if p.is_file() else manifest_path.parent / p.name
+
+    if Path(args.motion).resolve() != beside(files["a"]).resolve():
+        raise PartnerError(f"{args.motion}: the pair manifest {manifest_path} is of "
+                           f"{files['a']} (robot a's motion)")
+    robot_a, robot_b = load_robot(robots["a"]), load_robot(robots["b"])
+    motion_a = load_motion_file(beside(files["a"]), robot_a)
+    motion_b = load_motion_file(beside(files["b"]), robot_b)
+    config = RetargetConfig(fps=pair["a"]["fps"])
+    frames = manifest.get("frames")
+    humans = []
+    for clip in (clips["a"], clips["b"]):
+        motion = read_clip(clip, {})
+        if frames is not None:
+            motion = motion.frames(*frames)
+        humans.append(working_markers(motion, config))
+    holds = detect_holds(*humans)
+    metrics = evaluate_pair_motions(robot_a, motion_a, robot_b, motion_b, *humans, holds,
+                                    pair["scale"], pair["a"]["lead_frames"][0])
+    for key, report in (("a", metrics.robot_a), ("b", metrics.robot_b)):
+        print(f"robot {key} ({robots[key]}):")
+        print(format_table(report))
+    print("pair:")
+    for k, v in metrics.summary().items():
+        print(f"  {k:24s} {v:.4g}" if isinstance(v, float) else f"  {k:24s} {v}")
+    if args.report:
+        write_json(args.report, {"pair_metrics": metrics.summary(),
+                                 "metrics": {"a": metrics.robot_a, "b": metrics.robot_b}})
     return 0

@@ -97,22 +97,44 @@ def evaluate_pair(result, source_a=None, source_b=None,
         release_s: the held hands' capsules touching within this of a hold [s] are a contact,
             not a penetration (:func:`~imesh.partners.holds.held_pairs`).
     """
-    a, b = result.a, result.b
-    robot_a, robot_b = result.robot_a, result.robot_b
+    return evaluate_pair_motions(
+        result.robot_a, result.a.motion, result.robot_b, result.b.motion, result.human_a,
+        result.human_b, result.holds, result.world.scale, result.a.lead_frames[0],
+        adapted=(result.a.adapted, result.b.adapted),
+        seconds=(result.a.seconds, result.b.seconds), sources=(source_a, source_b),
+        reports=reports, release_s=release_s)
+
+
+def evaluate_pair_motions(robot_a, motion_a, robot_b, motion_b, human_a: MarkerMotion,
+                          human_b: MarkerMotion, holds, scale: float, lead: int, *,
+                          adapted=(None, None), seconds=(None, None), sources=(None, None),
+                          reports: tuple[dict, dict] | None = None, release_s: float = 0.2
+                          ) -> PairMetrics:
+    """Score two robot motions of one pair (what :func:`evaluate_pair` and ``imesh evaluate
+    --pair`` do).
+
+    Args:
+        robot_a, motion_a, robot_b, motion_b: the robots and their motions (same frames).
+        human_a, human_b: the people's working markers (clip frames,
+            :func:`imesh.pipeline.retarget.working_markers`).
+        holds: the source's :class:`~imesh.partners.holds.Holds`.
+        scale: the shared human-to-robot scale.
+        lead: frames of lead-in before the clip's first frame in the motions.
+        adapted, seconds, sources: per robot, for :func:`evaluate_motion`.
+        reports, release_s: as :func:`evaluate_pair`.
+    """
     if reports is None:
-        reports = (evaluate_motion(robot_a, a.motion, source=source_a, adapted=a.adapted,
-                                   seconds=a.seconds),
-                   evaluate_motion(robot_b, b.motion, source=source_b, adapted=b.adapted,
-                                   seconds=b.seconds))
+        reports = tuple(evaluate_motion(r, m, source=src, adapted=ad, seconds=sec)
+                        for r, m, src, ad, sec in zip((robot_a, robot_b), (motion_a, motion_b),
+                                                      sources, adapted, seconds, strict=True))
     rep_a, rep_b = reports
-    lead = a.lead_frames[0]
-    T = result.human_a.n_frames
+    T = human_a.n_frames
     clip = slice(lead, lead + T)
-    names = [n for n in result.human_a.names
+    names = [n for n in human_a.names
              if n in robot_a.markers.keypoints and n in robot_b.markers.keypoints]
-    kp_a = keypoint_motion(robot_a, a.motion.q[clip], a.motion.fps, names=names)
-    kp_b = keypoint_motion(robot_b, b.motion.q[clip], b.motion.fps, names=names)
-    src = _both(result.human_a, result.human_b, names)
+    kp_a = keypoint_motion(robot_a, motion_a.q[clip], motion_a.fps, names=names)
+    kp_b = keypoint_motion(robot_b, motion_b.q[clip], motion_b.fps, names=names)
+    src = _both(human_a, human_b, names)
     out = _both(kp_a, kp_b, names)
     pairs = inter_person_pairs(len(names))
     d = np.linalg.norm(src.positions_m[:, pairs[:, 0]] - src.positions_m[:, pairs[:, 1]], axis=2)
@@ -120,13 +142,13 @@ def evaluate_pair(result, source_a=None, source_b=None,
     cpe = close_pair_error(src, out, pairs=pairs)
     # robot-robot penetration over every output frame (lead-in and lead-out too)
     # (robot b's capsules against robot a's, as in b's solve; the held hands excepted)
-    obs = robot_obstacles(robot_a, a.motion.q)
-    if len(result.holds):
+    obs = robot_obstacles(robot_a, motion_a.q)
+    if len(holds):
         obs = dataclasses.replace(obs, ignored=held_pairs(
-            robot_a, robot_b, result.holds, len(a.motion.q), lead,
-            int(round(release_s * a.motion.fps))))
+            robot_a, robot_b, holds, len(motion_a.q), lead,
+            int(round(release_s * motion_a.fps))))
     model = robot_b.capsule_model()
-    placements = np.stack([robot_b.frame_placements(q, model.frames) for q in b.motion.q])
+    placements = np.stack([robot_b.frame_placements(q, model.frames) for q in motion_b.q])
     tt, cc, oo, dist, _, _ = capsule_obstacle_distances(model.world_segments(placements),
                                                         model.radius, obs, 0.0)
     deepest = None
@@ -134,17 +156,16 @@ def evaluate_pair(result, source_a=None, source_b=None,
         k = int(np.argmin(dist))
         deepest = (int(tt[k]), robot_a.capsule_model().capsules[oo[k]].name,
                    model.capsules[cc[k]].name)
-    low = np.full(len(a.motion.q), np.inf)
+    low = np.full(len(motion_a.q), np.inf)
     np.minimum.at(low, tt, dist)
     depth = np.maximum(-low, 0.0)
     # hand holds
-    holds = result.holds
     err = dist_h = np.zeros(len(holds))
-    target_h = result.world.scale * holds.source_distance_m
+    target_h = scale * holds.source_distance_m
     hands = sorted(set(holds.marker_a) | set(holds.marker_b))
     if len(holds):
-        ha = keypoint_motion(robot_a, a.motion.q[clip], a.motion.fps, names=hands)
-        hb = keypoint_motion(robot_b, b.motion.q[clip], b.motion.fps, names=hands)
+        ha = keypoint_motion(robot_a, motion_a.q[clip], motion_a.fps, names=hands)
+        hb = keypoint_motion(robot_b, motion_b.q[clip], motion_b.fps, names=hands)
         xa = ha.positions_m[holds.frames, [ha.index(m) for m in holds.marker_a]]
         xb = hb.positions_m[holds.frames, [hb.index(m) for m in holds.marker_b]]
         dist_h = np.linalg.norm(xa - xb, axis=1)
