@@ -16,7 +16,8 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 #: Pages whose python blocks are executed (one namespace per page, blocks in order).
 TUTORIALS = ("quickstart.md", "clips.md", "evaluating.md", "batch.md", "exports.md",
-             "byo-robot.md", "fitting.md", "interaction-mesh.md", "motion-import.md")
+             "byo-robot.md", "fitting.md", "interaction-mesh.md", "motion-import.md",
+             "partners.md")
 _BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
 
 

@@ -16,6 +16,10 @@ from ..viz.report import write_report
 
 def run(args) -> int:
     """Run ``imesh evaluate`` with parsed arguments; returns the exit status."""
+    if getattr(args, "pair", None):  # both robots of imesh retarget --partner
+        from .partners import evaluate_pair_files
+
+        return evaluate_pair_files(args)
     robot = robot_for_motion_file(args.motion, args.robot, args.urdf)  # default: the file's
     motion = load_motion_file(args.motion, robot, fps=args.fps)
     config = None

@@ -180,6 +180,18 @@ def add_retarget(sub) -> argparse.ArgumentParser:
     p.add_argument("--no-support", action="store_true",
                    help="no support-foot constraints in the morph")
     p.add_argument("--markers", help="also write the adapted markers (.npz or .csv)")
+    p.add_argument("--partner", metavar="CLIP",
+                   help="a second person recorded with CLIP in one world (same frames and "
+                        "rate): both in one interaction mesh, two robots; writes OUTPUT, "
+                        "OUTPUT.partner and OUTPUT.pair.json (docs/partners.md)")
+    p.add_argument("--partner-robot", metavar="ROBOT",
+                   help="robot of --partner (a folder of robots/ or a robot.toml; default "
+                        "--robot)")
+    p.add_argument("--alone", action="store_true",
+                   help="with --partner: retarget each person alone in the same world (no "
+                        "shared mesh, avoidance or holds): the baseline")
+    p.add_argument("--frames", metavar="START:STOP",
+                   help="with --partner: only these clip frames (at the file's rate)")
     _add_format_options(p)
     p.add_argument("--report", dest="report_html",
                    help="write an HTML report of the written motion (metrics, figures, 3D view)")
@@ -289,6 +301,10 @@ def add_evaluate(sub) -> argparse.ArgumentParser:
         "base position [m], base quaternion; see docs/checking.md), print a table and "
         "optionally write them as JSON (keys = the metric names).")
     p.add_argument("--source", help="the human clip the motion was retargeted from")
+    p.add_argument("--pair", metavar="PAIR.json",
+                   help="the motion is robot a of imesh retarget --partner: score both robots "
+                        "and the pair (inter-person close-pair error, robot-robot penetration, "
+                        "held hands) from the manifest it wrote (docs/partners.md)")
     p.add_argument("--body-model", metavar="DIR",
                    help="the body-model folder of an AMASS --source (default: the one the "
                    "motion's provenance records; docs/amass.md)")

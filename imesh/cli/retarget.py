@@ -26,6 +26,7 @@ from ..viz.balance import plot_balance
 from ..viz.report import write_report
 from .arms import run_arms
 from .loading import load_clip
+from .partners import check_partner_options, run_pair
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +34,11 @@ log = logging.getLogger(__name__)
 def run(args) -> int:
     """Retarget, verify and write (motion, markers, reports, plots), print the summary and the
     metrics table; returns the exit status (VerificationError: 3, unless ``--force``)."""
+    check_partner_options(args)
+    if getattr(args, "partner", None):  # two people, two robots (imesh.partners)
+        return run_pair(args, _retarget_config(args, args.steps, args.window_frames,
+                                               support=not args.no_support,
+                                               balance=args.balance))
     if args.mode == "arms":  # Kim 2005 arm imitation (imesh/arms)
         if getattr(args, "scene", None):
             log.warning("--scene is ignored by --mode arms (the base stays at the nominal pose)")
@@ -48,9 +54,9 @@ def run(args) -> int:
                     "phases are planned by default (ballistic CoM, bounded landings; "
                     "docs/clips-flight.md); it applies to --balance nishiwaki only",
                     args.balance)
-    motion = load_clip(args)
     config = _retarget_config(args, args.steps, args.window_frames, support=not args.no_support,
                               balance=args.balance)
+    motion = load_clip(args)
     bar = retarget_bar(args.quiet, f"{Path(args.clip).name} -> {args.robot}", motion, config)
     try:
         bar.stage("load", detail=f"robot {args.robot}")

@@ -246,12 +246,17 @@ def carry_on_trunk(positions_m: np.ndarray, arrangement: Arrangement) -> np.ndar
     return out
 
 
-def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
+def arrange_for_robot(motion: MarkerMotion, robot, *, scale: float | None = None,
+                      centre_m: np.ndarray | None = None) -> Arrangement:
     """Arrange a standard human motion for ``robot`` per its markers.toml (paper sec. IV-A).
 
     Args:
         motion: complete standard-marker motion (``adapt.prepare_markers``).
         robot: an :class:`imesh.robot.Robot` with a markers.toml (``robot.markers``).
+        scale: the human-to-robot factor (None: the robot's legs over the human's, below).
+            Two partners in one world share one (:mod:`imesh.partners`).
+        centre_m: (3,) the fixed point of the scaling [m] (None: the floor point under the
+            markers' centroid at frame 0). Two partners share one, so both stay in one world.
 
     Returns:
         The Arrangement: scaled, arranged markers and the robot target lengths.
@@ -315,10 +320,11 @@ def arrange_for_robot(motion: MarkerMotion, robot) -> Arrangement:
     legs = np.array([c in LEG_MARKERS for c in children])
     if not legs.any():
         legs = np.ones(len(children), dtype=bool)
-    scale = float(robot_tree[legs].sum() / human[legs].sum())
+    if scale is None:
+        scale = float(robot_tree[legs].sum() / human[legs].sum())
     if not (np.isfinite(scale) and scale > 0):
         raise OptionError("human-to-robot scale", scale, "a positive number")
-    centre = pos[0].mean(axis=0) * [1.0, 1.0, 0.0]
+    centre = pos[0].mean(axis=0) * [1.0, 1.0, 0.0] if centre_m is None else np.asarray(centre_m)
     pos = centre + (pos - centre) * scale
     if all(m in index for m in ("pelvis", "hip_l", "hip_r")):
         pos, turn = _align_pelvis(pos, robot_pts, index["pelvis"], index["hip_l"],

@@ -26,7 +26,8 @@ def non_adjacent_pairs(n_markers: int, bones: np.ndarray) -> np.ndarray:
 
 
 def close_pair_error(source: MarkerMotion, adapted: MarkerMotion,
-                     fraction: float = CLOSE_PAIR_FRACTION) -> float:
+                     fraction: float = CLOSE_PAIR_FRACTION,
+                     pairs: np.ndarray | None = None) -> float:
     """Mean abs change of height-normalized distance of close non-adjacent marker pairs.
 
     For every frame t and non-adjacent pair (a, b) with source distance d < fraction * H
@@ -37,8 +38,11 @@ def close_pair_error(source: MarkerMotion, adapted: MarkerMotion,
         source: the source motion.
         adapted: the adapted motion, same markers, frames and bones.
         fraction: closeness threshold relative to the body height (DESIGN.md: 15 %).
+        pairs: (P, 2) the marker pairs judged (None: every non-adjacent pair); two partners'
+            inter-person pairs (:func:`imesh.partners.evaluate.evaluate_pair`).
     """
-    pairs = non_adjacent_pairs(source.n_markers, source.bones)
+    if pairs is None:
+        pairs = non_adjacent_pairs(source.n_markers, source.bones)
     h, h2 = source.height_m, adapted.height_m
     d = np.linalg.norm(source.positions_m[:, pairs[:, 0]] - source.positions_m[:, pairs[:, 1]],
                        axis=2)

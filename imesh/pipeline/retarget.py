@@ -24,7 +24,7 @@ from ..arms.config import ArmsConfig
 from ..arms.solve import refine_arms
 from ..balance import BalanceConfig, balance_loop, check_flight
 from ..balance.loop import BalanceResult
-from ..contacts.effectors import detect_effector_contacts, effector_targets
+from ..contacts.effectors import EffectorContacts, detect_effector_contacts, effector_targets
 from ..contacts.phases import (
     FOOT_MARKERS,
     SIDES,
@@ -327,6 +327,125 @@ def lead_heights(surface_m: np.ndarray, markers_m: np.ndarray, names: MarkerMoti
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """One person's clip made ready for the morph: arranged for its robot, its support
+    detected and its support-foot targets set (the stages before the spacetime morph).
+
+    Attributes:
+        arrangement: the arranged, scaled human markers (``arrangement.motion``: (T, M, 3) [m])
+            and the robot targets.
+        contacts: the detected support phases of the arranged markers.
+        surface: (T, 2) [m] height of each foot's support surface (with a scene), or None.
+        flat: the support of the robot's flat soles (:func:`imesh.contacts.support.flat_support`).
+        hard, soft: (T, M, 3) [m] hard and soft support-foot targets of the morph (NaN where
+            free), or None without ``RetargetConfig.support``; soft_w: (T, M) their weights
+            (the soft targets also hold hands and knees resting on a prop's top).
+        effectors: the hands and knees on prop tops (with a scene), or None.
+    """
+
+    arrangement: Arrangement
+    contacts: Contacts
+    surface: np.ndarray | None
+    flat: Contacts
+    hard: np.ndarray | None
+    soft: np.ndarray | None
+    soft_w: np.ndarray | None
+    effectors: EffectorContacts | None = None
+
+    @property
+    def source(self) -> MarkerMotion:
+        """The arranged markers the morph starts from."""
+        return self.arrangement.motion
+
+
+def working_markers(motion: MarkerMotion, config: RetargetConfig) -> MarkerMotion:
+    """The standard markers of ``motion`` at the working rate (``config.fps``), low-passed
+    (``config.lowpass_hz``): what is arranged for the robot."""
+    human = prepare_markers(motion)
+    if config.fps is not None and abs(human.fps - config.fps) > 1e-9:
+        human = human.resample(config.fps)
+    if config.lowpass_hz is not None:
+        human = lowpass(human, config.lowpass_hz)
+    return human
+
+
+def prepare(motion: MarkerMotion, robot, config: RetargetConfig, scene=None, *,
+            human: MarkerMotion | None = None, scale: float | None = None,
+            centre_m: np.ndarray | None = None) -> Prepared:
+    """The stages before the morph: arrangement for ``robot`` (sec. IV-A), contacts (sec.
+    V-A), support-foot targets (sec. V-B).
+
+    Args:
+        motion: the loaded human motion.
+        robot, config, scene: as :func:`retarget`.
+        human: ``motion``'s :func:`working_markers` when the caller has them (None: made here).
+        scale, centre_m: the arrangement's scale and fixed point
+            (:func:`imesh.human.arrange.arrange_for_robot`; None: the robot's own).
+
+    Raises:
+        FlightPhaseError: ``balance="nishiwaki"`` and flight phases without ``allow_flight``.
+    """
+    if human is None:
+        human = working_markers(motion, config)
+    arrangement = arrange_for_robot(human, robot, scale=scale, centre_m=centre_m)
+    source = arrangement.motion
+    surface = None  # (T, 2) height of each foot's support surface, with a scene
+    effectors = None  # hands and knees on prop tops, with a scene
+    if scene is not None and scene.props:
+        effectors = detect_effector_contacts(source, scene)
+        raw = foot_surface_heights(source, scene, config.contacts)
+        lowered = lowered_feet(source, raw)
+        contacts = split_at_surface_changes(detect_contacts(lowered, config.contacts), raw)
+        contacts = drop_hanging(contacts, lowered,
+                                3 * config.contacts.height_fraction * source.height_m)
+        surface = phase_heights(contacts.support, raw)
+        log.info("scene: %d of %d support frames on a prop's top", int(
+            (contacts.support & (surface > 1e-3)).sum()), int(contacts.support.sum()))
+    else:
+        contacts = detect_contacts(source, config.contacts)
+    if config.balance == "nishiwaki":  # fail before the morph, not after it (the whole-body
+        # solve plans flight: ballistic, imesh.solve.forces)
+        check_flight(motion.source or "motion", contacts.support, source.fps,
+                     BalanceConfig(allow_flight=config.allow_flight))
+    hard = soft = soft_w = None
+    flat = contacts
+    if config.support is not None:
+        on_floor = source if surface is None else lowered_feet(source, surface)
+        flat = flat_support(on_floor, contacts, config.support)
+        heights, lengths = foot_geometry(arrangement)
+        hard, soft, soft_w = support_foot_targets(on_floor, flat, heights, lengths,
+                                                  config.support)
+        if surface is not None:  # the targets of a foot on a prop's top: on that top
+            for k, side in enumerate(SIDES):
+                for m in FOOT_MARKERS[side]:
+                    hard[:, source.index(m), 2] += surface[:, k]
+    if effectors is not None and effectors.contact.any():  # hands and knees still on the tops
+        held, held_w = effector_targets(source, effectors,
+                                        (config.support or SupportConfig()).horizontal_weight)
+        on = held_w > 0
+        soft = np.where(on[..., None], held, np.full(held.shape, np.nan) if soft is None else soft)
+        soft_w = np.where(on, held_w, 0.0 if soft_w is None else soft_w)
+    return Prepared(arrangement=arrangement, contacts=contacts, surface=surface, flat=flat,
+                    hard=hard, soft=soft, soft_w=soft_w, effectors=effectors)
+
+
+@dataclass(frozen=True)
+class PlanContext:
+    """What a ``plan_hook`` of :func:`solve_prepared` may need about the plan it edits.
+
+    Attributes:
+        names: the marker names of the plan's target markers (the adapted markers and the
+            virtual foot markers); ``targets.kp_markers`` index them.
+        targets: the compiled key-point and direction targets of the solve.
+        lead_frames: frames of standing lead-in before the clip's first frame.
+    """
+
+    names: tuple[str, ...]
+    targets: object
+    lead_frames: int
+
+
 def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = None,
              progress: ProgressCallback | None = None, scene=None) -> RetargetResult:
     """Adapt a human motion to ``robot`` (an :class:`imesh.robot.Robot`).
@@ -355,54 +474,36 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
         SolverError: the whole-body solve failed.
     """
     config = config or RetargetConfig()
-    seconds: dict[str, float] = {}
     t0 = time.perf_counter()
-    human = prepare_markers(motion)
-    if config.fps is not None and abs(human.fps - config.fps) > 1e-9:
-        human = human.resample(config.fps)
-    if config.lowpass_hz is not None:
-        human = lowpass(human, config.lowpass_hz)
-    arrangement = arrange_for_robot(human, robot)
-    source = arrangement.motion
-    surface = None  # (T, 2) height of each foot's support surface, with a scene
-    effectors = None  # hands and knees on prop tops, with a scene
-    if scene is not None and scene.props:
-        effectors = detect_effector_contacts(source, scene)
-        raw = foot_surface_heights(source, scene, config.contacts)
-        lowered = lowered_feet(source, raw)
-        contacts = split_at_surface_changes(detect_contacts(lowered, config.contacts), raw)
-        contacts = drop_hanging(contacts, lowered,
-                                3 * config.contacts.height_fraction * source.height_m)
-        surface = phase_heights(contacts.support, raw)
-        log.info("scene: %d of %d support frames on a prop's top", int(
-            (contacts.support & (surface > 1e-3)).sum()), int(contacts.support.sum()))
-    else:
-        contacts = detect_contacts(source, config.contacts)
+    prepared = prepare(motion, robot, config, scene)
+    return solve_prepared(prepared, motion, robot, config, progress=progress, scene=scene,
+                          seconds={"prepare": time.perf_counter() - t0}, t0=t0)
+
+
+def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: RetargetConfig, *,
+                   progress: ProgressCallback | None = None, scene=None,
+                   seconds: dict | None = None, t0: float | None = None,
+                   morph: MorphResult | None = None, plan_hook=None) -> RetargetResult:
+    """The stages from the morph on (:func:`retarget` after :func:`prepare`).
+
+    Args:
+        prepared: the person's :class:`Prepared` stages.
+        motion, robot, config, progress, scene: as :func:`retarget`.
+        seconds: wall times of the stages so far [s]; t0: ``time.perf_counter()`` at the start.
+        morph: the person's markers already morphed (their part of a mesh shared with a
+            partner, :mod:`imesh.partners`); None: morphed here alone.
+        plan_hook: ``plan_hook(plan, PlanContext) -> Plan`` edits the whole-body plan before
+            the solve (a partner's obstacles and hand holds); None: none.
+    """
+    seconds = dict(seconds or {})
+    t0 = time.perf_counter() if t0 is None else t0
+    arrangement, source, contacts = prepared.arrangement, prepared.source, prepared.contacts
+    surface, flat = prepared.surface, prepared.flat
+    hard, soft, soft_w = prepared.hard, prepared.soft, prepared.soft_w
+    effectors = prepared.effectors
     nishiwaki = config.nishiwaki or BalanceConfig(error_lowpass_hz=1.5,
                                                   allow_flight=config.allow_flight)
-    if config.balance == "nishiwaki":  # fail before the morph, not after it (the whole-body
-        # solve plans flight: ballistic, imesh.solve.forces)
-        check_flight(motion.source or "motion", contacts.support, source.fps,
-                     BalanceConfig(allow_flight=config.allow_flight))
-    hard = soft = soft_w = None
-    flat = contacts
-    if config.support is not None:
-        on_floor = source if surface is None else lowered_feet(source, surface)
-        flat = flat_support(on_floor, contacts, config.support)
-        heights, lengths = foot_geometry(arrangement)
-        hard, soft, soft_w = support_foot_targets(on_floor, flat, heights, lengths,
-                                                  config.support)
-        if surface is not None:  # the targets of a foot on a prop's top: on that top
-            for k, side in enumerate(SIDES):
-                for m in FOOT_MARKERS[side]:
-                    hard[:, source.index(m), 2] += surface[:, k]
-    if effectors is not None and effectors.contact.any():  # hands and knees still on the tops
-        held, held_w = effector_targets(source, effectors,
-                                        (config.support or SupportConfig()).horizontal_weight)
-        on = held_w > 0
-        soft = np.where(on[..., None], held, np.full(held.shape, np.nan) if soft is None else soft)
-        soft_w = np.where(on, held_w, 0.0 if soft_w is None else soft_w)
-    seconds["prepare"] = time.perf_counter() - t0
+    shared = [morph]  # the partners' morph, used by the first morph_and_fit only
     n_work = source.n_frames
     notify(progress, "prepare", 1, 1, n_work)
     # the morph reports every step of every window (its re-linearizations too): counted
@@ -428,11 +529,14 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
 
     def morph_and_fit(soft_m=soft, soft_wm=soft_w, q_init=None):
         t1 = time.perf_counter()
-        problem = build_morph_problem(source, pairs=arrangement.pairs,
-                                      target_lengths_m=arrangement.target_lengths_m,
-                                      hard_positions_m=hard, soft_positions_m=soft_m,
-                                      soft_weights=soft_wm, config=config.morph)
-        morph = solve_morph(problem, progress=morph_step if progress is not None else None)
+        if shared[0] is not None:
+            morph, shared[0] = shared[0], None
+        else:
+            problem = build_morph_problem(source, pairs=arrangement.pairs,
+                                          target_lengths_m=arrangement.target_lengths_m,
+                                          hard_positions_m=hard, soft_positions_m=soft_m,
+                                          soft_weights=soft_wm, config=config.morph)
+            morph = solve_morph(problem, progress=morph_step if progress is not None else None)
         adapted = source.with_positions(carry_on_trunk(morph.positions_m, arrangement),
                                         source=f"adapted:{source.source}")
         t2 = time.perf_counter()
@@ -510,6 +614,9 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
                                            props=planes,
                                            effectors=(None if effectors is None
                                                       else effectors.padded(n_lead, n_lead)))
+        if plan_hook is not None:
+            plan = plan_hook(plan, PlanContext(names=fit_markers.names, targets=targets,
+                                               lead_frames=n_lead))
         seconds["plan"] = time.perf_counter() - t3
         n_out = len(ext.q)
         notify(progress, "plan", 1, 1, n_out)

@@ -89,12 +89,13 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
         1 - config.margins.acceleration)
     penalty += config.slack.elastic * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
-    if lin.props is not None:  # one slack per frame for both (imesh.solve.props) and the
-        # held points (imesh.solve.touches)
+    if lin.props is not None or lin.obstacles is not None:  # one slack per frame for all
+        # (imesh.solve.props, imesh.solve.obstacles) and the held points (imesh.solve.touches)
         held = (None if plan.points is None
                 else touch_violation(lin.held_points, plan.points))
         penalty += config.slack.elastic * shared_violation(lin.collision, lin.props,
-                                                            config.collision.margin_m, held)
+                                                            config.collision.margin_m,
+                                                            lin.obstacles, held)
     elif lin.collision is not None:
         penalty += config.slack.elastic * collision_violation(lin.collision,
                                                                config.collision.margin_m)

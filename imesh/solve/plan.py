@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .collision import CollisionLinearization
+from .obstacles import ObstacleLinearization, Obstacles
 from .props import PropLinearization
 from .torque import TorqueLinearization
 from .touches import ContactPoints
@@ -52,6 +53,8 @@ class Linearization:
             (:class:`imesh.solve.props.PropLinearization`), or None (no props).
         held_points: (T, C, 3) [m] the points held on prop tops (:attr:`Plan.points`);
             held_jacobians: (T, C, 3, nv) their Jacobians; None without.
+        obstacles: the samples of the robot's capsules against the plan's moving obstacles
+            (:class:`imesh.solve.obstacles.ObstacleLinearization`), or None.
     """
 
     points: np.ndarray
@@ -78,6 +81,7 @@ class Linearization:
     held_points: np.ndarray | None = None
     held_jacobians: np.ndarray | None = None
     centroidal_angular_z: np.ndarray | None = None
+    obstacles: ObstacleLinearization | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,6 +126,8 @@ class Plan:
             on them (:mod:`imesh.solve.touches`), or None.
         cones: the frames balanced by the contact wrench cone instead of the ZMP, and their
             cones (:mod:`imesh.solve.cwc`), or None.
+        obstacles: capsules moving with the frames (a partner robot's,
+            :mod:`imesh.solve.obstacles`) that no capsule of the robot enters; None: none.
     """
 
     marker_points: np.ndarray
@@ -150,6 +156,7 @@ class Plan:
     props: np.ndarray | None = None
     points: ContactPoints | None = None
     cones: ConePlan | None = None
+    obstacles: Obstacles | None = None
 
     @property
     def supported(self) -> np.ndarray:

@@ -132,6 +132,9 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     if plan.points is not None:  # and so do the held points
         touch_rows(rows, lin.held_points, lin.held_jacobians, plan.points, lay)
     cone_rows(rows, lin, plan, lay, zl.grad, zl.Dacc)
+    if lin.obstacles is not None and len(lin.obstacles.frames):  # and moving obstacles
+        rows.add(*collision_qp_rows(lin.obstacles, T, lay.nx, lay.offset["collision_slack"],
+                                    config.collision.margin_m))
     G = sp.vstack(rows.blocks, format="csc") if rows.blocks else sp.csc_matrix((0, lay.n))
     x_l, x_u = bounds(plan, q, config, lay)
     P = ((P + P.T) * 0.5).tocsc()

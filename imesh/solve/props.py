@@ -174,16 +174,15 @@ def linearize_props(planes: np.ndarray, seg_world: np.ndarray, radius: np.ndarra
                              depth_by_prop=depth)
 
 
-def shared_violation(collision: CollisionLinearization | None, props: PropLinearization,
-                     margin: float, held: np.ndarray | None = None) -> float:
-    """Sum over frames of the largest shortfall below ``margin`` [m] of a self-collision or a
-    prop distance, or of a held point's distance from its anchor (``held`` (T,),
-    :func:`imesh.solve.touches.touch_violation`): what the frame's shared slack would have to
-    cover."""
-    low = props.min_distance
-    if collision is not None:
-        low = np.minimum(low, collision.min_distance)
-    short = np.maximum(margin - low, 0.0)
+def shared_violation(collision: CollisionLinearization | None, props: PropLinearization | None,
+                     margin: float, obstacles=None, held: np.ndarray | None = None) -> float:
+    """Sum over frames of the largest shortfall below ``margin`` [m] of a self-collision, a
+    prop or a moving-obstacle distance (:mod:`imesh.solve.obstacles`), or of a held point's
+    distance from its anchor (``held`` (T,), :func:`imesh.solve.touches.touch_violation`):
+    what the frame's shared slack would have to cover."""
+    lows = [x.min_distance for x in (collision, props, obstacles) if x is not None]
+    short = (np.maximum(margin - np.minimum.reduce(lows), 0.0) if lows
+             else np.zeros(0 if held is None else len(held)))
     if held is not None:
         short = np.maximum(short, held)
     return float(np.sum(short))

@@ -44,6 +44,7 @@ from .footprints import (
 )
 from .holds import held_frames
 from .merit import merit
+from .obstacles import Obstacles, linearize_obstacles
 from .plan import GRAVITY, Linearization, Plan
 from .problem import build_qp
 from .props import linearize_props, shared_violation
@@ -122,7 +123,8 @@ class _Frames:
 
     def __init__(self, robot, targets: CompiledTargets, config: WholeBodyConfig | None = None,
                  props: np.ndarray | None = None, support: np.ndarray | None = None,
-                 held: ContactPoints | None = None):
+                 held: ContactPoints | None = None,
+                 obstacles: Obstacles | None = None):
         soles = [robot.frame_id(robot.soles[s].frame) for s in SIDES]
         ids = list(dict.fromkeys(list(targets.kp_frame_ids) + list(targets.dir_frame_ids)
                                  + soles + [robot.frame_id(robot.waist_frame)]))
@@ -181,6 +183,17 @@ class _Frames:
             ids += [f for f in dict.fromkeys(hf) if f not in ids]
             self.held = np.array([ids.index(f) for f in hf], dtype=int)
             self.held_local = held.local_m
+        # moving obstacles (imesh.solve.obstacles): every capsule, the feet's too (a partner's
+        # foot is no floor)
+        self.obstacles = None
+        if obstacles is not None and config is not None:
+            model = self.capsules if self.capsules is not None else robot.capsule_model()
+            cf = [robot.frame_id(f) for f in model.frames]
+            ids += [f for f in dict.fromkeys(cf) if f not in ids]
+            self.obstacle_model = model
+            self.obstacle_frames = np.array([ids.index(f) for f in cf], dtype=int)
+            self.obstacle_activation = config.collision.activation_m
+            self.obstacles = obstacles
 
 
 def leg_ground_points(robot, below: float = 0.4) -> tuple[list[int], np.ndarray]:
@@ -298,6 +311,11 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
         lever_h = np.einsum("tcij,cj->tci", Mh[..., :3, :3], frames.held_local)
         held = Mh[..., :3, 3] + lever_h
         held_j = Jh[:, :, :3] + _cross_rows(Jh[:, :, 3:], lever_h)
+    obstacle_lin = None
+    if frames.obstacles is not None:
+        obstacle_lin = linearize_obstacles(frames.obstacle_model, M[:, frames.obstacle_frames],
+                                           J[:, frames.obstacle_frames], frames.obstacles,
+                                           frames.obstacle_activation)
     return Linearization(points=points, point_jacobians=point_j, axes=axes,
                          axis_jacobians=J[:, frames.dirs, 3:], soles=soles, sole_jacobians=js,
                          corners=corners, corner_jacobians_z=cz, body_z=body_z,
@@ -307,7 +325,7 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
                          zmp_multibody=zmp,
                          base_rotations=rot, torques=torques, collision=collision,
                          props=prop_lin, held_points=held, held_jacobians=held_j,
-                         centroidal_angular_z=ag[:, 5])
+                         centroidal_angular_z=ag[:, 5], obstacles=obstacle_lin)
 
 
 #: A frame whose ZMP is within this of the CoM's ground projection is quasi-static [m]
@@ -589,9 +607,10 @@ def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBo
     if lin.collision is not None and len(lin.collision.min_distance) and \
             (config.collision.margin_m - lin.collision.min_distance).max() > 1e-3:
         return False
-    if lin.props is not None and len(lin.props.min_distance) and \
-            (config.collision.margin_m - lin.props.min_distance).max() > 1e-3:
-        return False
+    for other in (lin.props, lin.obstacles):
+        if other is not None and len(other.min_distance) and \
+                (config.collision.margin_m - other.min_distance).max() > 1e-3:
+            return False
     if plan.points is not None and touch_violation(lin.held_points, plan.points).max() > 1e-3:
         return False
     if plan.cones is not None and cone_violation(lin, plan).max() > 1e-3:
@@ -602,9 +621,10 @@ def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBo
 
 def _violation(lin: Linearization, config: WholeBodyConfig) -> float:
     """The self-collision (and prop) shortfalls a step may not deepen."""
-    if lin.props is None:
+    if lin.props is None and lin.obstacles is None:
         return collision_violation(lin.collision, config.collision.margin_m)
-    return shared_violation(lin.collision, lin.props, config.collision.margin_m)
+    return shared_violation(lin.collision, lin.props, config.collision.margin_m,
+                            lin.obstacles)
 
 
 def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: CompiledTargets,
@@ -621,7 +641,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     """
     config = config or WholeBodyConfig()
     frames = _Frames(robot, targets, config, props=plan.props, support=plan.support,
-                     held=plan.points)
+                     held=plan.points, obstacles=plan.obstacles)
     q = (plan.q_init if plan.q_start is None else plan.q_start).copy()
     seconds = {"linearize": 0.0, "build": 0.0, "qp": 0.0}
     t_all = time.perf_counter()

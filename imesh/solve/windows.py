@@ -102,6 +102,7 @@ def plan_window(plan: Plan, start: int, stop: int, *, fixed_frames: int = 0,
         points=(None if plan.points is None
                 else dataclasses.replace(plan.points, active=plan.points.active[part])),
         cones=None if plan.cones is None else plan.cones.window(start, stop),
+        obstacles=None if plan.obstacles is None else plan.obstacles.frames(start, stop),
         fixed_frames=fixed_frames, rest_ends=rest_ends, q_start=q_start,
         fixed_end_frames=fixed_end_frames)
 
