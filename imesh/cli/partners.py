@@ -169,9 +169,10 @@ def evaluate_pair_files(args) -> int:
         if frames is not None:
             motion = motion.frames(*frames)
         humans.append(working_markers(motion, config))
-    holds = detect_holds(*humans)
-    metrics = evaluate_pair_motions(robot_a, motion_a, robot_b, motion_b, *humans, holds,
-                                    pair["scale"], pair["a"]["lead_frames"][0])
+    human_a, human_b = humans
+    holds = detect_holds(human_a, human_b)
+    metrics = evaluate_pair_motions(robot_a, motion_a, robot_b, motion_b, human_a, human_b,
+                                    holds, pair["scale"], pair["a"]["lead_frames"][0])
     for key, report in (("a", metrics.robot_a), ("b", metrics.robot_b)):
         print(f"robot {key} ({robots[key]}):")
         print(format_table(report))

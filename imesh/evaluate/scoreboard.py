@@ -363,7 +363,7 @@ def _zmp_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, soles: Sole
     zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
     sup_frames = int(support.any(axis=1).sum())
     com = robot.centroidal_trajectory(q, v, a)[0]
-    jitter = _clean(zmp_jitter_mm(com, soles.fps, support.any(axis=1)))
+    jitter = _clean(zmp_jitter_mm(com, soles.fps, np.asarray(support.any(axis=1))))
     phases = {"support_frames": sup_frames, "double_support_frames":
               int(support.all(axis=1).sum()), "flight_frames": int(len(q) - sup_frames)}
     if not sup_frames:

@@ -124,10 +124,11 @@ def evaluate_pair_motions(robot_a, motion_a, robot_b, motion_b, human_a: MarkerM
         reports, release_s: as :func:`evaluate_pair`.
     """
     if reports is None:
-        reports = tuple(evaluate_motion(r, m, source=src, adapted=ad, seconds=sec)
+        rep_a, rep_b = (evaluate_motion(r, m, source=src, adapted=ad, seconds=sec)
                         for r, m, src, ad, sec in zip((robot_a, robot_b), (motion_a, motion_b),
                                                       sources, adapted, seconds, strict=True))
-    rep_a, rep_b = reports
+    else:
+        rep_a, rep_b = reports
     T = human_a.n_frames
     clip = slice(lead, lead + T)
     names = [n for n in human_a.names

@@ -91,13 +91,14 @@ def detect_holds(human_a: MarkerMotion, human_b: MarkerMotion, distance_m: float
             dist.append(d[t])
     t, d = np.concatenate(frames).astype(int), np.concatenate(dist)
     # one hold per hand of b and frame: the nearest hand of a (b's hand gets one target)
-    order = np.lexsort((d, [HAND_MARKERS.index(m) for m in mb], t))
-    seen, keep = set(), []
+    order = np.lexsort((d, np.array([HAND_MARKERS.index(m) for m in mb]), t))
+    seen: set = set()
+    kept: list[int] = []
     for i in order:
         if (t[i], mb[i]) not in seen:
             seen.add((t[i], mb[i]))
-            keep.append(i)
-    keep = np.array(sorted(keep, key=lambda i: (t[i], mb[i])), dtype=int)
+            kept.append(int(i))
+    keep = np.array(sorted(kept, key=lambda i: (t[i], mb[i])), dtype=int)
     return Holds(frames=t[keep], marker_a=tuple(ma[i] for i in keep),
                  marker_b=tuple(mb[i] for i in keep), source_distance_m=d[keep],
                  distance_m=distance_m, touch=touch, names_a=human_a.names,

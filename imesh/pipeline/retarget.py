@@ -48,7 +48,7 @@ from ..core.robot_motion import RobotMotion
 from ..errors import OptionError
 from ..fit import FitConfig, FitResult, fit_motion
 from ..fit.limits import joint_limits
-from ..fit.targets import compile_targets
+from ..fit.targets import CompiledTargets, compile_targets
 from ..human.arrange import Arrangement, arrange_for_robot, carry_on_trunk
 from ..human.filtering import lowpass
 from ..morph.adapt import prepare_markers
@@ -442,7 +442,7 @@ class PlanContext:
     """
 
     names: tuple[str, ...]
-    targets: object
+    targets: CompiledTargets
     lead_frames: int
 
 

@@ -87,7 +87,9 @@ def plan_cones(robot, support: np.ndarray, sole_targets: np.ndarray, anchors: np
     if not len(frames):
         return None
     T = len(support)
-    C = 0 if anchors is None else len(anchors)
+    C = 0 if anchors is None or active is None else len(anchors)
+    anchors = np.zeros((0, 3)) if anchors is None else anchors
+    active = np.zeros((T, C), dtype=bool) if active is None or not C else active
     # the contact set of a frame: its two footprint poses (NaN where not in support) and its
     # active held points; frames with equal keys share a cone
     key = np.concatenate([np.where(support[:, :, None, None], sole_targets, 0.0).reshape(T, -1),
@@ -116,6 +118,7 @@ def wrench_rows(lin: Linearization, plan: Plan, lay: Layout, grad: sp.spmatrix,
     """The wrench ``w_t`` (T, 6) at the iterate about each frame's cone reference, and its
     change as six (T, N) maps of the QP's unknowns (module docstring)."""
     T = lay.n_frames
+    assert plan.cones is not None  # cone_rows and cone_violation ask only plans with cones
     ref = plan.cones.refs(T)
     w = required_wrench(lin.com, lin.com_acceleration, lin.angular_momentum_rate, lin.mass, ref)
     f, r = w[:, :3], lin.com - ref

@@ -91,7 +91,7 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     penalty += config.slack.elastic * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
     if lin.props is not None or lin.obstacles is not None:  # one slack per frame for all
         # (imesh.solve.props, imesh.solve.obstacles) and the held points (imesh.solve.touches)
-        held = (None if plan.points is None
+        held = (None if plan.points is None or lin.held_points is None
                 else touch_violation(lin.held_points, plan.points))
         penalty += config.slack.elastic * shared_violation(lin.collision, lin.props,
                                                             config.collision.margin_m,

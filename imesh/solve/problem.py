@@ -130,6 +130,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         rows.add(*collision_qp_rows(lin.props, T, lay.nx, lay.offset["collision_slack"],
                                config.collision.margin_m))
     if plan.points is not None:  # and so do the held points
+        assert lin.held_points is not None and lin.held_jacobians is not None
         touch_rows(rows, lin.held_points, lin.held_jacobians, plan.points, lay)
     cone_rows(rows, lin, plan, lay, zl.grad, zl.Dacc)
     if lin.obstacles is not None and len(lin.obstacles.frames):  # and moving obstacles

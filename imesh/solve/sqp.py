@@ -505,7 +505,7 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     if effectors is not None and props is not None and effectors.contact.any():
         points = plan_contact_points(robot, q_init, effectors, list(props), prop_tops(props),
                                      config.collision.margin_m)
-    held = np.zeros(T, dtype=bool) if points is None else points.active.any(axis=1)
+    held = np.zeros(T, dtype=bool) if points is None else np.asarray(points.active.any(axis=1))
     flight = np.logical_not(support.any(axis=1) | held)
     sole_targets = np.full((T, 2, 4, 4), np.nan)
     for f in footprints:
@@ -611,7 +611,8 @@ def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBo
         if other is not None and len(other.min_distance) and \
                 (config.collision.margin_m - other.min_distance).max() > 1e-3:
             return False
-    if plan.points is not None and touch_violation(lin.held_points, plan.points).max() > 1e-3:
+    if plan.points is not None and lin.held_points is not None and \
+            touch_violation(lin.held_points, plan.points).max() > 1e-3:
         return False
     if plan.cones is not None and cone_violation(lin, plan).max() > 1e-3:
         return False

@@ -153,6 +153,7 @@ def auxiliary_rows(lin: Linearization, zl: ZmpLinearization, lay: Layout
               - Mk)
     rhs.append(np.zeros(2 * T))
     if "momentum_z" in lay.offset:  # the cone rows' vertical momentum (imesh.solve.cwc)
+        assert lin.centroidal_angular_z is not None
         vals = gc.data[:, None] * lin.centroidal_angular_z[gc.row]  # (nnz, nv)
         cols = gc.col[:, None] * nx + np.arange(nv)
         Mz = sp.csr_matrix((vals.ravel(), (np.repeat(gc.row, nv), cols.ravel())),
