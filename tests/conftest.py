@@ -87,3 +87,24 @@ def run_cli(capsys, *argv) -> tuple[int, str]:
         assert len(lines) == 1, captured.err
         return status, lines[0]
     return status, captured.out
+
+
+#: The holosoma climb the scene tests use (data/interaction/MANIFEST.md).
+CLIMB_SEQ = "interaction/holosoma_climb/mocap_climb_seq_1"
+
+
+def climb_window(start: int, stop: int, robot_name: str = "g1"):
+    """(window, robot, scene): source frames [start, stop) of the holosoma climb seq_1 at
+    120 fps, the robot, and the boxes scaled and placed like the person for it; skips the test
+    when the data is not under IMESH_DATA."""
+    from imesh.io import load_motion
+    from imesh.scene.morph_frame import scene_for_clip
+
+    seq = data_root() / CLIMB_SEQ
+    if not seq.is_dir():
+        pytest.skip(f"{seq} not found (IMESH_DATA)")
+    clip = load_motion(seq / "mocap_climb_seq_1_joint_positions_f0-2422.npy", fps=120.0)
+    window = clip.frames(start, stop)
+    robot = load_test_robot(robot_name)
+    scene = scene_for_clip(sorted((seq / "box_models").glob("*.obj")), window, robot)
+    return window, robot, scene

@@ -6,31 +6,21 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import data_root, load_test_robot
+from conftest import climb_window
 
 from imesh.contacts.effectors import detect_effector_contacts, effector_targets
 from imesh.contacts.phases import runs
 from imesh.human.arrange import arrange_for_robot
 from imesh.human.filtering import lowpass
-from imesh.io import load_motion
 from imesh.metrics.cwc import cwc_balance
 from imesh.morph.adapt import prepare_markers
-from imesh.scene.morph_frame import scene_for_clip
 from imesh.scene.surfaces import scene_planes
 from imesh.solve.touches import plan_contact_points, touch_violation
-
-SEQ = "interaction/holosoma_climb/mocap_climb_seq_1"
 
 
 @pytest.fixture(scope="module")
 def climb():
-    seq = data_root() / SEQ
-    if not seq.is_dir():
-        pytest.skip(f"{seq} not found (IMESH_DATA)")
-    clip = load_motion(seq / "mocap_climb_seq_1_joint_positions_f0-2422.npy", fps=120.0)
-    window = clip.frames(200, 800)
-    robot = load_test_robot("g1")
-    scene = scene_for_clip(sorted((seq / "box_models").glob("*.obj")), window, robot)
+    window, robot, scene = climb_window(200, 800)
     # the markers as the retarget arranges them (30 fps, 8 Hz low-pass, the robot's scale)
     source = arrange_for_robot(lowpass(prepare_markers(window).resample(30.0), 8.0),
                                robot).motion

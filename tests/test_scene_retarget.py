@@ -6,25 +6,15 @@ G1 with the props in the solve and without them (about a minute each on two core
 from __future__ import annotations
 
 import pytest
-from conftest import data_root, load_test_robot
+from conftest import climb_window
 
 from imesh.evaluate.props import evaluate_scene
-from imesh.io import load_motion
 from imesh.pipeline.retarget import retarget
-from imesh.scene.morph_frame import scene_for_clip
-
-SEQ = "interaction/holosoma_climb/mocap_climb_seq_1"
 
 
 @pytest.fixture(scope="module")
 def standing():
-    seq = data_root() / SEQ
-    if not seq.is_dir():
-        pytest.skip(f"{seq} not found (IMESH_DATA)")
-    clip = load_motion(seq / "mocap_climb_seq_1_joint_positions_f0-2422.npy", fps=120.0)
-    window = clip.frames(200, 360)
-    robot = load_test_robot("g1")
-    scene = scene_for_clip(sorted((seq / "box_models").glob("*.obj")), window, robot)
+    window, robot, scene = climb_window(200, 360)
     with_props = retarget(window, robot, scene=scene)
     floor_only = retarget(window, robot)
     return robot, window, scene, with_props, floor_only
