@@ -45,7 +45,7 @@ from ..metrics.markers import (
 from ..metrics.skid import SKID_THRESHOLD_MM, foot_skid, sole_deviation
 from ..metrics.soles import SoleTracks, sole_tracks
 from ..metrics.support import EVALUATOR_SUPPORT, SupportDetection, detect_support, planted_feet
-from ..metrics.zmp import zmp_jitter_mm, zmp_report, zmp_trajectory
+from ..metrics.zmp import multibody_zmp, zmp_jitter_mm, zmp_report
 from ..physics import PhysicsConfig, simulate_motion
 from ..viz.physics import plot_physics
 from .motion_files import align_markers, arranged_source, clip_frames_of, read_markers
@@ -360,9 +360,9 @@ def _zmp_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, soles: Sole
     """``zmp_inside_fraction`` and ``zmp_error_mm`` of the multibody ZMP, with the frame counts
     of the support phases and the ZMP's frame-to-frame swing the central differences do not
     see (``zmp_jitter_mm``, :func:`imesh.metrics.zmp.zmp_jitter_mm`)."""
-    zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
+    com, dh, _ = robot.centroidal_trajectory(q, v, a)  # one pinocchio pass for both
+    zmp = zmp_report(multibody_zmp(com, dh, robot.mass), soles, support)
     sup_frames = int(support.any(axis=1).sum())
-    com = robot.centroidal_trajectory(q, v, a)[0]
     jitter = _clean(zmp_jitter_mm(com, soles.fps, np.asarray(support.any(axis=1))))
     phases = {"support_frames": sup_frames, "double_support_frames":
               int(support.all(axis=1).sum()), "flight_frames": int(len(q) - sup_frames)}

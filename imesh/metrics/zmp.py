@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..contacts.phases import SIDES, runs
+from .flight import GRAVITY
 from .polygon import distance_to_polygon, inside_polygon, polygon_centroid, support_polygons
 from .soles import SoleTracks
 
@@ -56,6 +57,15 @@ def desired_zmp(soles: SoleTracks, support: np.ndarray, transition_s: float = 0.
         return raw
     idx = np.arange(T)
     return np.stack([np.interp(idx, idx[ok], raw[ok, k]) for k in range(2)], axis=1)
+
+
+def multibody_zmp(com: np.ndarray, dh: np.ndarray, mass: float) -> np.ndarray:
+    """(T, 2) [m] the multibody ZMP on z = 0 from the CoM (T, 3) and the centroidal momentum's
+    rate ``dh`` (T, 6) (DESIGN.md: ``p_x = c_x - (c_z c_x'' + Ld_y / m) / (c_z'' + g)``)."""
+    acc, ld = dh[:, :3] / mass, dh[:, 3:]
+    dn = acc[:, 2] + GRAVITY
+    return np.stack([com[:, 0] - (com[:, 2] * acc[:, 0] + ld[:, 1] / mass) / dn,
+                     com[:, 1] - (com[:, 2] * acc[:, 1] - ld[:, 0] / mass) / dn], axis=1)
 
 
 def zmp_trajectory(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,

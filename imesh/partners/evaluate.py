@@ -148,15 +148,13 @@ def evaluate_pair_motions(robot_a, motion_a, robot_b, motion_b, human_a: MarkerM
         obs = dataclasses.replace(obs, ignored=held_pairs(
             robot_a, robot_b, holds, len(motion_a.q), lead,
             int(round(release_s * motion_a.fps))))
-    model = robot_b.capsule_model()
-    placements = np.stack([robot_b.frame_placements(q, model.frames) for q in motion_b.q])
-    tt, cc, oo, dist, _, _ = capsule_obstacle_distances(model.world_segments(placements),
-                                                        model.radius, obs, 0.0)
+    own = robot_obstacles(robot_b, motion_b.q)  # robot b's capsules over its motion
+    tt, cc, oo, dist, _, _ = capsule_obstacle_distances(own.segments_m, own.radius_m, obs, 0.0)
     deepest = None
     if len(dist) and dist.min() < 0:
         k = int(np.argmin(dist))
         deepest = (int(tt[k]), robot_a.capsule_model().capsules[oo[k]].name,
-                   model.capsules[cc[k]].name)
+                   robot_b.capsule_model().capsules[cc[k]].name)
     low = np.full(len(motion_a.q), np.inf)
     np.minimum.at(low, tt, dist)
     depth = np.maximum(-low, 0.0)

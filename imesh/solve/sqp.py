@@ -28,7 +28,7 @@ from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh
 from ..metrics.derivatives import motion_derivatives
 from ..metrics.props import ProxyPoints
-from ..metrics.zmp import desired_zmp
+from ..metrics.zmp import desired_zmp, multibody_zmp
 from .collision import collision_violation, linearize_collisions
 from .config import WholeBodyConfig
 from .contacts import sole_errors
@@ -45,7 +45,7 @@ from .footprints import (
 from .holds import held_frames
 from .merit import merit
 from .obstacles import Obstacles, linearize_obstacles
-from .plan import GRAVITY, Linearization, Plan
+from .plan import Linearization, Plan
 from .problem import build_qp
 from .props import linearize_props, shared_violation
 from .qp import solve_qp
@@ -338,15 +338,6 @@ def stance_width(robot) -> float:
     M = robot.frame_placements(robot.q_nominal, [robot.soles[s].frame for s in SIDES])
     c = [M[k, :3, :3] @ robot.soles[s].center + M[k, :3, 3] for k, s in enumerate(SIDES)]
     return float(np.linalg.norm(c[0][:2] - c[1][:2]))
-
-
-def multibody_zmp(com: np.ndarray, dh: np.ndarray, mass: float) -> np.ndarray:
-    """(T, 2) [m] the multibody ZMP on z = 0 from the CoM (T, 3) and the centroidal momentum's
-    rate ``dh`` (T, 6) (DESIGN.md: ``p_x = c_x - (c_z c_x'' + Ld_y / m) / (c_z'' + g)``)."""
-    acc, ld = dh[:, :3] / mass, dh[:, 3:]
-    dn = acc[:, 2] + GRAVITY
-    return np.stack([com[:, 0] - (com[:, 2] * acc[:, 0] + ld[:, 1] / mass) / dn,
-                     com[:, 1] - (com[:, 2] * acc[:, 1] - ld[:, 0] / mass) / dn], axis=1)
 
 
 def _base_rotations(q: np.ndarray) -> np.ndarray:
