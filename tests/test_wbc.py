@@ -129,6 +129,16 @@ def test_wbc_holds_an_off_centre_com_where_the_reference_has_it(jvrc1):
     assert not result.fell
     error = robot.com(result.q[-1]) - robot.com(result.q_reference[-1])
     assert np.linalg.norm(error[:2]) < 3e-4
+    # the report names where the largest key-point error is: the key point and its time
+    from imesh.metrics.markers import keypoint_motion
+
+    sim = keypoint_motion(robot, result.q, result.fps)
+    ref = keypoint_motion(robot, result.q_reference, result.fps)
+    d = 1e3 * np.linalg.norm(sim.positions_m - ref.positions_m, axis=-1)
+    f, k = np.unravel_index(np.argmax(d), d.shape)
+    assert result.keypoint_max_mm == pytest.approx(d.max())
+    assert result.keypoint_worst == sim.names[k]
+    assert result.keypoint_worst_s == pytest.approx(f / result.fps)
 
 
 def test_wbc_falls_when_the_motion_cannot_be_performed(jvrc1):
@@ -278,6 +288,9 @@ def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(tmp_path):
     assert not res.fell and res.survived_s == pytest.approx(res.duration_s)
     assert res.keypoint_rms_mm <= 25.0 and res.keypoint_max_mm <= 150.0
     assert res.base_drift_m <= 0.05
+    # where the largest slip is: a sole in a planned support phase at that time
+    assert res.slip_mm > 0.0
+    assert res.support[int(round(res.slip_s * res.fps)), SIDES.index(res.slip_side)]
     flat = dataclasses.replace(physics, control=dataclasses.replace(
         physics.control, wbc=dataclasses.replace(physics.control.wbc, toe_roll_frames=0)))
     held = simulate_motion(robot, motion, config=flat)

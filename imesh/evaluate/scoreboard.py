@@ -401,8 +401,10 @@ def physics_entries(res) -> dict[str, dict]:
     m = res.metrics()
     details = {k: summary[k] for k in ("fall_reason", "real_time_factor", "base_drift_m",
                                        "base_height_drift_m", "keypoint_rms_mm",
-                                       "keypoint_max_mm", "zmp_contact_error_mm",
-                                       "saturation_fraction", "controller")}
+                                       "keypoint_max_mm", "keypoint_worst", "keypoint_worst_s",
+                                       "slip_mm", "slip_side", "slip_s",
+                                       "zmp_contact_error_mm", "saturation_fraction",
+                                       "controller")}
     out = {
         "physics_fell": _metric("physics_fell", m["physics_fell"], **details),
         "physics_survived_s": _metric("physics_survived_s", m["physics_survived_s"],

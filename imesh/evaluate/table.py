@@ -87,7 +87,11 @@ def physics_line(report: Mapping[str, dict]) -> str:
 
     drift = fell.get("base_drift_m")
     ratio = report["torque_ratio_max"]["value"]
+    worst = (f" ({fell['keypoint_worst']} at {fell['keypoint_worst_s']:.2f} s)"
+             if fell.get("keypoint_worst") and fell.get("keypoint_worst_s") is not None else "")
+    slip = (f"; slip {mm('slip_mm')} mm ({fell['slip_side']} sole at {fell['slip_s']:.2f} s)"
+            if fell.get("slip_side") and fell.get("slip_s") is not None else "")
     return (f"physics check ({fell.get('controller')}): {verdict}; key points "
-            f"{mm('keypoint_rms_mm')} mm RMS, {mm('keypoint_max_mm')} mm max; base drift "
-            f"{'n/a' if drift is None else f'{1e3 * drift:.0f} mm'}; torque ratio "
+            f"{mm('keypoint_rms_mm')} mm RMS, {mm('keypoint_max_mm')} mm max{worst}{slip}; "
+            f"base drift {'n/a' if drift is None else f'{1e3 * drift:.0f} mm'}; torque ratio "
             f"{_fmt(ratio)} (docs/checking.md)")

@@ -40,9 +40,13 @@ class PhysicsResult:
         keypoint_rms_mm: RMS distance between the robot's key points (markers.toml) in the
             simulated and the reference motion over the survived frames [mm] (NaN without key
             points); ``keypoint_max_mm`` the largest.
+        keypoint_worst: the key point of ``keypoint_max_mm`` ("" without key points);
+            ``keypoint_worst_s`` its motion time [s] (NaN without).
         slip_mm: largest horizontal displacement of a sole corner on the ground within one
             planned support phase, from the frame the corner is down in the simulation while
             it stays down [mm] (a roll over the toe edge is no slip).
+        slip_side: the sole of ``slip_mm`` ("" without slip); ``slip_s`` the motion time [s]
+            at which its corner is farthest from where it came down (NaN without).
         friction_ratio: largest tangential / (mu x normal) ground force ratio of a loaded sole.
         cop_margin_mm: smallest distance of a loaded sole's centre of pressure to its edge [mm]
             (negative: outside, the sole tips).
@@ -85,7 +89,11 @@ class PhysicsResult:
     base_height_drift_m: float
     keypoint_rms_mm: float
     keypoint_max_mm: float
+    keypoint_worst: str
+    keypoint_worst_s: float
     slip_mm: float
+    slip_side: str
+    slip_s: float
     friction_ratio: float
     cop_margin_mm: float
     relaxed_fraction: float
@@ -139,7 +147,11 @@ class PhysicsResult:
             "base_height_drift_m": self.base_height_drift_m,
             "keypoint_rms_mm": self.keypoint_rms_mm,
             "keypoint_max_mm": self.keypoint_max_mm,
+            "keypoint_worst": self.keypoint_worst,
+            "keypoint_worst_s": self.keypoint_worst_s,
             "slip_mm": self.slip_mm,
+            "slip_side": self.slip_side,
+            "slip_s": self.slip_s,
             "friction_ratio": self.friction_ratio,
             "cop_margin_mm": self.cop_margin_mm,
             "relaxed_fraction": self.relaxed_fraction,

@@ -136,15 +136,18 @@ def _joint_tracking(config: PhysicsConfig) -> PhysicsConfig:
 
 
 def _keypoint_errors(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray
-                     ) -> tuple[float, float]:
+                     ) -> tuple[float, float, str, float]:
     """(RMS, max) [mm] distance between the robot's key points (markers.toml) in the simulated
-    and the reference motion over the survived frames (NaN without key points)."""
+    and the reference motion over the survived frames, the key point of the max and its time
+    [s] (NaN and "" without key points)."""
     if robot.markers is None or not ok.any():
-        return float("nan"), float("nan")
-    sim = keypoint_motion(robot, q_sim[ok], ref.fps).positions_m
+        return float("nan"), float("nan"), "", float("nan")
+    sim = keypoint_motion(robot, q_sim[ok], ref.fps)
     planned = keypoint_motion(robot, ref.q[ok], ref.fps).positions_m
-    d = np.linalg.norm(sim - planned, axis=-1)
-    return float(1e3 * np.sqrt(np.mean(d ** 2))), float(1e3 * d.max())
+    d = np.linalg.norm(sim.positions_m - planned, axis=-1)
+    f, k = np.unravel_index(int(np.argmax(d)), d.shape)
+    return (float(1e3 * np.sqrt(np.mean(d ** 2))), float(1e3 * d.max()), sim.names[k],
+            float(np.flatnonzero(ok)[f] / ref.fps))
 
 
 def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
@@ -182,7 +185,7 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
         fr = np.linalg.norm(forces[..., :2], axis=-1) / (friction * forces[..., 2])
     friction_ratio = float(fr[loaded].max()) if loaded.any() else float("nan")
     margin = float("nan")
-    slip = 0.0
+    slip, slip_side, slip_s = 0.0, "", float("nan")
     if ok.any():
         # the simulated soles (the reference's pose after a fall, never used there)
         tracks = sole_tracks(robot, np.where(ok[:, None], q_sim, ref.q), ref.fps)
@@ -210,9 +213,14 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
                 for c in range(4):
                     for a2, b2 in runs(down_c[a:b, k, c]):
                         xy = corners[a + a2:a + b2, k, c, :2]
-                        slip = max(slip, float(np.linalg.norm(xy - xy[0], axis=1).max()))
+                        moved = np.linalg.norm(xy - xy[0], axis=1)
+                        if moved.max() > slip:
+                            slip = float(moved.max())
+                            slip_side = SIDES[k]
+                            slip_s = float((a + a2 + int(np.argmax(moved))) / ref.fps)
     return {"zmp": zmp, "force": force, "sole_forces": forces, "sole_cop": sole_cop,
-            "friction_ratio": friction_ratio, "cop_margin_mm": margin, "slip_mm": 1e3 * slip}
+            "friction_ratio": friction_ratio, "cop_margin_mm": margin, "slip_mm": 1e3 * slip,
+            "slip_side": slip_side, "slip_s": slip_s}
 
 
 def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> PhysicsResult:
@@ -392,7 +400,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         drift = height_drift = float("nan")
     if config.fixed_base:
         drift = height_drift = 0.0
-    kp_rms, kp_max = _keypoint_errors(robot, ref, q_sim, ok)
+    kp_rms, kp_max, kp_worst, kp_worst_s = _keypoint_errors(robot, ref, q_sim, ok)
     tracked_steps = max(0, steps_done - settle)
     sim_time = steps_done * dt
     relaxed = (controller.controller.relaxed_steps / max(tracked_steps // controller.every, 1)
@@ -404,7 +412,9 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         tracking_rms_rad=tracking_rms, torque_ratio_max=float(ratio_max),
         saturation_fraction=saturated / max(tracked_steps, 1), base_drift_m=drift,
         base_height_drift_m=height_drift, keypoint_rms_mm=kp_rms, keypoint_max_mm=kp_max,
-        slip_mm=contact["slip_mm"], friction_ratio=contact["friction_ratio"],
+        keypoint_worst=kp_worst, keypoint_worst_s=kp_worst_s, slip_mm=contact["slip_mm"],
+        slip_side=contact["slip_side"], slip_s=contact["slip_s"],
+        friction_ratio=contact["friction_ratio"],
         cop_margin_mm=contact["cop_margin_mm"], relaxed_fraction=float(relaxed),
         real_time_factor=sim_time / max(wall, 1e-9),
         wall_s=wall, controller_us_per_step=1e6 * ctrl_s / max(steps_done, 1),
