@@ -53,18 +53,11 @@ class ZmpOptions(NonNegative):
             plan uses its polygon to the edge, and a controller corrects with the rest of the
             sole. At 0.4 no walk stood in the DART check and the JVRC-1 and G1 waves fell (3.5
             and 3.4 s); at 0.7 the walks of all three robots stand (docs/checking.md).
-        jitter: w_j, weight of the squared frame-to-frame swing of the ZMP that the rows
-            above cannot see, ``z_c / g |a3 - a_cd|`` of the CoM (:func:`.zmp.jitter_cost`)
-            [1/m^2]: without it the solve used that blind spot, a CoM zig-zag of 1-2 mm that
-            swings the ZMP of a robot playing the frames by +-0.3 m at 15 Hz (the evaluator's
-            ``zmp_jitter_mm``, 233-791 mm on the walks and waves of G1 and JVRC-1); at 10 it
-            is 16-40 mm.
     """
 
     weight: float = 10.0
     band_m: float = 0.015
     margin: float = 0.7
-    jitter: float = 10.0
 
     def __post_init__(self) -> None:
         super().__post_init__()

@@ -20,7 +20,7 @@ from .forces import normal_bounds
 from .plan import GRAVITY, Linearization, Plan
 from .props import shared_violation
 from .touches import touch_violation
-from .zmp import jitter_value, zmp_frames
+from .zmp import zmp_frames
 
 
 def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig) -> float:
@@ -44,7 +44,6 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     over = np.maximum(np.abs(lin.zmp_multibody - plan.desired_zmp)[band] - config.zmp.band_m,
                       0)
     f += config.zmp.weight * np.sum(over ** 2)
-    f += config.zmp.jitter * jitter_value(lin, plan)
     penalty = 0.0
     hp_frame, hp_n, hp_b = plan.halfplanes
     if len(hp_frame):

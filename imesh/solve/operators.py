@@ -100,8 +100,8 @@ def gradient_operator(n: int, h: float) -> sp.csr_matrix:
 
 
 def difference_operator(n: int, order: int) -> sp.csr_matrix:
-    """((n - order), n) sparse forward difference of the given order (1, 2 or 4)."""
-    stencil = {1: [-1.0, 1.0], 2: [1.0, -2.0, 1.0], 4: [1.0, -4.0, 6.0, -4.0, 1.0]}[order]
+    """((n - order), n) sparse forward difference of the given order (1 or 2)."""
+    stencil = {1: [-1.0, 1.0], 2: [1.0, -2.0, 1.0]}[order]
     m = n - order
     rows = np.repeat(np.arange(m), len(stencil))
     cols = (np.arange(m)[:, None] + np.arange(len(stencil))).ravel()

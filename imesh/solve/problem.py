@@ -74,14 +74,7 @@ from .operators import Layout, Rows
 from .plan import Linearization, Plan
 from .qp import QpProblem
 from .touches import touch_rows
-from .zmp import (
-    auxiliary_rows,
-    band_cost,
-    band_rows,
-    jitter_cost,
-    linearize_zmp,
-    polygon_rows,
-)
+from .zmp import auxiliary_rows, band_cost, band_rows, linearize_zmp, polygon_rows
 
 
 def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
@@ -89,8 +82,8 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     """The QP of one SQP iteration at the trajectory ``q`` (T, nq); see the module docstring.
 
     The terms and rows are assembled in a fixed order (the solver's path, and so the written
-    motion, depends on it): objective (per-frame blocks, smoothness, ZMP band, ZMP jitter);
-    equalities (CoM and momentum auxiliaries, rest, held frames); inequalities (soles, ground, joint
+    motion, depends on it): objective (per-frame blocks, smoothness, ZMP band); equalities
+    (CoM and momentum auxiliaries, rest, held frames); inequalities (soles, ground, joint
     velocities and accelerations, torques, ZMP polygon, ZMP band, normal force and friction,
     self-collision); bounds.
 
@@ -112,7 +105,6 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     P, c = add_smoothness(P, c, lin, plan, q, config, lay)
     zl = linearize_zmp(lin, plan, lay)
     P, band = band_cost(P, lin, plan, zl, config, lay)
-    P, c = jitter_cost(P, c, lin, plan, config, lay)
 
     # --- equalities: the auxiliaries, rest at both ends, held frames ---------------------------
     eq, rhs = auxiliary_rows(lin, zl, lay)

@@ -15,11 +15,6 @@ from the multibody ZMP, so at convergence they hold for the ZMP the evaluator co
 Rows: ``p_t`` inside the support polygon of the soles shrunk by ``ZmpOptions.margin`` (elastic,
 :func:`polygon_rows`) and a cost ``w_z |b_t|^2`` on the excess over a dead band around the
 desired ZMP, ``|p_t - p*_t| <= band + b_t`` per axis (:func:`band_cost`).
-
-``D`` averages the three-point acceleration ``a3_t = (c_{t+1} - 2 c_t + c_{t-1}) / h^2`` over
-three frames, so a zig-zag ``+-A`` of the CoM (``4 A / h^2`` of ``a3``, the acceleration a robot
-playing the frames goes through) is invisible to the rows; a cost on what they miss,
-``z_c / g |a3 - D c|`` (:func:`jitter_cost`), keeps the solve from using it.
 """
 
 from __future__ import annotations
@@ -30,7 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .config import WholeBodyConfig
-from .operators import Layout, Rows, difference_operator, gradient_operator
+from .operators import Layout, Rows, gradient_operator
 from .plan import GRAVITY, Linearization, Plan
 
 
@@ -110,40 +105,6 @@ def band_cost(P: sp.spmatrix, lin: Linearization, plan: Plan, zl: ZmpLinearizati
     diag = np.zeros(lay.n)
     diag[(np.flatnonzero(sup)[:, None] * nx + B0 + np.arange(2)).ravel()] = config.zmp.weight
     return P + sp.diags(diag), (zl.Z[rows], excess, r_z)
-
-
-def jitter_cost(P: sp.spmatrix, c: np.ndarray, lin: Linearization, plan: Plan,
-                config: WholeBodyConfig, lay: Layout) -> tuple[sp.spmatrix, np.ndarray]:
-    """(P, c) plus ``w_j sum_t |z_c,t / g (a3_t - (D c)_t)|^2`` over the CoM's x and y, in the
-    CoM auxiliaries (``c = c0 + dc``), frames 2..T-3.
-
-    ``a3_t - (D c)_t = -(Delta^4 c)_{t-2} / (4 h^2)`` (``Delta^4`` the fourth forward difference,
-    stencil 1, -4, 6, -4, 1), so the term is ``w_j |S Delta^4 (c0 + dc)|^2`` with ``S =
-    diag(z_c / (4 g h^2))``: linear in ``dc``, exact (no linearization error). It is what the
-    evaluator reports as ``zmp_jitter_mm`` (:func:`imesh.metrics.zmp.zmp_jitter_mm`).
-    """
-    w = config.zmp.jitter
-    T = lay.n_frames
-    if w <= 0 or T < 5:
-        return P, c
-    h = 1.0 / plan.fps
-    D4 = difference_operator(T, 4)
-    S = sp.diags(lin.com[2:-2, 2] / (GRAVITY * 4.0 * h * h))
-    for axis in range(2):
-        A = S @ D4 @ lay.pick(lay.offset["com"] + axis)
-        r = S @ (D4 @ lin.com[:, axis])
-        P = P + w * (A.T @ A)
-        c = c + w * (A.T @ r)
-    return P, c
-
-
-def jitter_value(lin: Linearization, plan: Plan) -> float:
-    """``sum_t |z_c,t / g (a3_t - (D c)_t)|^2`` of the CoM's x and y [m^2] (the term
-    :func:`jitter_cost` weighs); 0 below 5 frames."""
-    if len(lin.com) < 5:
-        return 0.0
-    d4 = np.diff(lin.com[:, :2], 4, axis=0) * (plan.fps ** 2 / 4.0)
-    return float(np.sum((lin.com[2:-2, 2:3] / GRAVITY * d4) ** 2))
 
 
 def band_rows(out: Rows, band: tuple | None, config: WholeBodyConfig) -> None:
