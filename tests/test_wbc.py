@@ -11,6 +11,7 @@ from conftest import load_test_robot
 from imesh.contacts.phases import SIDES
 from imesh.core.robot_motion import RobotMotion
 from imesh.errors import OptionError
+from imesh.metrics.markers import keypoint_motion
 from imesh.physics.config import WbcConfig
 from imesh.physics.wbc import wrench_cone
 from imesh.robot import ROBOTS_DIR, load_robot_config
@@ -130,8 +131,6 @@ def test_wbc_holds_an_off_centre_com_where_the_reference_has_it(jvrc1):
     error = robot.com(result.q[-1]) - robot.com(result.q_reference[-1])
     assert np.linalg.norm(error[:2]) < 3e-4
     # the report names where the largest key-point error is: the key point and its time
-    from imesh.metrics.markers import keypoint_motion
-
     sim = keypoint_motion(robot, result.q, result.fps)
     ref = keypoint_motion(robot, result.q_reference, result.fps)
     d = 1e3 * np.linalg.norm(sim.positions_m - ref.positions_m, axis=-1)

@@ -70,8 +70,10 @@ def multibody_zmp(com: np.ndarray, dh: np.ndarray, mass: float) -> np.ndarray:
 
 def zmp_trajectory(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                    ground_z: float = 0.0) -> np.ndarray:
-    """(T, 2) float [m] multibody ZMP of every frame (``Robot.zmp``)."""
-    return np.array([robot.zmp(q[t], v[t], a[t], ground_z) for t in range(len(q))])
+    """(T, 2) float [m] multibody ZMP of every frame on the plane z = ``ground_z``
+    (``Robot.zmp``, from one pinocchio pass over the trajectory: :func:`multibody_zmp`)."""
+    com, dh, _ = robot.centroidal_trajectory(q, v, a)
+    return multibody_zmp(com - np.array([0.0, 0.0, ground_z]), dh, robot.mass)
 
 
 @dataclass(frozen=True, eq=False)
