@@ -53,7 +53,10 @@ lift-off.
 
 A sole is in contact when the reference plans it in support and the simulated sole is within
 ``WbcConfig.contact_height_m`` of the ground; a planned support whose sole is still in the air
-is tracked as a swing sole (it lands), and a sole that leaves its support early is too. When no
+is tracked as a swing sole aimed ``WbcConfig.landing_depth_m`` below its reference (it lands:
+a PD aimed at the ground slows down as it nears it, and the reference drops its last 20 mm in
+one frame, so the sole hovered a frame or two above the ground while the plan loaded it), and
+a sole that leaves its support early is tracked as a swing sole too. When no
 planned sole is down (the landing is late), the soles that are down stay in contact.
 """
 
@@ -298,7 +301,11 @@ class WholeBodyController:
         # swing soles
         for s in np.flatnonzero(~contact):
             pose = dyn.poses[s]
-            lin = (ref.sole_acc[s] + g.sole_kp * (ref.sole_positions[s] - pose[:3, 3])
+            target = ref.sole_positions[s].copy()
+            if ref.support[s]:  # a late landing: aimed at the ground, the PD would approach
+                # it ever more slowly and hover at the contact height
+                target[2] -= cfg.landing_depth_m
+            lin = (ref.sole_acc[s] + g.sole_kp * (target - pose[:3, 3])
                    + g.sole_kd * (ref.sole_vel[s] - dyn.twists[s, :3]))
             ang = (ref.sole_alpha[s]
                    + g.sole_kp * _rotation_error(ref.sole_rotations[s], pose[:3, :3])
