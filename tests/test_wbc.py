@@ -269,9 +269,9 @@ def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(tmp_path):
     the reference (measured 13.9 / 97.6), the base within 50 mm at the end (1 mm); with its
     soles held flat to the lift-off (no toe roll) it is lost (at 3.5 s of 4.8; 1.8 s before the
     landing depth below): the QP unloads the rear sole before it lifts and the capture point is
-    lost at a lift-off. A late
-    landing is driven below the ground (``WbcConfig.landing_depth_m``): aimed at the ground the
-    landing sole hovers over it and the stance sole slips 12.0 mm; with it 6.4 mm."""
+    lost at a lift-off. A late landing is driven below the ground
+    (``WbcConfig.landing_depth_m``): aimed at the ground the landing sole hovers over it and the
+    stance sole slips 12.0 mm; with it 6.4 mm."""
     import dataclasses
 
     from conftest import mocap_path
