@@ -266,12 +266,11 @@ def test_a_fall_in_the_dart_check_fails_verification(jvrc1):
 def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(tmp_path):
     """The CMU walk retargeted to G1 with default settings and read back from its file stands
     to its end in DART at the clip's own speed: key points within 25 mm RMS and 150 mm max of
-    the reference (measured 13.9 / 97.6), the base within 50 mm at the end (1 mm); with its
-    soles held flat to the lift-off (no toe roll) it is lost (at 3.5 s of 4.8; 1.8 s before the
-    landing depth below): the QP unloads the rear sole before it lifts and the capture point is
-    lost at a lift-off. A late landing is driven below the ground
-    (``WbcConfig.landing_depth_m``): aimed at the ground the landing sole hovers over it and the
-    stance sole slips 12.0 mm; with it 6.4 mm."""
+    the reference (measured 13.0 / 81.0), the base within 50 mm at the end (1 mm); with its
+    soles held flat to the lift-off (no toe roll) it is lost (at 2.4 s of 4.8): the QP unloads
+    the rear sole before it lifts and the capture point is lost at a lift-off. A late landing is
+    driven below the ground (``WbcConfig.landing_depth_m``): aimed at the ground the landing
+    sole hovers over it and the stance sole slips 12.3 mm; with it 2.8 mm."""
     import dataclasses
 
     from conftest import mocap_path
