@@ -261,3 +261,37 @@ def test_feasible_squat_is_tracked_without_falling(jvrc1):
     assert result.base_drift_m < 0.01
     assert result.zmp_contact_error_mm < 20.0
     assert result.torque_ratio_max < 1.0
+
+
+def test_slip_counts_only_the_corners_on_the_ground():
+    """A sole that slides flat 1 mm per frame slips 9 mm over 10 frames; a sole that turns on
+    its toe edge, its heel corners 1.8 mm up and swinging 9 mm sideways (the JVRC-1 walk's
+    right sole before a lift-off), does not slip: its toe corners stay put. Counted within
+    5 mm of the ground, as before, the lifted heel read as 9 mm of slip."""
+    from imesh.physics.simulate import CONTACT_M, sole_slip
+
+    T = 10
+    sole = np.array([[0.1, 0.05, 0.0], [0.1, -0.05, 0.0], [-0.1, -0.05, 0.0],
+                     [-0.1, 0.05, 0.0]])  # front-left, front-right, back-right, back-left
+    corners = np.zeros((T, 2, 4, 3))
+    corners[:] = sole
+    corners[:, 1, :, 1] -= 0.2  # the right sole beside the left
+    support = np.zeros((T, 2), dtype=bool)
+    support[:, 0] = True
+    slide = corners.copy()
+    slide[:, 0, :, 0] += 0.001 * np.arange(T)[:, None]
+    slip, side, frame = sole_slip(slide, support)
+    assert slip == pytest.approx(0.009) and (side, frame) == (0, T - 1)
+
+    turn = corners.copy()
+    turn[-2:, 0, 2:, 2] = 0.0018  # the heel up in the last two frames ...
+    turn[-2:, 0, 2:, 1] += np.array([0.004, 0.009])[:, None]  # ... and swinging sideways
+    assert CONTACT_M < 0.0018
+    assert sole_slip(turn, support) == (0.0, -1, -1)
+    assert sole_slip(turn, support, contact_m=0.005)[0] == pytest.approx(0.009)
+    # a support phase of the other sole counts from the frame each corner is down
+    support[5:, 1] = True
+    turn[5:7, 1, :, 2] = 0.01  # landing: down from frame 7
+    turn[7:, 1, :, 0] += 0.002 * np.arange(3)[:, None]
+    slip, side, frame = sole_slip(turn, support)
+    assert slip == pytest.approx(0.004) and (side, frame) == (1, T - 1)

@@ -270,7 +270,7 @@ def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(tmp_path):
     soles held flat to the lift-off (no toe roll) it is lost (at 2.4 s of 4.8): the QP unloads
     the rear sole before it lifts and the capture point is lost at a lift-off. A late landing is
     driven below the ground (``WbcConfig.landing_depth_m``): aimed at the ground the landing
-    sole hovers over it and the stance sole slips 12.3 mm; with it 2.8 mm."""
+    sole hovers over it and the stance sole slips 11.8 mm; with it 2.2 mm."""
     import dataclasses
 
     from conftest import mocap_path

@@ -35,8 +35,11 @@ log = logging.getLogger(__name__)
 #: A base faster than this [m/s or rad/s] or this far from the origin [m] has diverged.
 DIVERGED_SPEED = 200.0
 DIVERGED_M = 1000.0
-#: A sole whose lowest corner is this close to the ground is down (for the slip figure) [m].
-CONTACT_M = 0.005
+#: A sole corner this close to the ground is on it (for the slip figure) [m]. Loaded soles'
+#: corners sit between -1.8 and +0.6 mm in DART (5th-95th percentile -0.7 and +0.6 mm over the
+#: 12 runs of docs/wholebody.md); at 5 mm a heel 1.8 mm up, swinging sideways while its sole
+#: turned on its toe, read as 8.9 mm of slip.
+CONTACT_M = 0.001
 #: Moment arm [m] that weighs the torques against the forces in the contact-wrench distribution.
 WRENCH_ARM_M = 0.05
 
@@ -150,6 +153,37 @@ def _keypoint_errors(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray
             float(np.flatnonzero(ok)[f] / ref.fps))
 
 
+def sole_slip(corners_m: np.ndarray, support: np.ndarray, contact_m: float = CONTACT_M
+              ) -> tuple[float, int, int]:
+    """Largest horizontal displacement of a sole corner on the ground within a support phase.
+
+    What slides is the part of the sole on the ground: each corner counts from the first frame
+    of the support phase in which it is down (``z <= contact_m``) for as long as it stays
+    down, so neither a landing nor a sole turning on its toe edge (its centre and lifted heel
+    move, its toe corners do not) is slip.
+
+    Args:
+        corners_m: (T, 2, 4, 3) float [left, right] sole corners [m].
+        support: (T, 2) bool frames of each sole's support phases.
+        contact_m: a corner this close to the ground is on it [m].
+
+    Returns:
+        (slip [m], its sole's index, its frame); (0.0, -1, -1) without any displacement.
+    """
+    down = corners_m[..., 2] <= contact_m  # (T, 2, 4)
+    slip, side, frame = 0.0, -1, -1
+    for k in range(2):
+        for a, b in runs(support[:, k]):
+            for c in range(4):
+                for a2, b2 in runs(down[a:b, k, c]):
+                    xy = corners_m[a + a2:a + b2, k, c, :2]
+                    moved = np.linalg.norm(xy - xy[0], axis=1)
+                    if moved.max() > slip:
+                        slip, side = float(moved.max()), k
+                        frame = a + a2 + int(np.argmax(moved))
+    return slip, side, frame
+
+
 def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
                      sole_force: np.ndarray, sole_moment: np.ndarray, samples: np.ndarray,
                      friction: float) -> dict:
@@ -165,9 +199,8 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
     - ``cop_margin_mm``: smallest distance of a loaded sole's centre of pressure to the edge of
       its rectangle (negative outside) [mm];
     - ``slip_mm``: largest horizontal displacement of a sole corner on the ground within one
-      planned support phase, from the frame the corner is down (within ``CONTACT_M``) while
-      it stays down, over the survived frames [mm] (a sole rolling over its toe edge moves its
-      centre, not its toe corners).
+      planned support phase while it stays on the ground (:func:`sole_slip`), over the
+      survived frames [mm].
     """
     n = np.maximum(samples, 1)[:, None, None]
     forces = sole_force / n
@@ -203,21 +236,9 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
         use = loaded & np.isfinite(edge)
         if use.any():
             margin = float(1e3 * edge[use].min())
-        # what slides is the part of the sole on the ground: each corner counts from the
-        # first frame of the planned support in which it is down (within CONTACT_M) for as
-        # long as it stays down, so neither the landing nor a roll over the toe edge (the
-        # sole centre moves, the toe corners do not) is slip
-        down_c = corners[..., 2] <= CONTACT_M  # (T, 2, 4)
-        for k in range(2):
-            for a, b in runs(ref.support[:, k] & ok):
-                for c in range(4):
-                    for a2, b2 in runs(down_c[a:b, k, c]):
-                        xy = corners[a + a2:a + b2, k, c, :2]
-                        moved = np.linalg.norm(xy - xy[0], axis=1)
-                        if moved.max() > slip:
-                            slip = float(moved.max())
-                            slip_side = SIDES[k]
-                            slip_s = float((a + a2 + int(np.argmax(moved))) / ref.fps)
+        slip, k, f = sole_slip(corners, ref.support & ok[:, None])
+        if k >= 0:
+            slip_side, slip_s = SIDES[k], float(f / ref.fps)
     return {"zmp": zmp, "force": force, "sole_forces": forces, "sole_cop": sole_cop,
             "friction_ratio": friction_ratio, "cop_margin_mm": margin, "slip_mm": 1e3 * slip,
             "slip_side": slip_side, "slip_s": slip_s}
