@@ -11,7 +11,7 @@ from conftest import load_test_robot
 from imesh.balance import BalanceConfig, ConvergenceConfig
 from imesh.contacts.phases import SIDES
 from imesh.core.limits import LimitOptions
-from imesh.errors import OptionError
+from imesh.errors import OptionError, SolverError
 from imesh.fit.limits import joint_limits
 from imesh.fit.targets import compile_targets
 from imesh.morph.problem import MorphConfig
@@ -166,6 +166,35 @@ def test_qp_stalled_at_the_iteration_limit_is_solved_again(robot, monkeypatch):
     assert sol.kkt_residual < 1e-5
     assert max(sol.residuals.values()) < 1e-7
     assert np.abs(sol.x - full.x).max() < 1e-5
+
+def test_an_infeasible_qp_switches_to_elastic_speed_rows(robot):
+    """An initializer swinging the arms at 1.5 times the margin-reduced speed limit for longer
+    than a step may undo (the CMU 07_05 walk's elbow on JVRC-1): with hard speed rows the first
+    QP is infeasible; in the elastic mode it is solved through the speed rows' slack, and the
+    solve ends within 70 % of the speed limits (``LimitMargins.velocity``)."""
+    from imesh.solve.operators import Layout
+
+    T = 40
+    q = np.tile(robot.q_nominal, (T, 1))
+    t = np.arange(T) / FPS
+    config = WholeBodyConfig(sqp=SqpOptions(trust_region=0.02))
+    limits = joint_limits(robot, LimitOptions())
+    for name in ("L_ELBOW_Y", "R_ELBOW_Y"):  # 3.67 rad/s: 0.61 rad of amplitude
+        j = robot.joint_index(name)
+        amplitude = 1.5 * 0.7 * limits.v_max[j] / (2 * np.pi)  # peak speed 1.5 x 0.7 v_max
+        q[:, 7 + j] += amplitude * np.sin(2 * np.pi * t)
+    plan, footprints, targets = _plan(robot, q, config=config, rest_frames=0)
+    lin = linearize(robot, q, _Frames(robot, targets), FPS)
+    with pytest.raises(SolverError, match="INFEASIBLE"):
+        solve_qp(build_qp(lin, plan, q, config), "piqp", 1e-8)
+    sol = solve_qp(build_qp(lin, plan, q, config, elastic_speeds=True), "piqp", 1e-8)
+    lay = Layout(n_frames=T, nv=robot.nv)
+    slack = sol.x.reshape(T, lay.nx)[:, lay.offset["accel_slack"]]
+    assert slack.max() > 1e-3  # more than the trust region's 0.02 rad a frame can fix
+    solved = solve_whole_body(robot, plan, footprints, targets, config)
+    assert solved.history[0].velocity_ratio > 1.0
+    assert solved.history[-1].velocity_ratio <= 0.7 + 1e-3
+
 
 def test_standing_stays_standing(robot):
     """The nominal pose held still: the solution stands still (every frame the same pose,

@@ -19,9 +19,16 @@ from .plan import Linearization, Plan
 
 
 def motion_rows(out: Rows, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
-                lay: Layout) -> None:
+                lay: Layout, elastic_speeds: bool = False) -> None:
     """Joint velocity rows, then the elastic joint acceleration rows (limits that are
-    infinite get no row)."""
+    infinite get no row).
+
+    With ``elastic_speeds`` (the SQP's elastic mode, after a QP it built was infeasible) the
+    velocity rows the trajectory violates get the acceleration rows' slack of their last
+    frame: an initializer faster than the margin-reduced limit over more frames than the
+    trust region lets one step undo (the CMU 07_05 walk on JVRC-1, an elbow at 1.7 times 0.7
+    of its speed limit over a sweep) has no step within hard rows. A row the trajectory meets
+    stays hard (the step dq = 0 meets it)."""
     T, nx = lay.n_frames, lay.nx
     n_j = lay.nv - 6
     h = 1.0 / plan.fps
@@ -37,6 +44,13 @@ def motion_rows(out: Rows, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
         lim = np.tile(limit * (1 - margin), T - n_diff)
         d = np.diff(qj, n=n_diff, axis=0).ravel()
         finite = np.isfinite(lim)
+        if n_diff == 1 and elastic_speeds:
+            soft = finite & (np.abs(d) > lim)
+            last = np.repeat(np.arange(1, T), n_j)
+            slack = lay.rows(last, np.ones((len(last), 1)), lay.offset["accel_slack"])
+            out.add((D - slack)[soft], np.full(int(soft.sum()), -np.inf), (lim - d)[soft])
+            out.add((D + slack)[soft], (-lim - d)[soft], np.full(int(soft.sum()), np.inf))
+            finite = finite & ~soft
         if n_diff == 2:  # elastic (one slack per frame): the lead-in's start from rest
             centre = np.repeat(np.arange(1, T - 1), n_j)
             slack = lay.rows(centre, np.ones((len(centre), 1)), lay.offset["accel_slack"])

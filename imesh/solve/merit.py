@@ -23,11 +23,14 @@ from .touches import touch_violation
 from .zmp import zmp_frames
 
 
-def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig) -> float:
+def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
+          speeds: bool = False) -> float:
     """The exact-penalty merit of a trajectory: the QP's objective terms evaluated on the
     nonlinear trajectory (``1/2 sum w |r|^2``) plus the slack prices times the violations the
     slacks would have to cover (ZMP outside the shrunk polygon, soles off their footprints,
     swing ground points below the clearance). An SQP step is accepted when it lowers this.
+    ``speeds``: the joint speeds above their margin-reduced limits are priced too, as what
+    the elastic mode's speed slack covers (:func:`imesh.solve.limits.motion_rows`).
     """
     e = lin.points - plan.marker_points
     f = np.einsum("tka,tkl,tla->", e, plan.mesh_metric, e)
@@ -88,7 +91,15 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
         penalty += config.slack.balance * np.sum(lin.torques.excess(1.0 - config.margins.torque))
     over = np.abs(np.diff(q[:, 7:], 2, axis=0)) - plan.a_max * (1.0 / plan.fps) ** 2 * (
         1 - config.margins.acceleration)
-    penalty += config.slack.elastic * np.sum(np.maximum(over.max(axis=1, initial=0.0), 0.0))
+    accel = np.maximum(over.max(axis=1, initial=0.0), 0.0)
+    penalty += config.slack.elastic * np.sum(accel)
+    if speeds:  # a frame's slack covers its speeds beyond what its accelerations took
+        fast = np.abs(np.diff(q[:, 7:], 1, axis=0)) - plan.v_max / plan.fps * (
+            1 - config.margins.velocity)
+        shared = np.zeros(max(T - 1, 0))
+        shared[:len(accel)] = accel
+        penalty += config.slack.elastic * np.sum(
+            np.maximum(fast.max(axis=1, initial=0.0) - shared, 0.0))
     if lin.props is not None or lin.obstacles is not None:  # one slack per frame for all
         # (imesh.solve.props, imesh.solve.obstacles) and the held points (imesh.solve.touches)
         held = (None if plan.points is None or lin.held_points is None

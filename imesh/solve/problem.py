@@ -77,15 +77,16 @@ from .touches import touch_rows
 from .zmp import auxiliary_rows, band_cost, band_rows, linearize_zmp, polygon_rows
 
 
-def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
-             ) -> QpProblem:
+def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
+             elastic_speeds: bool = False) -> QpProblem:
     """The QP of one SQP iteration at the trajectory ``q`` (T, nq); see the module docstring.
 
     The terms and rows are assembled in a fixed order (the solver's path, and so the written
     motion, depends on it): objective (per-frame blocks, smoothness, ZMP band); equalities
     (CoM and momentum auxiliaries, rest, held frames); inequalities (soles, ground, joint
     velocities and accelerations, torques, ZMP polygon, ZMP band, normal force and friction,
-    self-collision); bounds.
+    self-collision); bounds. ``elastic_speeds``: the velocity rows the trajectory violates are
+    elastic (:func:`imesh.solve.limits.motion_rows`; the SQP's elastic mode).
 
     Returns:
         QpProblem over x = (x_0, ..., x_{T-1}) with x_t = (dq_t (nv), dc_t (3), dk_t (2), s_t):
@@ -118,7 +119,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     rows = Rows()
     sole_rows(rows, lin, plan, lay)
     ground_rows(rows, lin, plan, config, lay)
-    motion_rows(rows, plan, q, config, lay)
+    motion_rows(rows, plan, q, config, lay, elastic_speeds)
     torque_rows(rows, lin, config, lay)
     polygon_rows(rows, lin, plan, zl, config, lay)
     band_rows(rows, band, config)

@@ -645,18 +645,18 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     history = [_report(lin, plan, q, 0.0, 0.0, 0)]
     converged = False
     T, nv = len(q), robot.nv
+    # elastic mode (as SNOPT's): once a QP turns out infeasible, the speed rows the iterate
+    # violates get a slack and the merit prices them
+    elastic = False
     phi = merit(lin, plan, q, config)
     trust = config.sqp.trust_region
     n_iter = config.sqp.iterations if plan.cones is None else config.sqp.cone_iterations
-    for it in range(n_iter):
-        t0 = time.perf_counter()
-        qp = build_qp(lin, plan, q, dataclasses.replace(
-            config, sqp=dataclasses.replace(config.sqp, trust_region=trust)))
-        seconds["build"] += time.perf_counter() - t0
+
+    def solve(qp, it: int):
         try:
             # a window's QP (fixed first frames): PIQP's duality-gap test stalls there
-            sol = solve_qp(qp, config.sqp.solver, config.sqp.qp_tolerance,
-                           gap_check=plan.fixed_frames == 0 and plan.fixed_end_frames == 0)
+            return solve_qp(qp, config.sqp.solver, config.sqp.qp_tolerance,
+                            gap_check=plan.fixed_frames == 0 and plan.fixed_end_frames == 0)
         except SolverError as exc:
             if config.sqp.solver == "clarabel":
                 raise SolverError(f"whole-body solve, iteration {it + 1}: {exc}",
@@ -664,7 +664,27 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             # PIQP stalls on some badly scaled linearizations where Clarabel's homogeneous
             # embedding still converges (measured: docs/wholebody.md)
             log.info("whole-body iteration %d: %s; retrying with clarabel", it + 1, exc)
-            sol = solve_qp(qp, "clarabel", config.sqp.qp_tolerance)
+            return solve_qp(qp, "clarabel", config.sqp.qp_tolerance)
+
+    for it in range(n_iter):
+        t0 = time.perf_counter()
+        step_config = dataclasses.replace(
+            config, sqp=dataclasses.replace(config.sqp, trust_region=trust))
+        qp = build_qp(lin, plan, q, step_config, elastic_speeds=elastic)
+        seconds["build"] += time.perf_counter() - t0
+        try:
+            sol = solve(qp, it)
+        except SolverError as exc:
+            if elastic:
+                raise
+            # no step meets the hard rows within the trust region: the initializer runs a
+            # joint faster than its margin-reduced speed limit over a longer sweep than one
+            # step can undo (the CMU 07_05 walk on JVRC-1)
+            log.info("whole-body iteration %d: %s; elastic speed rows from here on", it + 1,
+                     exc)
+            elastic = True
+            phi = merit(lin, plan, q, config, speeds=True)
+            sol = solve(build_qp(lin, plan, q, step_config, elastic_speeds=True), it)
         seconds["qp"] += sol.seconds
         dq = sol.x.reshape(T, -1)[:, :nv].copy()
         # held frames: their equality rows hold to the QP's tolerance; keep them exact, so
@@ -677,7 +697,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             q_new = np.array([robot.integrate(q[t], alpha * dq[t]) for t in range(T)])
             lin_new = linearize(robot, q_new, frames, plan.fps, support,
                                 1.0 - config.margins.torque)
-            phi_new = merit(lin_new, plan, q_new, config)
+            phi_new = merit(lin_new, plan, q_new, config, speeds=elastic)
             # a step may not deepen the self-collisions, whatever else it gains: a long step
             # can carry a hand through a body, where the distance's gradient then points
             # through (G1 walk: a wrist stuck 70 mm inside the hip, marker RMS 47 -> 58 mm)
