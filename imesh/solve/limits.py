@@ -44,22 +44,21 @@ def motion_rows(out: Rows, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
         lim = np.tile(limit * (1 - margin), T - n_diff)
         d = np.diff(qj, n=n_diff, axis=0).ravel()
         finite = np.isfinite(lim)
-        if n_diff == 1 and elastic_speeds:
-            soft = finite & (np.abs(d) > lim)
-            last = np.repeat(np.arange(1, T), n_j)
-            slack = lay.rows(last, np.ones((len(last), 1)), lay.offset["accel_slack"])
+        # elastic rows share the slack of the difference's last frame (a speed) or centre (an
+        # acceleration), one per frame: every acceleration row (the lead-in's start from
+        # rest), and in the elastic mode the speed rows the trajectory violates
+        if n_diff == 2:
+            soft = finite
+        else:
+            soft = finite & (np.abs(d) > lim) if elastic_speeds else np.zeros_like(finite)
+        hard = finite & ~soft
+        if soft.any():
+            at = np.repeat(np.arange(1, T - n_diff + 1), n_j)
+            slack = lay.rows(at, np.ones((len(at), 1)), lay.offset["accel_slack"])
             out.add((D - slack)[soft], np.full(int(soft.sum()), -np.inf), (lim - d)[soft])
             out.add((D + slack)[soft], (-lim - d)[soft], np.full(int(soft.sum()), np.inf))
-            finite = finite & ~soft
-        if n_diff == 2:  # elastic (one slack per frame): the lead-in's start from rest
-            centre = np.repeat(np.arange(1, T - 1), n_j)
-            slack = lay.rows(centre, np.ones((len(centre), 1)), lay.offset["accel_slack"])
-            out.add((D - slack)[finite], np.full(int(finite.sum()), -np.inf),
-                    (lim - d)[finite])
-            out.add((D + slack)[finite], (-lim - d)[finite],
-                    np.full(int(finite.sum()), np.inf))
-            continue
-        out.add(D[finite], (-lim - d)[finite], (lim - d)[finite])
+        if hard.any():
+            out.add(D[hard], (-lim - d)[hard], (lim - d)[hard])
 
 
 def torque_rows(out: Rows, lin: Linearization, config: WholeBodyConfig, lay: Layout) -> None:
