@@ -25,10 +25,12 @@ sensitive to its input, and a figure near a bound is only met if it is met acros
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import sys
 from pathlib import Path
 
+import numpy as np
 from _data import data_root, load
 
 CLIPS = ("cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh", "cmu_141_16_wave_hello.bvh",
@@ -76,8 +78,8 @@ def main(argv=None) -> int:
             robot = load(name)
             motion = load_motion_file(_motion_file(out, clip, robot), robot)
             for ctrl in args.controllers:
-                r = simulate_motion(robot, motion,
-                                    config=PhysicsConfig(control=ControlConfig(controller=ctrl)))
+                config = PhysicsConfig(control=ControlConfig(controller=ctrl))
+                r = simulate_motion(robot, motion, config=config)
                 print(f"{clip:<30} {name:<6} {ctrl:<9} {str(r.fell):>5} "
                       f"{r.survived_s:>5.2f}/{r.duration_s:<5.2f} {r.keypoint_rms_mm:>6.1f} "
                       f"{r.keypoint_max_mm:>6.1f} {r.tracking_rms_rad:>6.3f} "
@@ -87,10 +89,8 @@ def main(argv=None) -> int:
                       f"{r.real_time_factor:>5.2f}")
                 sys.stdout.flush()
                 if args.perturb:
-                    runs = [r] + [simulate_motion(robot, _perturbed(motion, seed,
-                                                                    args.perturb_rad),
-                                                  config=PhysicsConfig(
-                                                      control=ControlConfig(controller=ctrl)))
+                    runs = [r] + [simulate_motion(robot, _perturbed(motion, seed, args.perturb_rad),
+                                                  config=config)
                                   for seed in range(1, args.perturb + 1)]
                     spread.append((clip, name, ctrl, runs))
     if spread:
@@ -112,10 +112,6 @@ def main(argv=None) -> int:
 
 def _perturbed(motion, seed: int, sigma_rad: float):
     """The motion with its joint angles moved by N(0, sigma) noise (seeded)."""
-    import dataclasses
-
-    import numpy as np
-
     q = motion.q.copy()
     q[:, 7:] += np.random.default_rng(seed).normal(scale=sigma_rad, size=q[:, 7:].shape)
     return dataclasses.replace(motion, q=q)
