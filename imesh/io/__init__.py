@@ -91,7 +91,8 @@ def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
         path: .bvh, .amc, .c3d, .trc, AMASS .npz or joint-position .npy/.npz file.
         units: override the detected unit ("m", "cm", "mm", "in", "cmu") or metres per unit.
         up_axis: override the detected up axis ("+Y", "+Z", ...).
-        ground: "auto" (shift to the floor when off by > 3 cm), "none", or a shift in metres.
+        ground: "auto" (level a floor tilted 0.25-2 degrees under the planted feet, then shift
+            to the floor when off by > 3 cm), "none", or a shift in metres.
         fps: frame rate for AMC files, which store none (default 120), for AMASS files
             without one, and for joint-position files without one (required: never guessed).
         asf: the skeleton for an .amc file (default: found beside it).

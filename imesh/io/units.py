@@ -6,6 +6,8 @@ the floor, from bone lengths and upright frames) picks the length unit. For mark
 axis is the axis of largest extent and the height the median vertical extent. A unit is chosen
 only when exactly one candidate puts the height in the human range; otherwise a
 :class:`~imesh.human.errors.UnitsError` says what each unit would give and asks for ``--units``.
+A clip whose planted feet lie on a tilted plane (a capture calibrated with its vertical off the
+floor's normal) is levelled on that plane first (:mod:`imesh.io.floor`), then shifted to z = 0.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from ..errors import ImplausibleMotionError, OptionError
 from ..human.errors import RigRecognitionError, UnitsError
 from ..human.rig import recognize
 from ..human.rig_result import RECOGNIZED, Recognition
+from .floor import fit_floor
 from .raw import RawMotion
 
 log = logging.getLogger(__name__)
@@ -194,9 +197,12 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
         raw: the parsed file.
         units: override: a unit name (m, dm, cm, mm, in, cmu) or metres per file unit.
         up_axis: override: "+X", "-X", "+Y", "-Y", "+Z" or "-Z".
-        ground: "auto" shifts the motion vertically so the floor (the 2nd percentile of the
-            per-frame lowest marker) is at z = 0 when it is more than 3 cm away; "none" keeps the
-            file's vertical origin; a number shifts by that many metres (up).
+        ground: "auto" levels the clip on the plane of its planted feet when that plane is a
+            floor tilted 0.25-2 degrees (:func:`imesh.io.floor.fit_floor`; ``meta``:
+            ``floor_tilt_rad``, ``floor_level_rotation``, ``floor_level_pivot_m``), then shifts
+            the motion vertically so the floor (the 2nd percentile of the per-frame lowest
+            marker) is at z = 0 when it is more than 3 cm away; "none" keeps the file's
+            orientation and vertical origin; a number shifts by that many metres (up).
         check: run the plausibility checks (:func:`imesh.core.motion.check_plausible`: frame rate,
             body height, position range, marker speed); on by default.
         consume: the caller gives ``raw`` up: its positions array is converted in place and
@@ -264,7 +270,13 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
             valid="finite positions", frame=t, marker=raw.names[j])
 
     floor = 0.0
+    level = None
     if ground == "auto":
+        level = fit_floor(pos, raw.valid, raw.fps)
+        if level.levelled:  # about the plane's pivot, in place a block of frames at a time
+            rot_level, pivot = level.rotation, level.pivot_m
+            for a in range(0, len(pos), _BLOCK_FRAMES):
+                pos[a:a + _BLOCK_FRAMES] = (pos[a:a + _BLOCK_FRAMES] - pivot) @ rot_level.T + pivot
         z = np.where(raw.valid, pos[..., 2], np.nan)
         seen = raw.valid.any(axis=1)
         lowest = np.nanmin(z[seen], axis=1) if seen.any() else np.zeros(0)
@@ -286,14 +298,20 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
     if consume:
         pos.setflags(write=False)  # the motion keeps it as it is (imesh.core.motion._frozen)
 
-    log.info("%s: units %s (%.6g m/unit; %s); up axis %s (%s); floor %s", raw.path, unit_name,
-             scale, unit_why, up, up_why, ground_why)
+    log.info("%s: units %s (%.6g m/unit; %s); up axis %s (%s); floor %s%s", raw.path, unit_name,
+             scale, unit_why, up, up_why, ground_why, f"; {level.reason}" if level else "")
     meta = dict(raw.meta)
     meta.update(
         format=raw.format, rig=raw.rig or (RECOGNIZED if body is not None else ""),
         units=unit_name, unit_scale_m=scale, units_reason=unit_why,
         up_axis=up, up_axis_reason=up_why, floor_offset_m=floor, floor_reason=ground_why,
     )
+    if level is not None:
+        meta.update(floor_tilt_rad=level.tilt_rad if level.levelled else 0.0,
+                    floor_level_reason=level.reason)
+        if level.levelled:
+            meta.update(floor_level_rotation=level.rotation.tolist(),
+                        floor_level_pivot_m=level.pivot_m.tolist())
     if body is not None:
         meta.update(rig_recognition=body, standing_height_m=body.height * scale,
                     rig_confidence=body.overall_confidence)

@@ -91,15 +91,20 @@ def load_scene(paths: Sequence[str | os.PathLike]) -> Scene:
 
 def human_scene(scene: Scene, motion_meta: dict) -> Scene:
     """The scene in the human world of a loaded clip: the clip's unit, up-axis rotation and
-    floor shift (``motion.meta``: ``unit_scale_m``, ``up_axis``, ``floor_offset_m``) applied
-    to the props as :func:`imesh.io.finalize` applied them to the clip."""
+    floor levelling and shift (``motion.meta``: ``unit_scale_m``, ``up_axis``,
+    ``floor_level_rotation`` and ``floor_level_pivot_m`` when levelled, ``floor_offset_m``)
+    applied to the props as :func:`imesh.io.finalize` applied them to the clip:
+    ``p -> L (R u p - c) + c - floor e_z``."""
     if scene.frame != "file":
         return scene
     unit = float(motion_meta.get("unit_scale_m", 1.0))
     rot = rotation_to_z_up(str(motion_meta.get("up_axis", "+Z")))
     floor = float(motion_meta.get("floor_offset_m", 0.0))
-    props = tuple(p.transformed(rot, unit, np.array([0.0, 0.0, -floor])) for p in scene.props)
-    if unit != 1.0 or floor != 0.0 or not np.allclose(rot, np.eye(3)):
+    level = np.asarray(motion_meta.get("floor_level_rotation", np.eye(3)), dtype=float)
+    pivot = np.asarray(motion_meta.get("floor_level_pivot_m", np.zeros(3)), dtype=float)
+    offset = pivot - level @ pivot - np.array([0.0, 0.0, floor])
+    props = tuple(p.transformed(level @ rot, unit, offset) for p in scene.props)
+    if unit != 1.0 or floor != 0.0 or not np.allclose(level @ rot, np.eye(3)):
         log.info("scene: props converted as the clip was (x %g, up %s, floor %+.3f m)", unit,
                  motion_meta.get("up_axis"), -floor)
     return Scene(props, "human", sources=scene.sources)
