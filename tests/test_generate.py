@@ -203,6 +203,33 @@ def test_talos_shoulder_offset_and_gripper():
     assert abs(shoulder[1] - 0.294) < 0.005  # arm_left_2/3 axes, not the torso joint's
 
 
+def test_talos_torso_with_its_imu_box_gets_split_capsules(tmp_path, monkeypatch):
+    """Talos's torso is a mesh plus the IMU link's box: the box's convex hull gives it triangles
+    too, so the torso is split like any mesh body (2 capsules of 173 and 178 mm instead of one
+    of 235 mm around a torso 306 x 454 mm), and the capsules still enclose every point."""
+    from imesh.robot import load_robot
+    from imesh.robot.capsules.bodies import body_points, robot_bodies
+    from imesh.robot.capsules.robot import fit_robot_capsules
+
+    monkeypatch.setenv("IMESH_CACHE_DIR", str(tmp_path / "cache"))
+    urdf = erd("talos_data/robots/talos_reduced.urdf")
+    out = tmp_path / "talos"
+    write_generated(generate_robot_config(urdf), out)
+    robot = load_robot(out, urdf=urdf)
+    links, _ = robot_bodies(robot)
+    points, triangles = body_points(robot, "torso_2_link", links["torso_2_link"])
+    assert triangles is not None and len(triangles) > 12
+    torso = [c for c in fit_robot_capsules(robot, cache=False) if c.body == "torso_2_link"]
+    assert len(torso) >= 2 and max(c.radius for c in torso) < 0.19
+    ab = np.stack([[c.a, c.b] for c in torso])  # (C, 2, 3)
+    seg = ab[:, 1] - ab[:, 0]
+    t = np.clip(np.einsum("pcj,cj->pc", points[:, None] - ab[:, 0], seg)
+                / np.maximum(np.einsum("cj,cj->c", seg, seg), 1e-12), 0.0, 1.0)
+    dist = np.linalg.norm(points[:, None] - (ab[:, 0] + t[..., None] * seg), axis=-1)
+    radius = np.array([c.radius for c in torso])
+    assert (dist - radius).min(axis=1).max() <= 1e-9  # every point in some capsule
+
+
 @pytest.mark.parametrize("detector", ["ode", "dart"])
 def test_icub_holds_its_nominal_pose_in_dart(tmp_path, detector):
     """iCub in DART: zero-mass frame links get DART's default inertia, the head and neck

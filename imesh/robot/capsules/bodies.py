@@ -44,6 +44,17 @@ def _triangles(geo) -> np.ndarray | None:
     return np.array([[geo.tri_indices(i)[k] for k in range(3)] for i in range(n)], dtype=int)
 
 
+def _hull_triangles(points: np.ndarray) -> np.ndarray | None:
+    """(F, 3) vertex indices of the convex hull's triangles of (P, 3) points, or None when
+    they span no volume."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        return ConvexHull(points).simplices
+    except (QhullError, ValueError):
+        return None
+
+
 def link_items(robot: Robot, link: str) -> list:
     """The URDF geometry of ``link`` the capsules enclose and the mesh check scores
     (:class:`imesh.robot.collision.GeometryItem` list): its visual elements when the robot's
@@ -56,8 +67,10 @@ def link_items(robot: Robot, link: str) -> list:
 
 
 def body_points(robot: Robot, body: str, links: list[str]) -> tuple[np.ndarray, np.ndarray | None]:
-    """The body's geometry points in its frame, and its surface triangles (F, 3, 3) when it is
-    all meshes (None when it has URDF primitives: such a body gets one capsule)."""
+    """The body's geometry points in its frame, and its surface triangles (F, 3, 3): a mesh's
+    own, a URDF primitive's the convex hull of its support points (so that a body that carries
+    a primitive, such as Talos's torso with its IMU box, can still be split into capsules: one
+    capsule around it was 235 mm in radius); None when a mesh has no triangles."""
     placements = robot.frame_placements(robot.q_nominal, [body, *links])
     inv = np.linalg.inv(placements[0])
     pts: list[np.ndarray] = []
@@ -68,7 +81,7 @@ def body_points(robot: Robot, body: str, links: list[str]) -> tuple[np.ndarray, 
         for it in items:
             p = it.points_in_frame() @ T[:3, :3].T + T[:3, 3]
             pts.append(p)
-            tri = _triangles(it.native) if it.kind == "mesh" else None
+            tri = _triangles(it.native) if it.kind == "mesh" else _hull_triangles(p)
             if tris is not None and tri is not None and len(tri) and tri.max() < len(p):
                 tris.append(p[tri])
             else:
