@@ -25,7 +25,7 @@ from pathlib import Path
 
 from _data import data_root
 
-from imesh.io.clip import read_clip
+from imesh.io.clip import read_pair
 from imesh.partners import PairConfig, evaluate_pair, retarget_pair
 from imesh.robot import load_robot
 
@@ -112,7 +112,7 @@ def main() -> None:
                          "60/61; the header 120): the motion is played at this rate")
     args = ap.parse_args()
     logging.basicConfig(level=logging.WARNING)
-    a, b = read_clip(CLIP_A, {}), read_clip(CLIP_B, {})
+    a, b = read_pair(CLIP_A, CLIP_B)
     if args.clip_fps:
         a, b = (dataclasses.replace(m, fps=args.clip_fps) for m in (a, b))
     if args.frames != "all":

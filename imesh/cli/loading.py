@@ -19,7 +19,7 @@ _WHY = ("its zero-phase low-pass filter pads 15 frames at each end; a shorter cl
         "imesh rig read it")
 
 
-def load_clip(args, *, apply_rig: bool = True) -> MarkerMotion:
+def load_clip(args, *, apply_rig: bool = True, ground: str = "auto") -> MarkerMotion:
     """The clip ``args.clip`` read with the parsed options: units, up axis, frame rates, ASF
     skeleton, body model (AMASS), resampled to ``--fps`` and mapped by ``--rig`` (when
     ``apply_rig``); the options are recorded in the motion (:func:`imesh.io.clip.read_clip`)
@@ -34,7 +34,7 @@ def load_clip(args, *, apply_rig: bool = True) -> MarkerMotion:
         "asf": getattr(args, "asf", None), "fps": getattr(args, "fps", None),
         "rig": getattr(args, "rig", None) if apply_rig else None,
         "body_model": getattr(args, "body_model", None),
-        "joints": getattr(args, "joints", None)})
+        "joints": getattr(args, "joints", None)}, ground=ground)
     if args.command in ("adapt", "retarget"):
         require_frames(motion, PIPELINE_MIN_FRAMES, f"imesh {args.command} ({_WHY})")
     return motion

@@ -17,7 +17,8 @@ from ..evaluate.motion_files import load_motion_file
 from ..evaluate.table import format_table
 from ..evaluate.verify import verify_motion
 from ..io.atomic import write_json
-from ..io.clip import read_clip
+from ..io.clip import read_pair
+from ..io.floor import ground_together
 from ..io.robot_motion import save_robot_motion
 from ..partners import PairConfig, detect_holds, evaluate_pair, retarget_pair
 from ..partners.evaluate import evaluate_pair_motions
@@ -88,8 +89,10 @@ def run_pair(args, config) -> int:
                            "yet (each robot's file carries its adapted markers; imesh evaluate "
                            "and imesh view take each file; docs/partners.md)")
     frames = parse_frames(getattr(args, "frames", None))
-    motion_a = load_clip(args)
-    motion_b = load_clip(argparse.Namespace(**{**vars(args), "clip": args.partner}))
+    # both people read as the files have them, then put on one floor together
+    motion_a, motion_b = ground_together([
+        load_clip(args, ground="none"),
+        load_clip(argparse.Namespace(**{**vars(args), "clip": args.partner}), ground="none")])
     if frames is not None:
         for m, path in ((motion_a, args.clip), (motion_b, args.partner)):
             if frames[1] > m.n_frames:
@@ -164,8 +167,7 @@ def evaluate_pair_files(args) -> int:
     config = RetargetConfig(fps=pair["a"]["fps"])
     frames = manifest.get("frames")
     humans = []
-    for clip in (clips["a"], clips["b"]):
-        motion = read_clip(clip, {})
+    for motion in read_pair(clips["a"], clips["b"]):  # on one floor, as the retarget read them
         if frames is not None:
             motion = motion.frames(*frames)
         humans.append(working_markers(motion, config))

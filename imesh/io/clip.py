@@ -14,6 +14,7 @@ from ..core.motion import MarkerMotion
 from ..core.provenance import LOAD_OPTION_KEYS
 from ..errors import OptionError
 from . import load_motion
+from .floor import ground_together
 
 
 def parse_units(text: str | float | None) -> str | float | None:
@@ -26,8 +27,8 @@ def parse_units(text: str | float | None) -> str | float | None:
         return text
 
 
-def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = None
-              ) -> MarkerMotion:
+def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = None, *,
+              ground: str = "auto") -> MarkerMotion:
     """Read a human clip with reading options and record them in ``meta["load_options"]``.
 
     Args:
@@ -39,6 +40,9 @@ def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = No
             ``body_model`` (the body-model folder of an AMASS file, recorded as an absolute
             path), ``joints`` (the joint-names file of a joint-position array, recorded as an
             absolute path); None values are the defaults.
+        ground: ``"auto"`` (the clip levelled and put on its floor) or ``"none"`` (as the file
+            has it: :func:`read_pair` grounds two people together); not recorded (the floor is
+            a rigid motion of the clip, which the source-based metrics do not see).
 
     Returns:
         The motion (metres, Z up), resampled and mapped by the rig as asked.
@@ -52,7 +56,8 @@ def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = No
     if unknown:
         raise OptionError("clip reading option", unknown[0], LOAD_OPTION_KEYS)
     motion = load_motion(path, units=parse_units(given.get("units")),
-                         up_axis=given.get("up_axis"), fps=given.get("source_fps"),
+                         up_axis=given.get("up_axis"), ground=ground,
+                         fps=given.get("source_fps"),
                          asf=given.get("asf"), body_model=given.get("body_model"),
                          joints=given.get("joints"))
     if given.get("fps"):
@@ -69,3 +74,20 @@ def read_clip(path: str | os.PathLike, options: Mapping[str, object] | None = No
         given["joints"] = os.path.abspath(given["joints"])
     recorded = {k: (str(v) if k in ("asf", "rig") else v) for k, v in given.items()}
     return dataclasses.replace(motion, meta={**motion.meta, "load_options": recorded})
+
+
+def read_pair(path_a: str | os.PathLike, path_b: str | os.PathLike,
+              options_a: Mapping[str, object] | None = None,
+              options_b: Mapping[str, object] | None = None
+              ) -> tuple[MarkerMotion, MarkerMotion]:
+    """Two people captured together, each read as :func:`read_clip` reads a clip, then put on
+    one floor (:func:`imesh.io.floor.ground_together`: one plane fitted to both people's
+    planted feet, one rotation, one vertical shift), so that they keep their relative place.
+
+    Raises:
+        ImeshError: as :func:`read_clip`.
+    """
+    a = read_clip(path_a, options_a, ground="none")
+    b = read_clip(path_b, options_b, ground="none")
+    a, b = ground_together([a, b])
+    return a, b

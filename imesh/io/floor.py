@@ -21,6 +21,7 @@ changes) and :data:`MAX_TILT_RAD` (beyond, a ramp, not a calibration).
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +38,9 @@ MAX_RESIDUAL_M = 0.010
 MIN_TILT_RAD = np.deg2rad(0.25)
 #: Tilts beyond this are a slope, not a calibration error, and are kept (2 degrees) [rad].
 MAX_TILT_RAD = np.deg2rad(2.0)
+#: The floor (2nd percentile of the frames' lowest marker) is moved to z = 0 when it is farther
+#: than this [m].
+FLOOR_SHIFT_M = 0.03
 
 
 @dataclass(frozen=True)
@@ -118,7 +122,12 @@ def fit_floor(positions_m: np.ndarray, valid: np.ndarray, fps: float) -> FloorFi
     Returns:
         The fit; ``levelled`` says whether :attr:`FloorFit.rotation` is to be applied.
     """
-    pts = planted_samples(positions_m, valid, fps)
+    return fit_plane(planted_samples(positions_m, valid, fps))
+
+
+def fit_plane(pts: np.ndarray) -> FloorFit:
+    """:func:`fit_floor` on planted samples (N, 3) [m] (of one clip, or of people captured
+    together)."""
     n = len(pts)
     if n < MIN_SAMPLES:
         return FloorFit(np.zeros(2), np.zeros(3), float("nan"), np.zeros(2), n, False,
@@ -155,3 +164,67 @@ def fit_floor(positions_m: np.ndarray, valid: np.ndarray, fps: float) -> FloorFi
     else:
         ok, why = True, f"levelled: {what}"
     return FloorFit(slope, pivot, rms, span, n, ok, why)
+
+
+def lowest_markers(positions_m: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(T',) z of each frame's lowest valid marker [m] (frames without one left out)."""
+    z = np.where(valid, positions_m[..., 2], np.inf)
+    low = z.min(axis=1)
+    return low[np.isfinite(low)]
+
+
+def floor_offset(lowest_z_m: np.ndarray) -> tuple[float, str]:
+    """The vertical shift that puts the floor at z = 0, and why: the 2nd percentile of the
+    frames' lowest markers when it is farther than :data:`FLOOR_SHIFT_M` from 0, else 0."""
+    est = float(np.percentile(lowest_z_m, 2)) if lowest_z_m.size else 0.0
+    if abs(est) > FLOOR_SHIFT_M:
+        return est, f"lowest markers sit at {est:+.3f} m: shifted to the floor"
+    return 0.0, f"lowest markers at {est:+.3f} m: kept"
+
+
+def level_positions(positions_m: np.ndarray, fit: FloorFit, block: int = 16384) -> None:
+    """Turn (T, M, 3) positions in place about the fit's pivot so that its plane is level (a
+    block of frames at a time: a 30-minute clip's positions are 200 MB)."""
+    if not fit.levelled:
+        return
+    rot, pivot = fit.rotation, fit.pivot_m
+    for a in range(0, len(positions_m), block):
+        positions_m[a:a + block] = (positions_m[a:a + block] - pivot) @ rot.T + pivot
+
+
+def ground_together(motions: Sequence) -> list:
+    """People captured together (a pair), read with ``ground="none"``, put on one floor: one
+    plane fitted to all their planted feet, the same levelling rotation and the same vertical
+    shift for all (each clip grounded alone would put the salsa partners' floors 55 mm apart:
+    partner B's lowest markers sit 55 mm up, A's within the 3 cm kept).
+
+    Args:
+        motions: :class:`imesh.core.motion.MarkerMotion` of the people, in one world.
+
+    Returns:
+        The motions levelled and shifted, ``meta`` recording the shared decision
+        (``floor_reason``, ``floor_offset_m``, ``floor_tilt_rad``, ``floor_level_reason``,
+        and ``floor_level_rotation`` / ``floor_level_pivot_m`` when levelled).
+    """
+    pts = np.concatenate([planted_samples(m.positions_m, m.valid, m.fps) for m in motions])
+    fit = fit_plane(pts)
+    moved = []
+    for m in motions:
+        pos = np.array(m.positions_m, dtype=float)
+        level_positions(pos, fit)
+        moved.append(pos)
+    offset, why = floor_offset(np.concatenate([lowest_markers(p, m.valid)
+                                               for p, m in zip(moved, motions, strict=True)]))
+    out = []
+    for pos, m in zip(moved, motions, strict=True):
+        pos[..., 2] -= offset
+        meta = {k: v for k, v in m.meta.items()
+                if k not in ("floor_level_rotation", "floor_level_pivot_m")}
+        meta.update(floor_offset_m=offset, floor_reason=f"{why} (with the partner)",
+                    floor_tilt_rad=fit.tilt_rad if fit.levelled else 0.0,
+                    floor_level_reason=f"{fit.reason} (with the partner)")
+        if fit.levelled:
+            meta.update(floor_level_rotation=fit.rotation.tolist(),
+                        floor_level_pivot_m=fit.pivot_m.tolist())
+        out.append(m.with_positions(pos, meta=meta))
+    return out

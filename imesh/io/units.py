@@ -21,7 +21,7 @@ from ..errors import ImplausibleMotionError, OptionError
 from ..human.errors import RigRecognitionError, UnitsError
 from ..human.rig import recognize
 from ..human.rig_result import RECOGNIZED, Recognition
-from .floor import fit_floor
+from .floor import fit_floor, floor_offset, level_positions, lowest_markers
 from .raw import RawMotion
 
 log = logging.getLogger(__name__)
@@ -273,19 +273,8 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
     level = None
     if ground == "auto":
         level = fit_floor(pos, raw.valid, raw.fps)
-        if level.levelled:  # about the plane's pivot, in place a block of frames at a time
-            rot_level, pivot = level.rotation, level.pivot_m
-            for a in range(0, len(pos), _BLOCK_FRAMES):
-                pos[a:a + _BLOCK_FRAMES] = (pos[a:a + _BLOCK_FRAMES] - pivot) @ rot_level.T + pivot
-        z = np.where(raw.valid, pos[..., 2], np.nan)
-        seen = raw.valid.any(axis=1)
-        lowest = np.nanmin(z[seen], axis=1) if seen.any() else np.zeros(0)
-        est = float(np.percentile(lowest, 2)) if lowest.size else 0.0
-        if abs(est) > 0.03:
-            floor = est
-            ground_why = f"lowest markers sit at {est:+.3f} m: shifted to the floor"
-        else:
-            ground_why = f"lowest markers at {est:+.3f} m: kept"
+        level_positions(pos, level, _BLOCK_FRAMES)
+        floor, ground_why = floor_offset(lowest_markers(pos, raw.valid))
     elif ground == "none":
         ground_why = "kept (ground='none')"
     else:
