@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.motion import MarkerMotion
+
 #: A planted foot marker's horizontal speed stays below this [m/s].
 PLANTED_SPEED_M_S = 0.15
 #: A direction must be spanned this far (5th-95th percentile) by planted samples to be fitted.
@@ -192,14 +194,14 @@ def level_positions(positions_m: np.ndarray, fit: FloorFit, block: int = 16384) 
         positions_m[a:a + block] = (positions_m[a:a + block] - pivot) @ rot.T + pivot
 
 
-def ground_together(motions: Sequence) -> list:
+def ground_together(motions: Sequence[MarkerMotion]) -> list[MarkerMotion]:
     """People captured together (a pair), read with ``ground="none"``, put on one floor: one
     plane fitted to all their planted feet, the same levelling rotation and the same vertical
     shift for all (each clip grounded alone would put the salsa partners' floors 55 mm apart:
     partner B's lowest markers sit 55 mm up, A's within the 3 cm kept).
 
     Args:
-        motions: :class:`imesh.core.motion.MarkerMotion` of the people, in one world.
+        motions: the people, in one world (each read with ``ground="none"``).
 
     Returns:
         The motions levelled and shifted, ``meta`` recording the shared decision
