@@ -150,3 +150,32 @@ def test_a_pair_is_put_on_one_floor():
     assert abs(shift) > 0.05
     low = min(np.nanmin(a.positions_m[..., 2]), np.nanmin(b.positions_m[..., 2]))
     assert -0.1 < low < 0.0  # the shared floor at z = 0: the 2nd percentile, some frames below
+
+
+def test_adapt_people_puts_both_performers_on_one_floor(tmp_path, capsys):
+    """`imesh adapt A --people B` morphs the couple in one mesh on their shared floor: the
+    height between their pelvises is the pair reader's within 5 mm (the morph's filtering),
+    not the one of each clip on its own floor (11-70 mm off: each clip's own levelling and
+    floor shift)."""
+    from conftest import run_cli
+
+    from imesh.human.standard import to_standard
+    from imesh.io.clip import read_clip, read_pair
+    from imesh.io.npz import load_marker_motion
+
+    path_a = data_root() / "mocap" / "cmu_60_10_salsa_partnerA_sl_scaled.bvh"
+    path_b = data_root() / "mocap" / "cmu_61_10_salsa_partnerB_sl_scaled.bvh"
+    out = tmp_path / "pair.npz"
+    status, _ = run_cli(capsys, "-q", "adapt", path_a, "--people", path_b, "--fps", "30",
+                        "-o", out)
+    assert status == 0
+    written = load_marker_motion(out)
+    gap = (written.positions_m[:, written.index("a:pelvis"), 2]
+           - written.positions_m[:, written.index("b:pelvis"), 2])
+    a, b = (to_standard(m.resample(30.0)) for m in read_pair(path_a, path_b))
+    pair_gap = a.positions_m[:, a.index("pelvis"), 2] - b.positions_m[:, b.index("pelvis"), 2]
+    alone_a, alone_b = (to_standard(read_clip(p).resample(30.0)) for p in (path_a, path_b))
+    alone_gap = (alone_a.positions_m[:, alone_a.index("pelvis"), 2]
+                 - alone_b.positions_m[:, alone_b.index("pelvis"), 2])
+    assert np.abs(gap - pair_gap).max() < 0.005  # the morph's smoothing: within 5 mm
+    assert np.abs(gap - alone_gap).max() > 0.05  # each on its own floor: 11-70 mm off

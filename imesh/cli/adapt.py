@@ -10,6 +10,7 @@ from tqdm import tqdm
 from ..human.standard import to_standard
 from ..io import load_motion
 from ..io.atomic import write_json
+from ..io.floor import ground_together
 from ..io.npz import save_marker_motion
 from ..morph.adapt import AdaptResult, adapt_motion
 from ..morph.problem import MorphConfig, MorphWeights
@@ -19,15 +20,18 @@ from .loading import load_clip, parse_units
 def run(args) -> int:
     """Adapt the clip (and ``--people``, a second performer in the same mesh), write the
     markers and the report, print one line; returns the exit status."""
-    motion = load_clip(args)
     people = None
-    if args.people:
+    if not args.people:
+        motion = load_clip(args)
+    else:  # both performers read as the files have them, then put on one floor together
+        motion = load_clip(args, ground="none")
         people = load_motion(args.people, units=parse_units(args.units), up_axis=args.up_axis,
-                             fps=args.source_fps, body_model=args.body_model)
+                             ground="none", fps=args.source_fps, body_model=args.body_model)
         if args.fps:
             people = people.resample(args.fps)
         if args.rig:
             people = to_standard(people, rig=args.rig)
+        motion, people = ground_together([motion, people])
     result = _adapt(args, motion, people)
     report = result.report()
     save_marker_motion(args.output, result.adapted)
