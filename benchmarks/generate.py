@@ -1,12 +1,12 @@
 """Configurations generated from the URDF alone (``imesh robots init``) against hand-written ones.
 
-    python benchmarks/generate.py [--clips walk wave] [--robots jvrc1 g1 hrp4c romeo icub]
+    python benchmarks/generate.py [--clips walk wave] [--robots jvrc1 g1 hrp4c romeo icub talos]
                                   [--physics] [--out DIR]
 
 For the shipped robots (JVRC-1, G1, HRP-4C) each clip is retargeted twice, with the hand-written
-configuration (``hand``) and with the one generated from the robot's URDF (``gen``); Romeo and
-iCub (example-robot-data) have only the generated one. Every motion and its adapted markers are
-written to ``--out``, read back and scored by ``imesh.evaluate.evaluate_motion``, as
+configuration (``hand``) and with the one generated from the robot's URDF (``gen``); Romeo,
+iCub and Talos (example-robot-data) have only the generated one. Every motion and its adapted
+markers are written to ``--out``, read back and scored by ``imesh.evaluate.evaluate_motion``, as
 ``imesh evaluate`` does. Columns: marker RMS [mm] and its difference to the hand-written run,
 close-pair error (against the source clip), sole deviation, skid, limit-violation frames, ZMP
 inside fraction and mean error [mm], self-collision frames deeper than 5 mm on the capsules
@@ -28,7 +28,8 @@ CLIPS = {"walk": "cmu_02_01_walk.bvh", "wave": "cmu_141_16_wave_hello.bvh",
          "veer": "cmu_16_11_walk_veer_left.bvh", "wash": "cmu_02_10_wash_self_cc3rig.bvh"}
 #: Robots without a hand-written configuration: example-robot-data files.
 GENERATED_ONLY = {"romeo": "romeo_description/urdf/romeo.urdf",
-                  "icub": "icub_description/robots/icub.urdf"}
+                  "icub": "icub_description/robots/icub.urdf",
+                  "talos": "talos_data/robots/talos_reduced.urdf"}
 
 
 def erd_file(suffix: str) -> Path:
@@ -60,7 +61,8 @@ def generated(name: str, out: Path):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clips", nargs="+", default=["walk", "wave"], choices=list(CLIPS))
-    ap.add_argument("--robots", nargs="+", default=["jvrc1", "g1", "hrp4c", "romeo", "icub"])
+    ap.add_argument("--robots", nargs="+",
+                    default=["jvrc1", "g1", "hrp4c", "romeo", "icub", "talos"])
     ap.add_argument("--physics", action="store_true", help="also run the DART check")
     ap.add_argument("--out", default="out/generate", help="folder of configurations and motions")
     args = ap.parse_args(argv)
