@@ -179,3 +179,16 @@ def test_adapt_people_puts_both_performers_on_one_floor(tmp_path, capsys):
                  - alone_b.positions_m[:, alone_b.index("pelvis"), 2])
     assert np.abs(gap - pair_gap).max() < 0.005  # the morph's smoothing: within 5 mm
     assert np.abs(gap - alone_gap).max() > 0.05  # each on its own floor: 11-70 mm off
+
+
+def test_scattered_planted_samples_tell_no_floor():
+    """Planted samples spread 0.5 m up and down are not one floor (0.29 m from the best
+    plane): the fit says so and leaves the clip as it is."""
+    from imesh.io.floor import fit_plane
+
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.uniform(0, 3, 200), rng.uniform(-0.1, 0.1, 200),
+                           rng.uniform(-0.5, 0.5, 200)])
+    fit = fit_plane(pts)
+    assert not fit.levelled and fit.rotation.tolist() == np.eye(3).tolist()
+    assert "not one floor" in fit.reason and fit.residual_rms_m > 0.2

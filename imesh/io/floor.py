@@ -151,6 +151,10 @@ def fit_plane(pts: np.ndarray) -> FloorFit:
         r = pts[:, 2] - design @ coef
         mad = 1.4826 * float(np.median(np.abs(r[keep] - np.median(r[keep]))))
         keep = np.abs(r) <= max(3.0 * mad, 0.010)
+        if keep.sum() < MIN_SAMPLES:  # no floor that enough samples agree on
+            return FloorFit(np.zeros(2), centre, float(np.std(pts[:, 2])), span, n, False,
+                            f"not levelled: fewer than {MIN_SAMPLES} of {n} planted foot "
+                            "samples lie on one plane")
     rms = float(np.sqrt(np.mean(r[keep] ** 2)))
     slope = coef[1:] @ axes[fitted]  # back to dz/dx, dz/dy
     pivot = np.array([centre[0], centre[1], coef[0]])
