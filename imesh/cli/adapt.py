@@ -3,18 +3,17 @@ spacetime morph (:func:`imesh.morph.adapt.adapt_motion`)."""
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 from tqdm import tqdm
 
-from ..human.standard import to_standard
-from ..io import load_motion
 from ..io.atomic import write_json
 from ..io.floor import ground_together
 from ..io.npz import save_marker_motion
 from ..morph.adapt import AdaptResult, adapt_motion
 from ..morph.problem import MorphConfig, MorphWeights
-from .loading import load_clip, parse_units
+from .loading import load_clip
 
 
 def run(args) -> int:
@@ -24,14 +23,9 @@ def run(args) -> int:
     if not args.people:
         motion = load_clip(args)
     else:  # both performers read as the files have them, then put on one floor together
-        motion = load_clip(args, ground="none")
-        people = load_motion(args.people, units=parse_units(args.units), up_axis=args.up_axis,
-                             ground="none", fps=args.source_fps, body_model=args.body_model)
-        if args.fps:
-            people = people.resample(args.fps)
-        if args.rig:
-            people = to_standard(people, rig=args.rig)
-        motion, people = ground_together([motion, people])
+        motion, people = ground_together([
+            load_clip(args, ground="none"),
+            load_clip(argparse.Namespace(**{**vars(args), "clip": args.people}), ground="none")])
     result = _adapt(args, motion, people)
     report = result.report()
     save_marker_motion(args.output, result.adapted)

@@ -221,16 +221,25 @@ def ground_together(motions: Sequence[MarkerMotion]) -> list[MarkerMotion]:
         moved.append(pos)
     offset, why = floor_offset(np.concatenate([lowest_markers(p, m.valid)
                                                for p, m in zip(moved, motions, strict=True)]))
+    decided = floor_meta(fit, offset, why, " (with the partner)")
     out = []
     for pos, m in zip(moved, motions, strict=True):
         pos[..., 2] -= offset
         meta = {k: v for k, v in m.meta.items()
                 if k not in ("floor_level_rotation", "floor_level_pivot_m")}
-        meta.update(floor_offset_m=offset, floor_reason=f"{why} (with the partner)",
-                    floor_tilt_rad=fit.tilt_rad if fit.levelled else 0.0,
-                    floor_level_reason=f"{fit.reason} (with the partner)")
-        if fit.levelled:
-            meta.update(floor_level_rotation=fit.rotation.tolist(),
-                        floor_level_pivot_m=fit.pivot_m.tolist())
-        out.append(m.with_positions(pos, meta=meta))
+        out.append(m.with_positions(pos, meta={**meta, **decided}))
     return out
+
+
+def floor_meta(fit: FloorFit, offset_m: float, reason: str, note: str = "") -> dict:
+    """The ``meta`` entries of a floor decision: ``floor_offset_m``, ``floor_reason``,
+    ``floor_tilt_rad``, ``floor_level_reason``, and ``floor_level_rotation`` /
+    ``floor_level_pivot_m`` when levelled (what :func:`imesh.scene.human_scene` applies to the
+    props); ``note`` is appended to both reasons."""
+    meta = {"floor_offset_m": offset_m, "floor_reason": reason + note,
+            "floor_tilt_rad": fit.tilt_rad if fit.levelled else 0.0,
+            "floor_level_reason": fit.reason + note}
+    if fit.levelled:
+        meta.update(floor_level_rotation=fit.rotation.tolist(),
+                    floor_level_pivot_m=fit.pivot_m.tolist())
+    return meta

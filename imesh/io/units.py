@@ -21,7 +21,7 @@ from ..errors import ImplausibleMotionError, OptionError
 from ..human.errors import RigRecognitionError, UnitsError
 from ..human.rig import recognize
 from ..human.rig_result import RECOGNIZED, Recognition
-from .floor import fit_floor, floor_offset, level_positions, lowest_markers
+from .floor import fit_floor, floor_meta, floor_offset, level_positions, lowest_markers
 from .raw import RawMotion
 
 log = logging.getLogger(__name__)
@@ -296,11 +296,7 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
         up_axis=up, up_axis_reason=up_why, floor_offset_m=floor, floor_reason=ground_why,
     )
     if level is not None:
-        meta.update(floor_tilt_rad=level.tilt_rad if level.levelled else 0.0,
-                    floor_level_reason=level.reason)
-        if level.levelled:
-            meta.update(floor_level_rotation=level.rotation.tolist(),
-                        floor_level_pivot_m=level.pivot_m.tolist())
+        meta.update(floor_meta(level, floor, ground_why))
     if body is not None:
         meta.update(rig_recognition=body, standing_height_m=body.height * scale,
                     rig_confidence=body.overall_confidence)
