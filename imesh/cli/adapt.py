@@ -3,17 +3,15 @@ spacetime morph (:func:`imesh.morph.adapt.adapt_motion`)."""
 
 from __future__ import annotations
 
-import argparse
 import sys
 
 from tqdm import tqdm
 
 from ..io.atomic import write_json
-from ..io.floor import ground_together
 from ..io.npz import save_marker_motion
 from ..morph.adapt import AdaptResult, adapt_motion
 from ..morph.problem import MorphConfig, MorphWeights
-from .loading import load_clip
+from .loading import load_clip, load_pair
 
 
 def run(args) -> int:
@@ -22,10 +20,8 @@ def run(args) -> int:
     people = None
     if not args.people:
         motion = load_clip(args)
-    else:  # both performers read as the files have them, then put on one floor together
-        motion, people = ground_together([
-            load_clip(args, ground="none"),
-            load_clip(argparse.Namespace(**{**vars(args), "clip": args.people}), ground="none")])
+    else:  # both performers on one floor
+        motion, people = load_pair(args, args.people)
     result = _adapt(args, motion, people)
     report = result.report()
     save_marker_motion(args.output, result.adapted)

@@ -3,10 +3,13 @@ options of :func:`imesh.cli.parsers._add_load_options`."""
 
 from __future__ import annotations
 
+import argparse
+
 from ..core.motion import MarkerMotion, require_frames
 from ..io.clip import parse_units, read_clip
+from ..io.floor import ground_together
 
-__all__ = ["PIPELINE_MIN_FRAMES", "load_clip", "parse_units"]
+__all__ = ["PIPELINE_MIN_FRAMES", "load_clip", "load_pair", "parse_units"]
 
 #: Frames the adapt/retarget pipeline needs. Every clip is low-passed before the solve
 #: (:mod:`imesh.human.filtering`: Butterworth order 4, run forwards and backwards, whose edge
@@ -38,3 +41,17 @@ def load_clip(args, *, apply_rig: bool = True, ground: str = "auto") -> MarkerMo
     if args.command in ("adapt", "retarget"):
         require_frames(motion, PIPELINE_MIN_FRAMES, f"imesh {args.command} ({_WHY})")
     return motion
+
+
+def load_pair(args, other: str) -> tuple[MarkerMotion, MarkerMotion]:
+    """``args.clip`` and ``other`` (a second performer captured with it) read with the same
+    options as :func:`load_clip`, each as the file has it, then put on one floor together
+    (:func:`imesh.io.floor.ground_together`), as :func:`imesh.io.clip.read_pair` does.
+
+    Raises:
+        ImeshError: as :func:`load_clip`.
+    """
+    a = load_clip(args, ground="none")
+    b = load_clip(argparse.Namespace(**{**vars(args), "clip": other}), ground="none")
+    a, b = ground_together([a, b])
+    return a, b

@@ -8,7 +8,6 @@ verified before anything is written (exit 3 unless ``--force``).
 
 from __future__ import annotations
 
-import argparse
 import json
 import logging
 from pathlib import Path
@@ -18,14 +17,13 @@ from ..evaluate.table import format_table
 from ..evaluate.verify import verify_motion
 from ..io.atomic import write_json
 from ..io.clip import read_pair
-from ..io.floor import ground_together
 from ..io.robot_motion import save_robot_motion
 from ..partners import PairConfig, detect_holds, evaluate_pair, retarget_pair
 from ..partners.evaluate import evaluate_pair_motions
 from ..partners.pair import PartnerError
 from ..pipeline.retarget import RetargetConfig, working_markers
 from ..robot import load_robot
-from .loading import load_clip
+from .loading import load_pair
 
 log = logging.getLogger(__name__)
 
@@ -89,10 +87,7 @@ def run_pair(args, config) -> int:
                            "yet (each robot's file carries its adapted markers; imesh evaluate "
                            "and imesh view take each file; docs/partners.md)")
     frames = parse_frames(getattr(args, "frames", None))
-    # both people read as the files have them, then put on one floor together
-    motion_a, motion_b = ground_together([
-        load_clip(args, ground="none"),
-        load_clip(argparse.Namespace(**{**vars(args), "clip": args.partner}), ground="none")])
+    motion_a, motion_b = load_pair(args, args.partner)  # both people on one floor
     if frames is not None:
         for m, path in ((motion_a, args.clip), (motion_b, args.partner)):
             if frames[1] > m.n_frames:
