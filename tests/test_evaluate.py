@@ -144,6 +144,36 @@ def test_sliding_feet_skid(jvrc1):
         assert skid.fraction_over_10mm == 0.0
 
 
+def test_planned_support_is_judged_as_planned(jvrc1):
+    """A motion that carries its planned contact modes is judged by them: the robot standing
+    for 1 s and then sliding both feet at 0.15 m/s for 1 s. Planned as a slide, the standing
+    part has no skid and the slide is reported apart (5 mm per 30-fps frame); without the
+    plan the detection calls the whole clip support and the skid is their mixture; a plan that
+    swings the left foot leaves its flat, sliding sole out of the footprints."""
+    fps = 30.0
+    q = standing_q(jvrc1, 60)
+    q[30:, 0] += 0.15 * np.arange(1, 31) / fps
+    modes = np.ones((60, 2), dtype=np.int8)
+    modes[30:] = 2  # slide
+    planned = RobotMotion(q=q, fps=fps, robot=jvrc1.name, joint_names=jvrc1.joint_names,
+                          contact_modes=modes)
+    rep = evaluate_motion(jvrc1, planned)
+    skid = rep["foot_skid_mm_per_frame"]
+    assert skid["value"] == pytest.approx(0.0, abs=1e-9)
+    assert skid["slide_mm_per_frame"] == pytest.approx(5.0, rel=1e-6)
+    # frames 0-28 per foot: the frame beside a slide counts with it
+    assert skid["support_samples"] == 2 * 28 and skid["support"].startswith("planned")
+    assert rep["sole_deviation_mm"]["value"] == pytest.approx(0.0, abs=1e-4)
+    detected = evaluate_motion(jvrc1, motion_of(jvrc1, q))
+    assert detected["foot_skid_mm_per_frame"]["value"] == pytest.approx(5.0 * 30 / 59, rel=1e-6)
+    assert detected["sole_deviation_mm"]["value"] > 70.0  # the slide's sole off its footprint
+    modes[30:] = [0, 1]  # the left foot swung: its slide frames are not judged
+    swung = evaluate_motion(jvrc1, RobotMotion(q=q, fps=fps, robot=jvrc1.name,
+                                               joint_names=jvrc1.joint_names,
+                                               contact_modes=modes))
+    assert swung["foot_skid_mm_per_frame"]["support_samples"] == 59 + 29
+
+
 def test_support_phases_follow_the_soles(jvrc1):
     """A foot lifted 10 cm for a third of a second leaves support; a fast foot touching the
     ground with its toe only is not in support either; a fast foot lying flat on the ground

@@ -54,6 +54,7 @@ def test_wholebody_solves_the_wave(wave):
     # 81 mm before the normal-force bound clipped the ankle polygons at 1.3 m g (docs/wholebody.md)
     assert m["marker_rms_mm"] <= 95.0
     assert res.wholebody.history[-1].sole_error_m <= 2e-3
+    np.testing.assert_array_equal(res.motion.contact_modes, res.support.modes)
 
 
 def test_cli_retarget_writes_the_contract(mocap, tmp_path):
@@ -157,3 +158,11 @@ def test_evaluate_reads_the_adapted_markers_from_the_motion_file(mocap, tmp_path
     assert reports[0]["reference"] == reports[1]["reference"] == "adapted markers"
     assert reports[0]["value"] == pytest.approx(reports[1]["value"], abs=1e-9)
     assert reports[0]["value"] < 60.0
+    # the plan's support phases travel in the file: the soles are judged against them
+    with np.load(out) as data:
+        modes = data["contact_modes"]
+        assert modes.shape == (data["joint_positions"].shape[0], 2)
+    assert ((modes == 0).any(axis=0) & (modes == 1).any(axis=0)).all()  # steps: swing, stance
+    rep = json.loads((tmp_path / "rep0.json").read_text())
+    assert rep["sole_deviation_mm"]["support"].startswith("planned")
+    assert rep["sole_deviation_mm"]["value"] <= 1.0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import zipfile
 from types import SimpleNamespace
 
@@ -9,6 +10,7 @@ import numpy as np
 import pytest
 
 from imesh import InvalidMotionError, MotionFileError, OptionError, UnsupportedFormatError
+from imesh.contacts.phases import Contacts
 from imesh.core.robot_motion import CSV_BASE_COLUMNS, RobotMotion
 from imesh.io.robot_motion import NPZ_KEYS, load_robot_motion, save_robot_motion
 
@@ -27,6 +29,30 @@ def make_motion(n_frames: int = 25, fps: float = 30.0, robot: str = "toy") -> Ro
 
 
 TOY = SimpleNamespace(name="toy", joint_names=JOINTS)
+
+
+def test_contact_modes_round_trip_and_validation(tmp_path):
+    """The planned contact modes travel in a .npz (not in a .csv), are sliced with the frames
+    and must be (T, 2) integers 0-3."""
+    motion = make_motion()
+    modes = np.ones((25, 2), dtype=np.int8)
+    modes[5:12, 0] = 0  # a left swing
+    modes[15:20, 1] = 2  # a right slide
+    planned = dataclasses.replace(motion, contact_modes=modes)
+    save_robot_motion(tmp_path / "m.npz", planned)
+    back = load_robot_motion(tmp_path / "m.npz")
+    np.testing.assert_array_equal(back.contact_modes, modes)
+    assert not back.contact_modes.flags.writeable
+    np.testing.assert_array_equal(back.frames(4, 13).contact_modes, modes[4:13])
+    save_robot_motion(tmp_path / "m.csv", planned)
+    assert load_robot_motion(tmp_path / "m.csv").contact_modes is None
+    contacts = Contacts.from_modes(modes, 30.0)
+    np.testing.assert_array_equal(contacts.modes, modes)
+    assert contacts.phases("left") == [(0, 5), (12, 25)]
+    assert contacts.moving[15:20, 1].all() and contacts.moving.sum() == 5
+    for bad in (modes[:-1], modes[:, :1], modes + 3, modes.astype(float) / 2):
+        with pytest.raises(InvalidMotionError, match="contact_modes"):
+            dataclasses.replace(motion, contact_modes=bad)
 
 
 @pytest.mark.parametrize("suffix", [".npz", ".csv"])

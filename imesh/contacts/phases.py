@@ -179,6 +179,14 @@ class Contacts:
             out[self.pivoting & self.support] = PIVOT
         return out
 
+    @classmethod
+    def from_modes(cls, modes: np.ndarray, fps: float) -> Contacts:
+        """The timeline of (T, 2) per-foot :attr:`modes` (e.g. a motion's stored
+        ``RobotMotion.contact_modes``); ``Contacts.from_modes(c.modes, c.fps)`` equals ``c``."""
+        modes = np.asarray(modes)
+        return cls(support=modes != SWING, fps=float(fps),
+                   sliding=(modes == SLIDE) | (modes == PIVOT), pivoting=modes == PIVOT)
+
     @property
     def moving(self) -> np.ndarray:
         """(T, 2) bool support frames in which the foot slides or pivots."""

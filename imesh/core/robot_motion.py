@@ -30,6 +30,25 @@ CSV_BASE_COLUMNS: tuple[str, ...] = (
 _QUAT_TOL = 1e-3
 
 
+#: Number of contact modes of :attr:`RobotMotion.contact_modes` (swing, stance, slide, pivot).
+N_CONTACT_MODES = 4
+
+
+def _checked_modes(modes, n_frames: int, where: str) -> np.ndarray:
+    """``contact_modes`` as a read-only (T, 2) int8 array, or InvalidMotionError."""
+    arr = np.asarray(modes)
+    if arr.shape != (n_frames, 2):
+        raise InvalidMotionError(f"{where}: contact_modes must have shape ({n_frames}, 2) "
+                                 f"[left, right] per frame, got {arr.shape}")
+    if arr.size and (not np.issubdtype(arr.dtype, np.integer)
+                     or arr.min() < 0 or arr.max() >= N_CONTACT_MODES):
+        raise InvalidMotionError(f"{where}: contact_modes must be integers 0 (swing), "
+                                 "1 (stance), 2 (slide) or 3 (pivot)")
+    out = arr.astype(np.int8)
+    out.setflags(write=False)
+    return out
+
+
 class RobotLike(Protocol):
     """What :func:`load_robot_motion` needs of a robot (``imesh.robot.Robot`` has it)."""
 
@@ -54,6 +73,12 @@ class RobotMotion:
         provenance: where the motion came from (the clip and its hash, the lead-in/out
             frames, the robot configuration, the imesh version; :mod:`imesh.core.provenance`),
             when known: imesh's retarget sets it and its files store it; None otherwise.
+        contact_modes: (T, 2) int8 [left, right] the contact mode the motion was planned
+            with, per foot and frame: 0 swing, 1 stance, 2 slide, 3 pivot
+            (:data:`imesh.contacts.phases.MODE_NAMES`; ``Contacts.from_modes`` reads it back),
+            when known: the whole-body solve plans it, imesh's .npz files store it, and the
+            evaluator and the physics check then judge the soles against the planned support
+            instead of detecting it; None otherwise. Read-only.
     """
 
     q: np.ndarray
@@ -62,6 +87,7 @@ class RobotMotion:
     joint_names: tuple[str, ...]
     adapted: MarkerMotion | None = None
     provenance: Provenance | None = None
+    contact_modes: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         where = f"robot motion ({self.robot or 'unnamed robot'})"
@@ -100,6 +126,9 @@ class RobotMotion:
         q[:, 3:7] /= norm[:, None]
         q.setflags(write=False)
         object.__setattr__(self, "q", q)
+        if self.contact_modes is not None:
+            object.__setattr__(self, "contact_modes", _checked_modes(self.contact_modes,
+                                                                     len(q), where))
         object.__setattr__(self, "fps", float(self.fps))
         object.__setattr__(self, "robot", str(self.robot))
         object.__setattr__(self, "joint_names", names)
@@ -165,7 +194,9 @@ class RobotMotion:
             raise OptionError("frame range", (start, stop),
                               f"a non-empty range within 0..{self.n_frames}")
         adapted = None if self.adapted is None else self.adapted.frames(start, stop)
-        return dataclasses.replace(self, q=q, adapted=adapted, provenance=None)
+        modes = None if self.contact_modes is None else self.contact_modes[slice(start, stop)]
+        return dataclasses.replace(self, q=q, adapted=adapted, provenance=None,
+                                   contact_modes=modes)
 
     @classmethod
     def from_parts(cls, base_position: np.ndarray, base_quat_xyzw: np.ndarray,

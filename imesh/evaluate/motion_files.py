@@ -82,7 +82,8 @@ def load_motion_file(path: str | os.PathLike, robot, fps: float | None = None) -
     if fps is not None and abs(fps - motion.fps) > 1e-6 * motion.fps:
         log.warning("%s: the file says %g fps; using %g fps as asked", path, motion.fps, fps)
         motion = RobotMotion(q=motion.q, fps=fps, robot=motion.robot,
-                             joint_names=motion.joint_names, adapted=motion.adapted)
+                             joint_names=motion.joint_names, adapted=motion.adapted,
+                             contact_modes=motion.contact_modes)
     return motion
 
 

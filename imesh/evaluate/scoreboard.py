@@ -25,6 +25,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..contacts.phases import Contacts
 from ..core.robot_motion import RobotMotion
 from ..errors import ImeshError, _listing
 from ..metrics.collision import (
@@ -35,6 +36,7 @@ from ..metrics.collision import (
 )
 from ..metrics.derivatives import motion_derivatives
 from ..metrics.dynamics import MU, reference_dynamics
+from ..metrics.flight import skid_apart_from_slides
 from ..metrics.limits import limit_violations
 from ..metrics.markers import (
     close_pair_error,
@@ -42,9 +44,9 @@ from ..metrics.markers import (
     marker_rms_by_name_mm,
     marker_rms_mm,
 )
-from ..metrics.skid import SKID_THRESHOLD_MM, foot_skid, sole_deviation
+from ..metrics.skid import SKID_THRESHOLD_MM, sole_deviation
 from ..metrics.soles import SoleTracks, sole_tracks
-from ..metrics.support import EVALUATOR_SUPPORT, SupportDetection, detect_support, planted_feet
+from ..metrics.support import EVALUATOR_SUPPORT, SupportDetection, motion_support, planted_feet
 from ..metrics.zmp import multibody_zmp, zmp_jitter_mm, zmp_report
 from ..physics import PhysicsConfig, simulate_motion
 from ..viz.physics import plot_physics
@@ -186,12 +188,13 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
     t0 = time.perf_counter()
     soles = sole_tracks(robot, q, fps)
     support_config = support_config or EVALUATOR_SUPPORT  # flat sliding soles carry the body
-    support = detect_support(soles, support_config).support
+    contacts = motion_support(soles, motion.contact_modes, support_config)
     out.update(_collision_metrics(robot, q, soles, support_config, collisions))
     timing["collision"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    out.update(_kinematics_metrics(robot, q, fps, soles, support, support_config))
+    out.update(_kinematics_metrics(robot, q, fps, soles, contacts, support_config,
+                                   planned=motion.contact_modes is not None))
     timing["kinematics"] = time.perf_counter() - t0
 
     if physics_result is not None:
@@ -290,11 +293,13 @@ def _collision_metrics(robot, q: np.ndarray, soles: SoleTracks,
 
 
 def _kinematics_metrics(robot, q: np.ndarray, fps: float, soles: SoleTracks,
-                        support: np.ndarray, support_config: SupportDetection | None
-                        ) -> dict[str, dict]:
+                        contacts: Contacts, support_config: SupportDetection | None, *,
+                        planned: bool) -> dict[str, dict]:
     """The soles during support (skid, deviation, tilt), the joint limits, the reference
-    dynamics (torques, friction) and the ZMP; ``support`` (T, 2) bool per sole."""
-    out = _sole_metrics(soles, support, support_config)
+    dynamics (torques, friction) and the ZMP; ``contacts``: the support phases (``planned``:
+    the motion's own, else detected)."""
+    support = contacts.support
+    out = _sole_metrics(soles, contacts, support_config, planned=planned)
     lim = limit_violations(robot, q, fps)
     out["limit_violation_frames"] = _metric(
         "limit_violation_frames", int(lim.any.sum()), position=int(lim.position.sum()),
@@ -310,32 +315,40 @@ def _kinematics_metrics(robot, q: np.ndarray, fps: float, soles: SoleTracks,
     return out
 
 
-def _sole_metrics(soles: SoleTracks, support: np.ndarray,
-                  support_config: SupportDetection | None) -> dict[str, dict]:
+def _sole_metrics(soles: SoleTracks, contacts: Contacts,
+                  support_config: SupportDetection | None, *, planned: bool) -> dict[str, dict]:
     """``foot_skid_mm_per_frame``, ``sole_deviation_mm`` and ``sole_tilt_deg`` over the
-    support frames."""
+    support frames; a planned slide or pivot (and the frames next to it) counts apart from
+    skid (``slide_mm_per_frame``) and is no footprint."""
     out: dict[str, dict] = {}
-    skid = foot_skid(soles, support)
+    support, moving = np.asarray(contacts.support), contacts.moving
+    origin = ("planned (the motion's contact modes)" if planned else
+              "detected from the soles")
+    skid, slide = skid_apart_from_slides(soles, support, moving)
     if skid.samples:
         out["foot_skid_mm_per_frame"] = _metric(
             "foot_skid_mm_per_frame", skid.mean_mm_per_frame,
             fraction_over_10mm=skid.fraction_over_10mm, max_mm_per_frame=skid.max_mm_per_frame,
-            support_samples=skid.samples, threshold_mm=SKID_THRESHOLD_MM)
+            support_samples=skid.samples, threshold_mm=SKID_THRESHOLD_MM, support=origin,
+            slide_samples=slide.samples,
+            slide_mm_per_frame=slide.mean_mm_per_frame if slide.samples else None)
     else:
         out["foot_skid_mm_per_frame"] = _missing(
-            "foot_skid_mm_per_frame", "no support frame detected (no sole within "
+            "foot_skid_mm_per_frame", "no support frame planned" if planned else
+            "no support frame detected (no sole within "
             f"{(support_config or SupportDetection()).height_m * 1e3:.0f} mm of the ground and "
             "slow)")
-    dev = sole_deviation(soles, support)
+    dev = sole_deviation(soles, support & ~moving)
     if dev.samples:
         out["sole_deviation_mm"] = _metric("sole_deviation_mm", dev.deviation_mm,
                                            footprint="median sole centre of the phase on z = 0",
-                                           support_samples=dev.samples)
+                                           support_samples=dev.samples, support=origin)
         out["sole_tilt_deg"] = _metric("sole_tilt_deg", dev.tilt_deg,
                                        support_samples=dev.samples)
     else:
         for name in ("sole_deviation_mm", "sole_tilt_deg"):
-            out[name] = _missing(name, "no support frame detected")
+            out[name] = _missing(name, "no support frame planned" if planned
+                                 else "no support frame detected")
     return out
 
 

@@ -6,12 +6,15 @@ pinocchio. Formats written by :func:`save_robot_motion` (atomically) and read by
 
 - ``.npz`` with the keys ``fps`` (float), ``robot`` (str), ``joint_names`` (n,) str,
   ``base_position`` (T, 3) [m], ``base_quat_xyzw`` (T, 4), ``joint_positions`` (T, n) [rad];
-  optionally ``provenance`` (str: one JSON object, :class:`imesh.core.provenance.Provenance`)
-  and the adapted markers ``adapted_positions_m`` (T, M, 3) [m], ``adapted_marker_names`` (M,).
+  optionally ``provenance`` (str: one JSON object, :class:`imesh.core.provenance.Provenance`),
+  the adapted markers ``adapted_positions_m`` (T, M, 3) [m], ``adapted_marker_names`` (M,),
+  and the planned contact modes ``contact_modes`` (T, 2) int8 [left, right] (0 swing,
+  1 stance, 2 slide, 3 pivot: :attr:`~imesh.core.robot_motion.RobotMotion.contact_modes`).
 - ``.csv``: a comment line ``# imesh robot motion: robot=<name> fps=<fps> ...``, optionally a
   comment line ``# imesh provenance: {...}`` (the same JSON), then a header row
   ``frame,time_s,base_x,base_y,base_z,base_qx,base_qy,base_qz,base_qw,<joint names...>`` and one
-  row per frame (``pandas.read_csv(path, comment="#")`` reads it too).
+  row per frame (``pandas.read_csv(path, comment="#")`` reads it too). A .csv keeps neither
+  the adapted markers nor the contact modes.
 
 Files without provenance (written by imesh before it had one, or by other tools) load with
 ``motion.provenance`` None.
@@ -68,6 +71,8 @@ def save_robot_motion(path: str | os.PathLike, motion: RobotMotion, markers=None
         extra: dict[str, Any] = {}
         if motion.provenance is not None:
             extra["provenance"] = np.array(motion.provenance.to_json(), dtype=np.str_)
+        if motion.contact_modes is not None:
+            extra["contact_modes"] = motion.contact_modes
         if markers is not None:
             if markers.n_frames != motion.n_frames:
                 raise InvalidMotionError(f"{path}: {markers.n_frames} frames of adapted markers "
@@ -126,9 +131,10 @@ def load_robot_motion(path: str | os.PathLike, robot: RobotLike | str | None = N
     if not path.is_file():
         raise MotionFileError(str(path), "no such file")
     if suffix == ".npz":
-        fps, name, joints, base_pos, quat, q_joints, provenance = _read_npz(path)
+        fps, name, joints, base_pos, quat, q_joints, provenance, modes = _read_npz(path)
     elif suffix == ".csv":
         fps, name, joints, base_pos, quat, q_joints, provenance = _read_csv(path, robot)
+        modes = None
     else:
         raise UnsupportedFormatError(str(path), f"unknown robot motion extension {suffix!r}; "
                                      "valid: .npz, .csv")
@@ -143,6 +149,8 @@ def load_robot_motion(path: str | os.PathLike, robot: RobotLike | str | None = N
     try:
         motion = RobotMotion.from_parts(base_pos, quat, q_joints, fps=fps, robot=name,
                                         joint_names=joints)
+        if modes is not None:
+            motion = dataclasses.replace(motion, contact_modes=modes)
     except InvalidMotionError as exc:
         raise MotionFileError(str(path), str(exc)) from None
     if provenance is not None:
@@ -236,7 +244,8 @@ def _read_npz(path: Path):
         raise MotionFileError(str(path), f"joint_positions has {q_joints.shape[1]} columns but "
                               f"joint_names lists {len(joints)} joints")
     provenance = str(arrays["provenance"]) if "provenance" in arrays else None
-    return fps, name, joints, base_pos, quat, q_joints, provenance
+    modes = np.asarray(arrays["contact_modes"]) if "contact_modes" in arrays else None
+    return fps, name, joints, base_pos, quat, q_joints, provenance, modes
 
 
 _COMMENT = re.compile(r"^#\s*imesh robot motion:(?P<fields>.*)$")

@@ -128,5 +128,7 @@ def skid_apart_from_slides(soles: SoleTracks, support: np.ndarray, sliding: np.n
         (skid without the slides, the same measure over the slides).
     """
     sliding = np.asarray(sliding, dtype=bool)
-    near = sliding | np.roll(sliding, 1, axis=0) | np.roll(sliding, -1, axis=0)
+    near = sliding.copy()
+    near[1:] |= sliding[:-1]
+    near[:-1] |= sliding[1:]
     return foot_skid(soles, support & ~near), foot_skid(soles, support & near)

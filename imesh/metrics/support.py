@@ -73,6 +73,26 @@ def detect_support(soles: SoleTracks, config: SupportDetection | None = None) ->
     return Contacts(support=support, fps=soles.fps)
 
 
+def motion_support(soles: SoleTracks, contact_modes: np.ndarray | None = None,
+                   config: SupportDetection | None = None) -> Contacts:
+    """The support phases a robot motion is judged by: its planned ones when it carries them
+    (``RobotMotion.contact_modes``, written by the whole-body solve), else detected from its
+    soles (:func:`detect_support`, e.g. for another tool's output).
+
+    The plan is the better judge where it is known: a swing sole it keeps 12-20 mm up for a
+    few frames before a landing is not support, however flat and slow it is there, and a slide
+    it plans is one (the detection reads both from heights and speeds alone).
+
+    Args:
+        soles: :func:`~imesh.metrics.soles.sole_tracks` of the motion.
+        contact_modes: (T, 2) int [left, right] planned contact modes, or None.
+        config: thresholds of the detection (used without ``contact_modes``).
+    """
+    if contact_modes is None:
+        return detect_support(soles, config)
+    return Contacts.from_modes(contact_modes, soles.fps)
+
+
 #: The evaluator's support detection (``imesh evaluate``, the retarget gates): flat sliding
 #: soles carry the body (issue 31: the zombie walk's planned slides at 0.5-1.0 m/s).
 EVALUATOR_SUPPORT = SupportDetection(slide_s=0.2)

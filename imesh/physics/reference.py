@@ -13,7 +13,7 @@ from ..contacts.phases import SIDES
 from ..metrics.collision import LowestPoint
 from ..metrics.derivatives import motion_derivatives
 from ..metrics.soles import SoleTracks, sole_tracks
-from ..metrics.support import SupportDetection, detect_support
+from ..metrics.support import SupportDetection, motion_support
 from ..metrics.zmp import zmp_trajectory
 
 log = logging.getLogger(__name__)
@@ -28,7 +28,8 @@ class Reference:
         v: (T, nv) float velocities (pinocchio convention).
         a: (T, nv) float accelerations (pinocchio convention).
         fps: frame rate [1/s].
-        support: (T, 2) bool [left, right] feet in support (from the soles).
+        support: (T, 2) bool [left, right] feet in support (planned, or detected from the
+            soles).
         soles: sole tracks of ``q``.
         zmp_m: (T, 2) float [m] planned multibody ZMP of ``q``.
         ground_offset_m: [m] added to the base height so that the lowest point of the first
@@ -68,7 +69,8 @@ def first_frame_height(robot, q0: np.ndarray) -> float:
 
 def build_reference(robot, q: np.ndarray, fps: float, *, clearance_m: float = 0.001,
                     place_on_ground: bool = True,
-                    support_config: SupportDetection | None = None) -> Reference:
+                    support_config: SupportDetection | None = None,
+                    contact_modes: np.ndarray | None = None) -> Reference:
     """Prepare a motion for tracking: ground placement, derivatives, support, planned ZMP.
 
     Args:
@@ -78,6 +80,8 @@ def build_reference(robot, q: np.ndarray, fps: float, *, clearance_m: float = 0.
         clearance_m: height of the first frame's lowest point above the ground [m].
         place_on_ground: shift the base height (all frames alike); False keeps the motion as is.
         support_config: thresholds of the sole-based support detection.
+        contact_modes: (T, 2) int planned contact modes (``RobotMotion.contact_modes``): the
+            support phases tracked; None: detected from the soles.
     """
     q = np.array(q, dtype=float)
     offset = 0.0
@@ -89,7 +93,7 @@ def build_reference(robot, q: np.ndarray, fps: float, *, clearance_m: float = 0.
                      1e3 * offset)
     v, a = motion_derivatives(q, fps)
     soles = sole_tracks(robot, q, fps)
-    support = detect_support(soles, support_config).support
+    support = motion_support(soles, contact_modes, support_config).support
     zmp = zmp_trajectory(robot, q, v, a)
     return Reference(q=q, v=v, a=a, fps=fps, support=support, soles=soles, zmp_m=zmp,
                      ground_offset_m=float(offset))

@@ -272,7 +272,8 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
                          f"({robot.dof} joints): robot or joint names differ")
     t_setup = time.perf_counter()
     ref = build_reference(robot, motion.q, motion.fps, clearance_m=config.ground.start_clearance_m,
-                          place_on_ground=not config.fixed_base)
+                          place_on_ground=not config.fixed_base,
+                          contact_modes=motion.contact_modes)
     base_pose = np.eye(4)
     base_pose[:3, :3] = Rotation.from_quat(ref.q[0, 3:7]).as_matrix()
     base_pose[:3, 3] = ref.q[0, :3]

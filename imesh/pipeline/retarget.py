@@ -644,10 +644,15 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
         for f in footprints:  # and the pivots the plan adds (planted runs turning in the fit)
             if f.sliding:
                 sliding[f.start:f.stop, SIDES.index(f.side)] = True
-        support_out = Contacts(support=ext.support, fps=source.fps,
-                               sliding=sliding & ext.support)
+        support_out = Contacts(support=plan.support, fps=source.fps,
+                               sliding=sliding & plan.support)
+    # The whole-body solve's support phases are the plan the motion holds (its soles are on
+    # their footprints exactly there), so the file carries them for the evaluator and the DART
+    # check; other modes leave the robot's support to be detected from its soles.
     motion_out = dataclasses.replace(fit.motion, q=q_out,
-                                     provenance=make_provenance(motion, robot, lead, __version__))
+                                     provenance=make_provenance(motion, robot, lead, __version__),
+                                     contact_modes=(support_out.modes if solution is not None
+                                                    else None))
     seconds["total"] = time.perf_counter() - t0
     log.info("retargeted %s to %s: %d frames in %.2f s", motion.source, robot.name,
              motion_out.n_frames, seconds["total"])

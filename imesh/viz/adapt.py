@@ -15,7 +15,7 @@ from ..metrics.derivatives import motion_derivatives
 from ..metrics.dynamics import reference_dynamics
 from ..metrics.polygon import support_polygons
 from ..metrics.soles import sole_tracks
-from ..metrics.support import detect_support
+from ..metrics.support import motion_support
 from ..metrics.zmp import desired_zmp, zmp_trajectory
 from .pyplot import pyplot
 
@@ -72,7 +72,7 @@ def plot_wholebody(robot, motion, path: str | os.PathLike, title: str = "") -> N
     q, fps = motion.q, motion.fps
     t = np.arange(len(q)) / fps
     soles = sole_tracks(robot, q, fps)
-    support = detect_support(soles).support
+    support = motion_support(soles, motion.contact_modes).support
     v, a = motion_derivatives(q, fps)
     zmp = zmp_trajectory(robot, q, v, a)
     want = desired_zmp(soles, support)

@@ -39,7 +39,7 @@ from ..metrics.dynamics import reference_dynamics
 from ..metrics.markers import keypoint_motion
 from ..metrics.polygon import support_polygons
 from ..metrics.soles import sole_tracks
-from ..metrics.support import detect_support
+from ..metrics.support import motion_support
 from ..metrics.zmp import zmp_report, zmp_trajectory
 from .html import viewer_html
 from .physics import plot_physics
@@ -404,7 +404,7 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
     q, fps = motion.q, motion.fps
     t = np.arange(motion.n_frames) / fps
     soles = sole_tracks(robot, q, fps)
-    support = detect_support(soles).support
+    support = motion_support(soles, motion.contact_modes).support
     v, a = motion_derivatives(q, fps)
     zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
     figures = {"zmp": figure_zmp(t, zmp, support_polygons(soles, support), support),

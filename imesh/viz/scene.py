@@ -34,7 +34,7 @@ from ..metrics.derivatives import motion_derivatives
 from ..metrics.markers import keypoint_motion
 from ..metrics.polygon import support_polygons
 from ..metrics.soles import sole_tracks
-from ..metrics.support import detect_support
+from ..metrics.support import motion_support
 from ..metrics.zmp import zmp_report, zmp_trajectory
 from ..robot.capsules.bodies import robot_bodies
 from ..robot.visuals import visual_elements
@@ -279,7 +279,7 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
     # soles, support, ZMP
 
     soles = sole_tracks(robot, q, fps)
-    support = detect_support(soles).support
+    support = motion_support(soles, motion.contact_modes).support
     v, a = motion_derivatives(q, fps)
     zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
     polys = support_polygons(soles, support)
