@@ -286,9 +286,10 @@ def test_cli_fit_sqp_re_solves_the_pipeline_arms(mocap, tmp_path, capsys):
     code = main(["-q", "retarget", str(mocap(WAVE)), "--robot", "jvrc1", "--fit", "sqp",
                  "-o", str(out), "--json", str(rep)])
     assert code == 0
-    with np.load(out) as data:  # the motion, and the adapted markers it was fitted to
+    with np.load(out) as data:  # the motion, the adapted markers it was fitted to, its plan
         assert sorted(data.files) == sorted(
-            (*NPZ_KEYS, "adapted_positions_m", "adapted_marker_names", "provenance"))
+            (*NPZ_KEYS, "adapted_positions_m", "adapted_marker_names", "provenance",
+             "contact_modes"))
     sqp = json.loads(rep.read_text())["fit_sqp"]
     assert sqp["mode"] == "refine"
     assert sqp["frames_outside"] == {"position": 0, "velocity": 0, "acceleration": 0}
