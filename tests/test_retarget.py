@@ -166,3 +166,17 @@ def test_evaluate_reads_the_adapted_markers_from_the_motion_file(mocap, tmp_path
     rep = json.loads((tmp_path / "rep0.json").read_text())
     assert rep["sole_deviation_mm"]["support"].startswith("planned")
     assert rep["sole_deviation_mm"]["value"] <= 1.0
+    # each swing between two supports leaves gradually: >= 10 mm in its first frame (the
+    # plan's FootOptions.lift_off_m), >= 20 mm after (swing_edge_m); 1 mm for the QP's tolerance
+    from imesh.contacts.phases import SIDES, runs
+    from imesh.io.robot_motion import load_robot_motion
+    from imesh.metrics.soles import sole_tracks
+
+    robot = load_test_robot("jvrc1")
+    soles = sole_tracks(robot, load_robot_motion(out, robot).q, 30.0)
+    swings = [(side, a, b) for k, side in enumerate(SIDES) for a, b in runs(modes[:, k] == 0)
+              if a > 0 and b < len(modes)]
+    assert len(swings) >= 4
+    for side, a, b in swings:
+        low = soles.lowest(side)
+        assert 0.009 <= low[a] < 0.019 and low[a + 1:b].min() >= 0.019

@@ -376,3 +376,18 @@ def test_counts_are_integers_with_a_minimum(build, field, valid):
     with pytest.raises(OptionError) as err:
         build()
     assert err.value.name == field and err.value.valid == valid
+
+
+def test_swing_clearance_lifts_off_gradually():
+    """A swing between two supports: its first frame at the lift-off height, its middle third
+    at the lift height, the rest at the edge height; a swing cut by the clip's ends and the
+    support frames keep the base clearance."""
+    from imesh.solve.sqp import swing_clearance
+
+    support = np.ones((20, 2), dtype=bool)
+    support[5:14, 0] = False  # a 9-frame swing of the left foot
+    support[17:, 1] = False  # the right foot's swing runs to the end
+    c = swing_clearance(support, 0.0, 0.03, 0.02, 0.01)
+    np.testing.assert_array_equal(c[:, 0], [0] * 5 + [0.01, 0.02, 0.02] + [0.03] * 3
+                                  + [0.02] * 3 + [0] * 6)
+    assert not c[:, 1].any()

@@ -99,6 +99,12 @@ class FootOptions(NonNegative):
         swing_edge_m: in every other frame of such a swing the ground points stay this high
             [m]: the sole leaves and lands flat instead of rolling over its toe or heel (the
             footprint model has no rolling contact).
+        lift_off_m: but in the first frame of such a swing only this high [m]: a sole lifted
+            20 mm within one 30-fps frame leaves at 0.6 m/s from rest, which a tracking
+            controller's swing leg follows late (the JVRC-1 walk in the DART check: swing
+            knee 82.6 mm off, and the late lift-off pushing the other sole 18.4 mm; at 10 mm:
+            63.8 and 4.7, docs/checking.md). The plan's support phases say where the swing
+            starts (``RobotMotion.contact_modes``), so the low sole is not read as support.
         under_zmp: a foot's contact whose single-support frames ask for a ZMP outside its
             sole is moved under it (:func:`imesh.solve.footprints.place_under_zmp`):
             ``"slides"`` only contacts that slide (MakeHuman's in-place zombie walk: marker
@@ -112,6 +118,7 @@ class FootOptions(NonNegative):
     clearance_m: float = 0.0
     swing_lift_m: float = 0.03
     swing_edge_m: float = 0.02
+    lift_off_m: float = 0.01
     under_zmp: str = "slides"
     slide_reach_m: float = 0.05
 

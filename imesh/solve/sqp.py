@@ -362,12 +362,12 @@ def keypoint_laplacians(marker_points: np.ndarray) -> np.ndarray:
 LAPLACIAN_BLOCK_FRAMES = 2048
 
 
-def swing_clearance(support: np.ndarray, base_m: float, lift_m: float, edge_m: float
-                    ) -> np.ndarray:
+def swing_clearance(support: np.ndarray, base_m: float, lift_m: float, edge_m: float,
+                    lift_off_m: float) -> np.ndarray:
     """(T, 2) [m] clearance of each foot's ground points: in every swing between two support
     phases of that foot ``edge_m`` (the foot leaves and lands flat: a sole is on the ground or
-    clearly off it, never rolling on an edge) and ``lift_m`` over its middle third; ``base_m``
-    elsewhere."""
+    clearly off it, never rolling on an edge), ``lift_m`` over its middle third and
+    ``lift_off_m`` in its first frame (a gradual lift-off); ``base_m`` elsewhere."""
     out = np.full(support.shape, base_m, dtype=float)
     for k in range(support.shape[1]):
         for a, b in runs(~support[:, k]):
@@ -375,6 +375,7 @@ def swing_clearance(support: np.ndarray, base_m: float, lift_m: float, edge_m: f
                 third = (b - a) // 3
                 out[a:b, k] = max(edge_m, base_m)
                 out[a + third:b - third, k] = max(lift_m, base_m)
+                out[a, k] = max(lift_off_m, base_m)
     return out
 
 
@@ -530,7 +531,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                 a_max=limits.a_max, fps=fps,
                 rest_frames=rest_frames,
                 clearance=swing_clearance(support, config.feet.clearance_m,
-                                          config.feet.swing_lift_m, config.feet.swing_edge_m),
+                                          config.feet.swing_lift_m, config.feet.swing_edge_m,
+                                          config.feet.lift_off_m),
                 normal_max=(impact_normal(flight, fps, config.forces.max_normal,
                                           config.forces.impact_normal, config.forces.impact_s)
                             if flight.any() else None),
