@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     from imesh.io import load_motion
     from imesh.metrics.flight import flight_report, skid_apart_from_slides
     from imesh.metrics.soles import sole_tracks
-    from imesh.metrics.support import EVALUATOR_SUPPORT, detect_support
+    from imesh.metrics.support import EVALUATOR_SUPPORT, motion_support
     from imesh.pipeline.retarget import retarget
 
     out = Path(args.out)
@@ -71,10 +71,9 @@ def main(argv=None) -> int:
             gates = failed_gates({k: {"value": v} for k, v in m.items()})
             soles = sole_tracks(robot, written.q, written.fps)
             fr = flight_report(robot, written.q, written.fps, soles)
-            sliding = (res.support.sliding if res.support.sliding is not None
-                       else np.zeros_like(res.support.support))
-            evaluated = detect_support(soles, EVALUATOR_SUPPORT).support
-            skid, slide = skid_apart_from_slides(soles, evaluated, sliding)
+            # the evaluator's split: the written file's planned support, its slides apart
+            planned = motion_support(soles, written.contact_modes, EVALUATOR_SUPPORT)
+            skid, slide = skid_apart_from_slides(soles, planned.support, planned.moving)
             moving = res.contacts.moving
             piv = (res.contacts.pivoting if res.contacts.pivoting is not None
                    else np.zeros_like(moving)) & moving
