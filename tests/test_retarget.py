@@ -166,6 +166,12 @@ def test_evaluate_reads_the_adapted_markers_from_the_motion_file(mocap, tmp_path
     rep = json.loads((tmp_path / "rep0.json").read_text())
     assert rep["sole_deviation_mm"]["support"].startswith("planned")
     assert rep["sole_deviation_mm"]["value"] <= 1.0
+    detected = tmp_path / "detected.json"
+    assert main(["evaluate", str(out), "--json", str(detected), "--detect-support"]) == 0
+    capsys.readouterr()
+    det = json.loads(detected.read_text())
+    assert det["sole_deviation_mm"]["support"].startswith("detected")
+    assert det["marker_rms_mm"]["value"] == pytest.approx(reports[0]["value"], abs=1e-9)
     # each swing between two supports leaves gradually: >= 10 mm in its first frame (the
     # plan's FootOptions.lift_off_m), >= 20 mm after (swing_edge_m); 1 mm for the QP's tolerance
     from imesh.contacts.phases import SIDES, runs

@@ -3,6 +3,8 @@ report (the library is :mod:`imesh.evaluate`)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 from ..evaluate.motion_files import load_motion_file
 from ..evaluate.props import evaluate_scene, format_scene_table, scene_for_motion
 from ..evaluate.scoreboard import evaluate_motion
@@ -22,6 +24,8 @@ def run(args) -> int:
         return evaluate_pair_files(args)
     robot = robot_for_motion_file(args.motion, args.robot, args.urdf)  # default: the file's
     motion = load_motion_file(args.motion, robot, fps=args.fps)
+    if getattr(args, "detect_support", False):  # judged as another tool's output is
+        motion = dataclasses.replace(motion, contact_modes=None)
     config = None
     if args.physics:
         config = PhysicsConfig(fixed_base=args.fixed_base,

@@ -315,6 +315,10 @@ def add_evaluate(sub) -> argparse.ArgumentParser:
                    "(resampled to the motion's fps, first common frames); by default such a "
                    "mismatch is refused")
     p.add_argument("--fps", type=float, help="frame rate of motion files that store none")
+    p.add_argument("--detect-support", action="store_true",
+                   help="judge the soles by the support detected from them, as another tool's "
+                   "output is judged, instead of the plan's contact modes an imesh .npz carries "
+                   "(for side-by-side comparisons)")
     p.add_argument("--scene", action="append", default=[], metavar="FILE",
                    help="the props to measure the motion against: a .scene.npz written by "
                    "'imesh retarget --scene', or meshes/URDF in the clip's frame, scaled like "
