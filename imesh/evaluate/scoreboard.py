@@ -157,7 +157,8 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
         seconds: wall time [s] per pipeline stage (e.g. ``RetargetResult.seconds``) for
             ``seconds_per_frame``; None: that metric is null.
         physics_config: a :class:`imesh.physics.PhysicsConfig`.
-        support_config: thresholds of the support detection.
+        support_config: thresholds of the support detection (motions without the plan's
+            ``contact_modes``; with them the soles are judged by the planned support).
         plot: write the DART run's figure here (physics only).
         resample: compare ``source``/``adapted`` markers whose frame rate or frame count differ
             from the motion's (resampled to its fps, first common frames); by default such a
