@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _data import cells, data_root, load, score_written
+from _data import cell, cells, data_root, load, score_written
 
 CLIPS = ("cmu_05_06_dance_pirouettes_jete.bvh", "cmu_60_10_salsa_partnerA_sl_scaled.bvh",
          "makehuman_game_zombie_walk1.bvh", "cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh",
@@ -42,9 +42,8 @@ def main(argv=None) -> int:
 
     from imesh.evaluate.verify import failed_gates
     from imesh.io import load_motion
-    from imesh.metrics.flight import flight_report, skid_apart_from_slides
+    from imesh.metrics.flight import flight_report
     from imesh.metrics.soles import sole_tracks
-    from imesh.metrics.support import EVALUATOR_SUPPORT, motion_support
     from imesh.pipeline.retarget import retarget
 
     out = Path(args.out)
@@ -71,9 +70,6 @@ def main(argv=None) -> int:
             gates = failed_gates({k: {"value": v} for k, v in m.items()})
             soles = sole_tracks(robot, written.q, written.fps)
             fr = flight_report(robot, written.q, written.fps, soles)
-            # the evaluator's split: the written file's planned support, its slides apart
-            planned = motion_support(soles, written.contact_modes, EVALUATOR_SUPPORT)
-            skid, slide = skid_apart_from_slides(soles, planned.support, planned.moving)
             moving = res.contacts.moving
             piv = (res.contacts.pivoting if res.contacts.pivoting is not None
                    else np.zeros_like(moving)) & moving
@@ -84,7 +80,8 @@ def main(argv=None) -> int:
                   f"{written.n_frames:>6} {quality} {fr.flight_frames:>3} "
                   f"{fr.com_accel_error:>7.2f} {max(fr.landing_speed, default=0.0):>6.2f} "
                   f"{max(fr.landing_normal, default=0.0):>6.2f} "
-                  f"{skid.mean_mm_per_frame:>5.2f} {slide.mean_mm_per_frame:>6.2f} "
+                  f"{cell(m, 'foot_skid_mm_per_frame', '5.2f'):>5} "
+                  f"{cell(m, 'slide_mm_per_frame', '6.2f'):>6} "
                   f"{len(res.contacts.flight_phases()):>7} "
                   f"{int((moving & ~piv).sum()):>3}/{int(piv.sum()):<3} {total:>7.1f}")
             if gates:

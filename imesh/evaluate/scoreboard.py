@@ -325,6 +325,7 @@ def _sole_metrics(soles: SoleTracks, contacts: Contacts,
     support, moving = np.asarray(contacts.support), contacts.moving
     origin = ("planned (the motion's contact modes)" if planned else
               "detected from the soles")
+    none = "no support frame planned" if planned else "no support frame detected"
     skid, slide = skid_apart_from_slides(soles, support, moving)
     if skid.samples:
         out["foot_skid_mm_per_frame"] = _metric(
@@ -335,8 +336,8 @@ def _sole_metrics(soles: SoleTracks, contacts: Contacts,
             slide_mm_per_frame=slide.mean_mm_per_frame if slide.samples else None)
     else:
         out["foot_skid_mm_per_frame"] = _missing(
-            "foot_skid_mm_per_frame", "no support frame planned" if planned else
-            "no support frame detected (no sole within "
+            "foot_skid_mm_per_frame", none if planned else
+            f"{none} (no sole within "
             f"{(support_config or SupportDetection()).height_m * 1e3:.0f} mm of the ground and "
             "slow)")
     dev = sole_deviation(soles, support & ~moving)
@@ -348,8 +349,7 @@ def _sole_metrics(soles: SoleTracks, contacts: Contacts,
                                        support_samples=dev.samples)
     else:
         for name in ("sole_deviation_mm", "sole_tilt_deg"):
-            out[name] = _missing(name, "no support frame planned" if planned
-                                 else "no support frame detected")
+            out[name] = _missing(name, none)
     return out
 
 
