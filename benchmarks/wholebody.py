@@ -52,6 +52,8 @@ def main(argv=None) -> int:
     ap.add_argument("--plots", help="write the balance figure of each run here (PNG)")
     ap.add_argument("--zmp-margin", type=float, default=None,
                     help="ZmpOptions.margin of the plan (default: the library's)")
+    ap.add_argument("--torque-margin", type=float, default=None,
+                    help="LimitMargins.torque of the plan (default: the library's)")
     ap.add_argument("--by-marker", action="store_true",
                     help="print the trunk key points' RMS [mm] under each run")
     args = ap.parse_args(argv)
@@ -70,6 +72,9 @@ def main(argv=None) -> int:
     if args.zmp_margin is not None:
         wholebody = dataclasses.replace(wholebody, zmp=dataclasses.replace(
             wholebody.zmp, margin=args.zmp_margin))
+    if args.torque_margin is not None:
+        wholebody = dataclasses.replace(wholebody, margins=dataclasses.replace(
+            wholebody.margins, torque=args.torque_margin))
     config = dataclasses.replace(base, wholebody=wholebody)
     head = (f"{'clip':<30} {'robot':<6} {'frames':>6} {'rms mm':>7} {'cpe':>6} {'sole mm':>7} "
             f"{'tilt':>5} {'skid':>5} {'pen mm':>6} {'lim':>4} {'zmp in':>6} {'zmp mm':>6} "
