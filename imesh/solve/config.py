@@ -223,11 +223,13 @@ class SqpOptions:
 
     Attributes:
         iterations: largest number of SQP iterations.
-        cone_iterations: largest number of SQP iterations of a plan with contact wrench cone
-            rows (props, :mod:`.cwc`): a climb starts far from its tops and held points (the
-            initial fit knows neither), and the holosoma seq_1 window still lowered its merit
-            by 20-25 % per iteration at the 20th (soles 28 mm off, 75 frames outside the
-            cone).
+        contact_iterations: largest number of SQP iterations of a plan with contacts the
+            initial fit does not know: contact wrench cone rows (props, :mod:`.cwc`), flight
+            frames or sliding soles (:mod:`.forces`). A climb starts far from its tops and held
+            points, and the holosoma seq_1 window still lowered its merit by 20-25 % per
+            iteration at the 20th (soles 28 mm off, 75 frames outside the cone); salsa A
+            (60_10) on G1 read ZMP inside 0.918 on the written file after 20 iterations,
+            0.989 after 37 (187 -> 366 s).
         step_tolerance: stop when no coordinate of the update exceeds this [m or rad] ...
         merit_tolerance: ... or when the constraints hold (soles within 1 mm, ZMP and swing
             feet within 1 mm of their bounds) and an iteration lowered the merit by less than
@@ -248,7 +250,7 @@ class SqpOptions:
     """
 
     iterations: int = 20
-    cone_iterations: int = 40
+    contact_iterations: int = 40
     step_tolerance: float = 1e-4
     merit_tolerance: float = 3e-2
     settled_step: float = 1e-2
@@ -258,7 +260,7 @@ class SqpOptions:
     qp_tolerance: float = 1e-5
 
     def __post_init__(self) -> None:
-        require_count(self, ("iterations", "cone_iterations"))
+        require_count(self, ("iterations", "contact_iterations"))
         require_finite(self, ("step_tolerance", "qp_tolerance", "merit_tolerance"),
                        positive=True)
         require_finite(self, ("trust_region", "base_trust", "settled_step"), positive=False)
