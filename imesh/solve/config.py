@@ -224,12 +224,15 @@ class SqpOptions:
     Attributes:
         iterations: largest number of SQP iterations.
         contact_iterations: largest number of SQP iterations of a plan with contacts the
-            initial fit does not know: contact wrench cone rows (props, :mod:`.cwc`), flight
-            frames or sliding soles (:mod:`.forces`). A climb starts far from its tops and held
-            points, and the holosoma seq_1 window still lowered its merit by 20-25 % per
-            iteration at the 20th (soles 28 mm off, 75 frames outside the cone); salsa A
-            (60_10) on G1 read ZMP inside 0.918 on the written file after 20 iterations,
-            0.989 after 37 (187 -> 366 s).
+            initial fit does not know: contact wrench cone rows (props, :mod:`.cwc`) or flight
+            frames (:mod:`.forces`). A climb starts far from its tops and held points, and the
+            holosoma seq_1 window still lowered its merit by 20-25 % per iteration at the 20th
+            (soles 28 mm off, 75 frames outside the cone); salsa A (60_10, one flight) on G1
+            read ZMP inside 0.918 on the written file after 20 iterations, 0.989 after 37
+            (187 -> 399 s). Plans with slides alone keep ``iterations``: with 40 the salsa
+            couple's hold (G1 + G1, no avoidance) ended with 4 frames over robot b's
+            acceleration limits, and the zombie walk gained ZMP inside 0.969 -> 1.000 on G1
+            for 2x the time.
         step_tolerance: stop when no coordinate of the update exceeds this [m or rad] ...
         merit_tolerance: ... or when the constraints hold (soles within 1 mm, ZMP and swing
             feet within 1 mm of their bounds) and an iteration lowered the merit by less than

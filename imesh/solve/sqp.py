@@ -627,8 +627,8 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     """Sequential QP from ``plan.q_init`` (see the module docstring).
 
     ``progress(iteration, n)`` is called after every SQP iteration, n the largest number of
-    iterations (``config.sqp.iterations``, or ``contact_iterations`` with cone rows, flight
-    frames or slides; the solve may stop earlier).
+    iterations (``config.sqp.iterations``, or ``contact_iterations`` with cone rows or flight
+    frames; the solve may stop earlier).
 
     Raises:
         SolverError: a QP failed (infeasible linearization, non-finite result).
@@ -652,8 +652,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     elastic = False
     phi = merit(lin, plan, q, config)
     trust = config.sqp.trust_region
-    unknown_contacts = (plan.cones is not None or plan.kinetic is not None
-                        or bool(plan.flight.any()))
+    unknown_contacts = plan.cones is not None or bool(plan.flight.any())
     n_iter = config.sqp.contact_iterations if unknown_contacts else config.sqp.iterations
 
     def solve(qp, it: int):
