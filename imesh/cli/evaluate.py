@@ -24,7 +24,7 @@ def run(args) -> int:
         return evaluate_pair_files(args)
     robot = robot_for_motion_file(args.motion, args.robot, args.urdf)  # default: the file's
     motion = load_motion_file(args.motion, robot, fps=args.fps)
-    if getattr(args, "detect_support", False):  # judged as another tool's output is
+    if args.detect_support:  # judged as another tool's output is
         motion = dataclasses.replace(motion, contact_modes=None)
     config = None
     if args.physics:
