@@ -2,6 +2,7 @@
 
     python benchmarks/qp_solvers.py [--clip cmu_02_01_walk.bvh] [--robot g1] [--fps 30]
                                     [--tol 1e-7] [--repeat 3]
+    python benchmarks/qp_solvers.py --kkt [--clip ...] [--robot ...] [--repeat 3]
 
 Builds the first QP of the whole-body solve of the clip (``imesh.retarget`` up to the first
 ``solve_qp`` call) and solves it with PIQP (its two sparse KKT back ends), Clarabel, OSQP and
@@ -11,6 +12,13 @@ banded LU).
 Prints wall time (best of ``--repeat``), iterations, the largest constraint violation and the
 objective; the solver the solve uses by default (``WholeBodyConfig.sqp.solver``) is chosen from
 this table (docs/wholebody.md).
+
+``--kkt``: every QP of the whole-body solve (captured from ``solve_qp`` during a retarget with
+default settings) solved again as the solve solves it (``imesh.solve.qp.solve_qp``, its
+tolerance and PIQP settings) with each of PIQP's sparse KKT back ends
+(``imesh.solve.qp.PIQP_KKT_SOLVER``): cpu seconds of all of them (best of ``--repeat``
+rounds, the back ends taken in turn within a round), interior-point iterations, the largest
+distance of a solution to the ``sparse_ldlt`` one and of its objective (docs/speed.md).
 """
 
 from __future__ import annotations
@@ -53,6 +61,68 @@ def first_qp(clip: str, robot_name: str, fps: float):
     return box["qp"]
 
 
+def every_qp(clip: str, robot_name: str) -> list:
+    """The QpProblems of every whole-body SQP iteration of ``clip`` on ``robot_name``, default
+    settings."""
+    import imesh.solve.sqp as sqp
+    from imesh.io import load_motion
+    from imesh.pipeline.retarget import retarget
+
+    box = []
+    real = sqp.solve_qp
+
+    def capture(qp, *args, **kwargs):
+        box.append(qp)
+        return real(qp, *args, **kwargs)
+
+    sqp.solve_qp = capture
+    try:
+        retarget(load_motion(data_root() / "mocap" / clip), load(robot_name))
+    finally:
+        sqp.solve_qp = real
+    return box
+
+
+KKT_SOLVERS = ("sparse_ldlt", "sparse_ldlt_eq_cond", "sparse_ldlt_ineq_cond", "sparse_ldlt_cond")
+
+
+def kkt_table(clip: str, robot_name: str, repeat: int) -> None:
+    """Print the ``--kkt`` table (see the module docstring)."""
+    import imesh.solve.qp as qpmod
+    from imesh.solve import SqpOptions
+
+    qps = every_qp(clip, robot_name)
+    tol = SqpOptions().qp_tolerance
+    print(f"{clip} on {robot_name}: {len(qps)} QPs of {qps[0].n} variables, "
+          f"{qps[0].A.shape[0]} equalities, {qps[0].G.shape[0]} inequality rows, tolerance {tol:g}")
+    best = {k: np.inf for k in KKT_SOLVERS}
+    sols = {}
+    default = qpmod.PIQP_KKT_SOLVER
+    try:
+        for _ in range(repeat):
+            for kkt in KKT_SOLVERS:
+                qpmod.PIQP_KKT_SOLVER = kkt
+                t0 = time.process_time()
+                sols[kkt] = [qpmod.solve_qp(qp, "piqp", tol) for qp in qps]
+                best[kkt] = min(best[kkt], time.process_time() - t0)
+    finally:
+        qpmod.PIQP_KKT_SOLVER = default
+    ref = sols["sparse_ldlt"]
+    print(f"{'KKT back end':<24} {'cpu s':>7} {'/ ldlt':>7} {'PIQP iterations':>16} "
+          f"{'max |dx|':>9} {'max |dobj|':>10}")
+    for kkt in KKT_SOLVERS:
+        dx = max(float(np.abs(a.x - b.x).max()) for a, b in zip(sols[kkt], ref, strict=True))
+        dobj = max(abs(_objective(q, a.x) - _objective(q, b.x))
+                   for q, a, b in zip(qps, sols[kkt], ref, strict=True))
+        its = sum(s.iterations for s in sols[kkt])
+        print(f"{kkt:<24} {best[kkt]:7.2f} {best[kkt] / best['sparse_ldlt']:7.3f} {its:16d} "
+              f"{dx:9.1e} {dobj:10.1e}")
+
+
+def _objective(qp, x: np.ndarray) -> float:
+    return float(0.5 * x @ (qp.P @ x) + qp.c @ x)
+
+
 def _piqp(qp, tol, kkt):
     import piqp
 
@@ -89,7 +159,12 @@ def main(argv=None) -> int:
     ap.add_argument("--tol", type=float, default=1e-7)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--solvers", nargs="+", help="only these rows (names as printed)")
+    ap.add_argument("--kkt", action="store_true",
+                    help="every QP of the solve with each of PIQP's sparse KKT back ends")
     args = ap.parse_args(argv)
+    if args.kkt:
+        kkt_table(args.clip, args.robot, args.repeat)
+        return 0
 
     from imesh.solve.qp import solve_qp
 
@@ -98,6 +173,7 @@ def main(argv=None) -> int:
           f"{qp.A.shape[0]} equalities, {qp.G.shape[0]} inequality rows, nnz P {qp.P.nnz}")
     runs = {
         "piqp sparse_ldlt": lambda: _piqp(qp, args.tol, "sparse_ldlt"),
+        "piqp sparse_ldlt_eq_cond": lambda: _piqp(qp, args.tol, "sparse_ldlt_eq_cond"),
         "piqp sparse_multistage": lambda: _piqp(qp, args.tol, "sparse_multistage"),
     }
     for name in ("clarabel", "osqp"):

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from ..contacts.phases import SIDES
 from ..metrics.collision import LowestPoint
@@ -15,6 +15,9 @@ from ..metrics.derivatives import motion_derivatives
 from ..metrics.soles import SoleTracks, sole_tracks
 from ..metrics.support import SupportDetection, motion_support
 from ..metrics.zmp import zmp_trajectory
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicSpline
 
 log = logging.getLogger(__name__)
 
@@ -101,6 +104,8 @@ def build_reference(robot, q: np.ndarray, fps: float, *, clearance_m: float = 0.
 
 def joint_splines(q: np.ndarray, fps: float) -> CubicSpline | None:
     """Cubic spline of the joint angles q[:, 7:] over frame times (None for a single frame)."""
+    from scipy.interpolate import CubicSpline  # imported by the physics check only
+
     if len(q) < 2:
         return None
     t = np.arange(len(q)) / fps

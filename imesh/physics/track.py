@@ -13,7 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES
@@ -75,6 +74,8 @@ class _Track:
     """
 
     def __init__(self, values: np.ndarray, fps: float):
+        from scipy.interpolate import CubicSpline  # for the physics check only
+
         T = len(values)
         self.fps = fps
         self.last = T - 1
