@@ -37,47 +37,30 @@ class _Captured(Exception):
     pass
 
 
-def first_qp(clip: str, robot_name: str, fps: float):
-    """The QpProblem of the first whole-body SQP iteration of ``clip`` on ``robot_name``."""
+def captured_qps(clip: str, robot_name: str, fps: float = 30.0, first_only: bool = False
+                 ) -> list:
+    """The QpProblems the whole-body SQP of ``clip`` on ``robot_name`` solves (``imesh.retarget``
+    with default settings at ``fps``), each solved as usual; ``first_only``: the first one,
+    the retarget stopped there."""
     import imesh.solve.sqp as sqp
     from imesh.io import load_motion
     from imesh.pipeline.retarget import RetargetConfig, retarget
 
-    box = {}
-
-    def capture(qp, solver, tol, gap_check=True):  # the signature of imesh.solve.qp.solve_qp
-        box["qp"] = qp
-        raise _Captured
-
+    box = []
     real = sqp.solve_qp
+
+    def capture(qp, *args, **kwargs):  # the signature of imesh.solve.qp.solve_qp
+        box.append(qp)
+        if first_only:
+            raise _Captured
+        return real(qp, *args, **kwargs)
+
     sqp.solve_qp = capture
     try:
         retarget(load_motion(data_root() / "mocap" / clip), load(robot_name),
                  config=dataclasses.replace(RetargetConfig(), fps=fps))
     except _Captured:
         pass
-    finally:
-        sqp.solve_qp = real
-    return box["qp"]
-
-
-def every_qp(clip: str, robot_name: str) -> list:
-    """The QpProblems of every whole-body SQP iteration of ``clip`` on ``robot_name``, default
-    settings."""
-    import imesh.solve.sqp as sqp
-    from imesh.io import load_motion
-    from imesh.pipeline.retarget import retarget
-
-    box = []
-    real = sqp.solve_qp
-
-    def capture(qp, *args, **kwargs):
-        box.append(qp)
-        return real(qp, *args, **kwargs)
-
-    sqp.solve_qp = capture
-    try:
-        retarget(load_motion(data_root() / "mocap" / clip), load(robot_name))
     finally:
         sqp.solve_qp = real
     return box
@@ -91,7 +74,7 @@ def kkt_table(clip: str, robot_name: str, repeat: int) -> None:
     import imesh.solve.qp as qpmod
     from imesh.solve import SqpOptions
 
-    qps = every_qp(clip, robot_name)
+    qps = captured_qps(clip, robot_name)
     tol = SqpOptions().qp_tolerance
     print(f"{clip} on {robot_name}: {len(qps)} QPs of {qps[0].n} variables, "
           f"{qps[0].A.shape[0]} equalities, {qps[0].G.shape[0]} inequality rows, tolerance {tol:g}")
@@ -168,7 +151,7 @@ def main(argv=None) -> int:
 
     from imesh.solve.qp import solve_qp
 
-    qp = first_qp(args.clip, args.robot, args.fps)
+    qp = captured_qps(args.clip, args.robot, args.fps, first_only=True)[0]
     print(f"{args.clip} on {args.robot} at {args.fps:g} fps: {qp.n} variables, "
           f"{qp.A.shape[0]} equalities, {qp.G.shape[0]} inequality rows, nnz P {qp.P.nnz}")
     runs = {

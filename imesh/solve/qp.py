@@ -93,10 +93,11 @@ PIQP_PRECONDITIONER_ITER = 3
 #: rows' multipliers (730 of the 870 equalities define the CoM and momentum auxiliaries) into
 #: the primal block before the LDL^T: on every QP of the G1 walk and wave the same
 #: interior-point iterations and objectives in 0.95 and 0.99 of the cpu time of
-#: ``sparse_ldlt`` (docs/speed.md). The retry without preconditioning keeps ``sparse_ldlt``:
-#: unscaled, the eliminated form stalled (250 iterations) on a QP ``sparse_ldlt`` solves in 21
-#: (tests/test_wholebody.py).
+#: ``sparse_ldlt`` (docs/speed.md).
 PIQP_KKT_SOLVER = "sparse_ldlt_eq_cond"
+#: KKT back end of the retry without preconditioning: unscaled, ``sparse_ldlt_eq_cond`` stalled
+#: (250 iterations) on a QP ``sparse_ldlt`` solves in 21 (tests/test_wholebody.py).
+PIQP_RETRY_KKT_SOLVER = "sparse_ldlt"
 
 
 def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
@@ -122,7 +123,7 @@ def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
     if status == piqp.PIQP_MAX_ITER_REACHED:
         log.info("PIQP: no convergence in %d iterations (dual residual %.3g); solving again "
                  "without preconditioning", iterations, r.info.dual_res)
-        status, r = attempt(0, PIQP_RETRY_MAX_ITER, "sparse_ldlt")
+        status, r = attempt(0, PIQP_RETRY_MAX_ITER, PIQP_RETRY_KKT_SOLVER)
         iterations += int(r.info.iter)
     x = np.asarray(r.x)
     # PIQP's multipliers: y (equalities), z_l/z_u (G rows), z_bl/z_bu (bounds)
