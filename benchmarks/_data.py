@@ -36,8 +36,9 @@ def write_and_read(out: Path, stem: str, result, robot):
 def score_written(robot, result, source, out: Path, stem: str, physics: bool = False):
     """Write a retarget result, read it back and score it as ``imesh evaluate`` does; the
     close-pair error against the source clip on the clip's own frames (the whole-body solve's
-    lead-in and lead-out are not the clip's). Returns (the motion read back, metric values and
-    ``slide_mm_per_frame``, the planned slides' motion the evaluator reports apart from skid)."""
+    lead-in and lead-out are not the clip's). Returns (the motion read back, metric values,
+    ``slide_mm_per_frame``, the planned slides' motion the evaluator reports apart from skid, and
+    ``yaw_ratio``, the friction ratio's single-support yaw detail)."""
     from imesh.evaluate.scoreboard import evaluate_motion, metric_values
 
     written, markers = write_and_read(out, stem, result, robot)
@@ -45,6 +46,8 @@ def score_written(robot, result, source, out: Path, stem: str, physics: bool = F
     m = metric_values(report)
     # the planned slides' motion, which the evaluator reports apart from the skid
     m["slide_mm_per_frame"] = report["foot_skid_mm_per_frame"].get("slide_mm_per_frame")
+    # the single-support soles' yaw friction share, a detail of the friction ratio
+    m["yaw_ratio"] = report["friction_ratio_max"].get("yaw_ratio")
     a, b = result.lead_frames
     m["close_pair_error"] = metric_values(evaluate_motion(
         robot, written.frames(a, written.n_frames - b), source=source,

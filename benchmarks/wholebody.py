@@ -9,7 +9,9 @@ markers written to ``--out``, then the written file read back and scored by
 ``imesh.evaluate.evaluate_motion`` (what ``imesh evaluate OUT.npz --adapted MARKERS.npz
 [--physics]`` prints). Prints one row per run: marker RMS, close-pair error (``cpe``: against
 the source clip, on the clip's frames without the lead-in/out), sole deviation/tilt, skid, ground
-penetration, limit violations, ZMP inside/error, DART, and the time of each stage.
+penetration, limit violations, ZMP inside/error, DART, the reference's torque and friction
+ratios and its single-support soles' yaw friction share (``yaw``: the friction ratio's
+``yaw_ratio``), and the time of each stage.
 ``--zmp-margin`` plans with another ``ZmpOptions.margin`` than the default; ``--by-marker`` adds
 a line per run with the key points' RMS at the trunk (chest, neck, head, shoulders) and the
 worst three others.
@@ -78,7 +80,7 @@ def main(argv=None) -> int:
     config = dataclasses.replace(base, wholebody=wholebody)
     head = (f"{'clip':<30} {'robot':<6} {'frames':>6} {'rms mm':>7} {'cpe':>6} {'sole mm':>7} "
             f"{'tilt':>5} {'skid':>5} {'pen mm':>6} {'lim':>4} {'zmp in':>6} {'zmp mm':>6} "
-            f"{'fell':>5} {'surv s':>6} {'trq':>5} {'trq rf':>6} {'fric':>5} {'it':>3} "
+            f"{'fell':>5} {'surv s':>6} {'trq':>5} {'trq rf':>6} {'fric':>5} {'yaw':>5} {'it':>3} "
             f"{'solve s':>7} {'total s':>7}")
     print(head)
     print("-" * len(head))
@@ -108,7 +110,8 @@ def main(argv=None) -> int:
                             ("limit_violation_frames", "4d"), ("zmp_inside_fraction", "6.3f"),
                             ("zmp_error_mm", "6.1f"))
             dynamics = cells(m, ("physics_survived_s", "6.2f"), ("torque_ratio_max", "5.2f"),
-                             ("torque_ratio_ref", "6.2f"), ("friction_ratio_max", "5.2f"))
+                             ("torque_ratio_ref", "6.2f"), ("friction_ratio_max", "5.2f"),
+                             ("yaw_ratio", "5.2f"))
             print(f"{clip:<30} {name:<6} {written.n_frames:>6} {quality} "
                   f"{str(m.get('physics_fell', 'n/a')):>5} {dynamics} "
                   f"{wb.get('iterations', 0):>3} {res.seconds.get('wholebody', 0.0):>7.2f} "

@@ -15,8 +15,10 @@ from imesh.balance.cwc import (
     contact_wrench_cone,
     pyramid_generators,
     required_wrench,
+    sole_wrench_cone,
+    sole_yaw_ratio,
 )
-from imesh.solve.cwc import ConePlan, cone_violation, wrench_rows
+from imesh.solve.cwc import ConePlan, cone_violation, plan_cones, wrench_rows
 from imesh.solve.operators import Layout, gradient_operator
 from imesh.solve.plan import Linearization
 
@@ -54,6 +56,63 @@ def test_face_form_agrees_with_the_span_form():
         disagree += ins != (res < 1e-7)
     assert disagree == 0
     assert 20 < inside < 130  # both cases were exercised
+
+
+def test_the_sole_yaw_ratio_is_the_cones_yaw_rows():
+    """``sole_yaw_ratio`` <= 1 exactly where a wrench meeting the sole cone's other rows meets
+    its yaw rows too, on random wrenches of a 170 x 60 mm sole (mu 0.7); a pure yaw moment on a
+    centred load reads |m_z| / (mu (X + Y) f_z)."""
+    rng = np.random.default_rng(5)
+    C = sole_wrench_cone(0.085, 0.03, 0.7)
+    yaw_rows = np.arange(8, 16)
+    other = np.r_[np.arange(8), 16]
+    checked = inside = 0
+    for _ in range(400):
+        fz = rng.uniform(50.0, 500.0)
+        w = np.r_[rng.uniform(-0.6, 0.6, 2) * fz, fz, rng.uniform(-0.028, 0.028) * fz,
+                  rng.uniform(-0.08, 0.08) * fz, rng.uniform(-0.1, 0.1) * fz]
+        if np.any(C[other] @ w > 0):
+            continue
+        checked += 1
+        r = float(sole_yaw_ratio(w, 0.085, 0.03, 0.7))
+        ok = bool(np.all(C[yaw_rows] @ w <= 1e-9))
+        inside += ok
+        assert ok == (r <= 1.0 + 1e-9), (w, r)
+    assert checked > 100 and 10 < inside < checked  # both cases were exercised
+    pure = np.array([0.0, 0.0, 200.0, 0.0, 0.0, -8.0])
+    assert float(sole_yaw_ratio(pure, 0.085, 0.03, 0.7)) == pytest.approx(8.0 / (0.7 * 0.115 * 200))
+
+
+def test_a_scaled_sole_cone_holds_that_fraction_of_the_yaw_moment():
+    """The whole-body solve's single-support yaw rows (``ForceOptions.yaw_sole_scale``): the
+    cone of a sole scaled by s about its centre holds s times the yaw moment of the whole
+    sole's at the same normal force (the largest pure yaw moment inside each cone)."""
+    from imesh.robot import load_robot
+
+    robot = load_robot("g1")
+    T = 3
+    support = np.zeros((T, 2), dtype=bool)
+    support[:, 0] = True
+    pose = np.eye(4)
+    pose[:3, 3] = [0.1, 0.2, 0.0]
+    targets = np.full((T, 2, 4, 4), np.nan)
+    targets[:, 0] = pose
+    centre = pose[:3, :3] @ robot.soles["left"].center + pose[:3, 3]
+
+    def largest_yaw(scale):
+        cone = plan_cones(robot, support, targets, None, None, np.arange(T),
+                          sole_scale=scale).cones[0]
+        lo, hi = 0.0, 50.0  # per unit mass, at 1 g of normal force, about the sole centre
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            w = np.r_[0.0, 0.0, 9.81, np.cross(centre - cone.ref_m, [0.0, 0.0, 9.81])
+                      + [0.0, 0.0, mid]]
+            lo, hi = (mid, hi) if cone.violation(w) <= 0 else (lo, mid)
+        return lo
+
+    full = largest_yaw(1.0)
+    assert full > 0.05
+    assert largest_yaw(0.5) == pytest.approx(0.5 * full, rel=1e-6)
 
 
 def test_leaning_on_the_hands_is_inside_only_with_the_hands():

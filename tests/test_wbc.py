@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from conftest import load_test_robot
 
+from imesh.balance.cwc import sole_wrench_cone
 from imesh.contacts.phases import SIDES
 from imesh.core.robot_motion import RobotMotion
 from imesh.errors import OptionError
 from imesh.metrics.markers import keypoint_motion
 from imesh.physics.config import WbcConfig
-from imesh.physics.wbc import wrench_cone
 from imesh.robot import ROBOTS_DIR, load_robot_config
 from imesh.robot.registry import package_available
 
@@ -71,7 +71,7 @@ def test_wrench_cone_is_the_contact_conditions(force, moment, inside):
     """Caron et al. 2015's cone of a 170 x 60 mm sole, mu = 0.7: a wrench is inside exactly
     when its centre of pressure is on the sole, its tangential force within the friction cone,
     its normal force pushing and its yaw moment within what friction can hold."""
-    C = wrench_cone(0.085, 0.03, 0.7)
+    C = sole_wrench_cone(0.085, 0.03, 0.7)
     w = np.r_[force, moment].astype(float)
     assert bool(np.all(C @ w <= 1e-12)) is inside
 
@@ -266,12 +266,12 @@ def test_a_fall_in_the_dart_check_fails_verification(jvrc1):
 def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(tmp_path):
     """The CMU walk retargeted to G1 with default settings and read back from its file stands
     to its end in DART at the clip's own speed: key points within 25 mm RMS and 150 mm max of
-    the reference (measured 12.0 / 68.1), the base within 50 mm at the end (2 mm); with its
-    soles held flat to the lift-off (no toe roll) it is lost (at 2.4 s of 4.8): the QP unloads
-    the rear sole before it lifts and the capture point is lost at a lift-off. A late landing is
-    driven below the ground (``WbcConfig.landing_depth_m``): aimed at the ground the landing
-    sole hovers over it and the stance sole slips 3.9 mm; with it 2.3 mm (on the clip as
-    captured, before it was levelled on its floor: 11.8 and 2.2)."""
+    the reference (measured 5.8 / 26.0), the base within 50 mm at the end; with its soles held
+    flat to the lift-off (no toe roll) the QP unloads the rear sole before it lifts, the capture
+    point runs off at the lift-offs and the robot stays up only by swinging its trunk and arms
+    (key points 32.0 / 166.5 mm). A late landing is driven below the ground
+    (``WbcConfig.landing_depth_m``): aimed at the ground the landing sole hovers over it and
+    the stance sole slips 3.2 mm; with it 1.9 mm."""
     import dataclasses
 
     from conftest import mocap_path
@@ -298,11 +298,11 @@ def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(tmp_path):
     flat = dataclasses.replace(physics, control=dataclasses.replace(
         physics.control, wbc=dataclasses.replace(physics.control.wbc, toe_roll_frames=0)))
     held = simulate_motion(robot, motion, config=flat)
-    assert held.fell and held.survived_s < 4.0
-    assert res.slip_mm <= 8.0
+    assert held.fell or held.keypoint_max_mm >= 3.0 * res.keypoint_max_mm
+    assert res.slip_mm <= 5.0
     hover = dataclasses.replace(physics, control=dataclasses.replace(
         physics.control, wbc=dataclasses.replace(physics.control.wbc, landing_depth_m=0.0)))
-    assert simulate_motion(robot, motion, config=hover).slip_mm >= res.slip_mm + 1.0
+    assert simulate_motion(robot, motion, config=hover).slip_mm >= res.slip_mm + 0.8
 
 
 def test_the_veer_stands_from_its_lead_in(tmp_path):

@@ -47,6 +47,57 @@ GRAVITY = 9.81
 RANK_TOLERANCE = 1e-9
 
 
+def sole_wrench_cone(half_x: float, half_y: float, mu: float) -> np.ndarray:
+    """(16, 6) float ``C`` with ``C w <= 0`` for a wrench ``w = (f, m)`` of a rectangular sole
+    of half sizes X, Y (its frame: x forward, z the normal; the moment about its centre) inside
+    the sole's contact wrench cone (the paper's closed form for a rectangle, a friction pyramid
+    ``|f_x|, |f_y| <= mu f_z`` at each corner), ``f_z >= 0`` included:
+
+        |f_x|, |f_y| <= mu f_z,   |m_x| <= Y f_z,   |m_y| <= X f_z   (centre of pressure inside),
+        -mu (X + Y) f_z + |Y f_x - mu m_x| + |X f_y - mu m_y|
+            <= m_z <= mu (X + Y) f_z - |Y f_x + mu m_x| - |X f_y + mu m_y|   (yaw).
+
+    Rows: friction (4), centre of pressure (4), yaw moment (8); ``-f_z <= 0`` is the last row.
+    """
+    X, Y = half_x, half_y
+    rows = [
+        [1, 0, -mu, 0, 0, 0], [-1, 0, -mu, 0, 0, 0],
+        [0, 1, -mu, 0, 0, 0], [0, -1, -mu, 0, 0, 0],
+        [0, 0, -Y, 1, 0, 0], [0, 0, -Y, -1, 0, 0],
+        [0, 0, -X, 0, 1, 0], [0, 0, -X, 0, -1, 0],
+    ]
+    for s1 in (1, -1):
+        for s2 in (1, -1):
+            rows.append([s1 * Y, s2 * X, -mu * (X + Y), s1 * mu, s2 * mu, 1])
+            rows.append([s1 * Y, s2 * X, -mu * (X + Y), -s1 * mu, -s2 * mu, -1])
+    rows.append([0, 0, -1, 0, 0, 0])
+    return np.array(rows, dtype=float)
+
+
+def sole_yaw_ratio(wrench: np.ndarray, half_x: float, half_y: float, mu: float) -> np.ndarray:
+    """(...) float the share of a rectangular sole's yaw friction a wrench needs: the larger
+    side of :func:`sole_wrench_cone`'s yaw rows over their friction term,
+
+        max(m_z + |Y f_x + mu m_x| + |X f_y + mu m_y|, -m_z + |Y f_x - mu m_x| + |X f_y - mu m_y|)
+            / (mu (X + Y) f_z),
+
+    at most 1 exactly on and inside the cone's yaw faces (``inf`` where ``f_z <= 0``). A pure
+    yaw moment on a centred load reads ``|m_z| / (mu (X + Y) f_z)``; horizontal forces and an
+    off-centre pressure use part of the same friction.
+
+    Args:
+        wrench: (..., 6) float ``(f, m)`` in the sole frame, the moment about its centre.
+    """
+    w = np.asarray(wrench, dtype=float)
+    fx, fy, fz, mx, my, mz = np.moveaxis(w, -1, 0)
+    X, Y = half_x, half_y
+    need = np.maximum(mz + np.abs(Y * fx + mu * mx) + np.abs(X * fy + mu * my),
+                      -mz + np.abs(Y * fx - mu * mx) + np.abs(X * fy - mu * my))
+    hold = mu * (X + Y) * fz
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(fz > 0, need / np.where(fz > 0, hold, 1.0), np.inf)
+
+
 class ConeError(ImeshError):
     """A contact set whose wrench cone cannot be built (a contact force not pushing upward)."""
 

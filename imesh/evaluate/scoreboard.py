@@ -129,11 +129,15 @@ def _reference_dynamics_blocked(robot, q, v, a, support):
     friction = np.concatenate([r.friction_ratios for _, r in parts])
     sup = support.any(axis=1)
     ft = int(np.argmax(np.where(sup, friction, -1.0))) if sup.any() else -1
+    yaw = np.concatenate([r.yaw_ratios for _, r in parts])
+    single = support.sum(axis=1) == 1
+    yt = int(np.argmax(np.where(single, yaw, -1.0))) if single.any() else -1
     return dataclasses.replace(
         best, torque_frame=best.torque_frame + start,
         friction_ratio=float(friction[ft]) if ft >= 0 else float("nan"), friction_frame=ft,
         torque_ratios=np.concatenate([r.torque_ratios for _, r in parts]),
-        friction_ratios=friction)
+        friction_ratios=friction, yaw_ratio=float(yaw[yt]) if yt >= 0 else float("nan"),
+        yaw_frame=yt, yaw_ratios=yaw)
 
 
 def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = False, *,
@@ -365,7 +369,8 @@ def _dynamics_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                                     joint=dyn.torque_joint, frame=dyn.torque_frame,
                                     note="inverse dynamics, sole wrenches least-norm"),
         "friction_ratio_max": _metric("friction_ratio_max", dyn.friction_ratio,
-                                      frame=dyn.friction_frame, mu=MU),
+                                      frame=dyn.friction_frame, mu=MU,
+                                      yaw_ratio=_clean(dyn.yaw_ratio), yaw_frame=dyn.yaw_frame),
     }
 
 

@@ -5,7 +5,11 @@ torques. The ground supplies the base wrench through the support soles: the sole
 (world-aligned force and moment at each support sole frame) solve ``J_b^T f = tau_b`` (the six
 base rows) in the least-norm sense, and the joint torques are ``tau_j - J_j^T f``. The torque
 ratio is ``max |tau_j| / effort_max``; the friction ratio is ``|f_xy| / (mu f_z)`` of each
-support sole (infinite where a sole would have to pull, f_z <= 0).
+support sole (infinite where a sole would have to pull, f_z <= 0). In single support the sole's
+wrench is the ground's whole wrench, so the yaw ratio, its moment about the vertical over the
+most a rectangular sole's friction holds (:func:`imesh.balance.cwc.sole_yaw_ratio`, the
+contact wrench cone of Caron, Pham & Nakamura 2015), is the motion's; two soles apart hold far
+more, and their least-norm split is not the ground's, so double support has no yaw ratio.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..balance.cwc import sole_yaw_ratio
 from ..contacts.phases import SIDES
 
 #: Friction coefficient of the friction ratio.
@@ -32,6 +37,9 @@ class ReferenceDynamics:
         friction_frame: the frame of that ratio (-1 without support).
         torque_ratios: (T,) largest |joint torque| / effort limit of each frame.
         friction_ratios: (T,) largest friction ratio of each frame (0 without support).
+        yaw_ratio: largest yaw ratio over the single-support frames (NaN without any).
+        yaw_frame: the frame of that ratio (-1 without single support).
+        yaw_ratios: (T,) yaw ratio of each single-support frame (0 elsewhere).
     """
 
     torque_ratio: float
@@ -41,6 +49,9 @@ class ReferenceDynamics:
     friction_frame: int
     torque_ratios: np.ndarray
     friction_ratios: np.ndarray
+    yaw_ratio: float
+    yaw_frame: int
+    yaw_ratios: np.ndarray
 
 
 def sole_wrench_map(J: np.ndarray) -> np.ndarray:
@@ -85,6 +96,7 @@ def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
     kin = robot.trajectory_kinematics(q, frames)
     ratio = np.zeros((T, robot.dof))
     friction = np.zeros(T)
+    yaw = np.zeros(T)
     tau_all, _ = robot.inverse_dynamics_trajectory(q, v, a)
     for t in range(T):  # one small least-squares problem per frame
         feet = np.flatnonzero(support[t])
@@ -97,12 +109,24 @@ def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = np.where(fz > 0, tang / (mu * np.maximum(fz, 1e-12)), np.inf)
             friction[t] = r.max()
+            if len(feet) == 1:
+                sole = robot.soles[SIDES[feet[0]]]
+                pose = kin.placements[t, feet[0]]
+                R = pose[:3, :3]
+                # the moment about the sole centre (the wrench is at the frame's origin)
+                m = fk[0, 3:] - np.cross(R @ sole.center, fk[0, :3])
+                yaw[t] = sole_yaw_ratio(np.r_[R.T @ fk[0, :3], R.T @ m],
+                                        *sole.half_extents, mu)
         ratio[t] = np.abs(tau) / robot.effort_max
     tw, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)   # the worst frame, joint
     sup = support.any(axis=1)
     ft = int(np.argmax(np.where(sup, friction, -1.0))) if sup.any() else -1
+    single = support.sum(axis=1) == 1
+    yt = int(np.argmax(np.where(single, yaw, -1.0))) if single.any() else -1
     return ReferenceDynamics(torque_ratio=float(ratio[tw, j]), torque_joint=robot.joint_names[j],
                              torque_frame=int(tw),
                              friction_ratio=float(friction[ft]) if ft >= 0 else float("nan"),
                              friction_frame=ft, torque_ratios=ratio.max(axis=1),
-                             friction_ratios=friction)
+                             friction_ratios=friction,
+                             yaw_ratio=float(yaw[yt]) if yt >= 0 else float("nan"),
+                             yaw_frame=yt, yaw_ratios=yaw)

@@ -68,8 +68,14 @@ class WbcWeights(NonNegative):
             and the G1 walk's left knee ends 86.9 mm off; at 60 81.0 mm and its stance sole
             slips 2.8 mm instead of 7.6 (at 45 the worst walk of docs/wholebody.md reads
             81.3 mm, at 80 88.0).
-        joints: joint posture of the legs (the joints between the base and a sole: they move
-            the CoM over the feet, so they yield to the CoM).
+        joints: joint posture of the legs (the joints between the base and a sole). At 0.05
+            (they yielded to the CoM) a knee straightened in a push-off stayed straight
+            while the reference bent it: at a straight knee its bending moves neither the
+            sole nor the hip along the leg to first order, so the sole and CoM tasks do not
+            bend it back (G1 veer: the stance knee at its limit, 0.77 rad from the
+            reference, key points 113 mm off; the JVRC-1 veer's swing knee 0.6 rad, 112 mm);
+            at 0.5 22 and 27 mm. (A weight of 1, with an older toe roll, fought the CoM and
+            lost the G1 walk at 2.0 s.)
         upper_body: joint posture of every other joint (waist, arms, head: a torso swung to
             catch the balance moves the hands and the head far from the reference). At 1 the
             G1 walk's trunk gave way after a lift-off (waist 7 deg off, left hand 97.6 mm off)
@@ -91,7 +97,7 @@ class WbcWeights(NonNegative):
     momentum: float = 1000.0
     base: float = 10.0
     swing: float = 60.0
-    joints: float = 0.05
+    joints: float = 0.5
     upper_body: float = 2.0
     contact: float = 1e4
     acceleration: float = 1e-4
@@ -125,6 +131,11 @@ class WbcConfig:
             it stays flat until it leaves.
         toe_cop_fraction: in that roll the centre of pressure stays in the front
             ``1 - toe_cop_fraction`` of the sole's half length.
+        toe_lateral: ... and within ``toe_lateral`` of the sole's half width of its middle,
+            so that both toe corners carry it: in DART a centre of pressure near a toe corner
+            stood the rolling sole on that corner alone, which holds no moment about the
+            vertical, and its heel swung 7 mm sideways before the lift-off (JVRC-1 veer). The
+            rolling sole's wrench cone is that of this front strip (a line contact).
         landing_depth_m: a sole the plan has in support while it is still in the air (a late
             landing) is driven to this far below its reference [m]. On the 12 runs of
             docs/wholebody.md, from 0 to 0.02, the runs slipping more than 5 mm fall from 4 to
@@ -144,12 +155,15 @@ class WbcConfig:
     toe_roll_frames: int = 2
     toe_cop_fraction: float = 0.8
     landing_depth_m: float = 0.02
+    toe_lateral: float = 0.3
 
     def __post_init__(self) -> None:
         require_finite(self, ("rate_hz", "friction_fraction", "torque_fraction",
                               "limit_horizon_s"), positive=True)
         if not (isinstance(self.toe_roll_frames, int) and self.toe_roll_frames >= 0):
             raise OptionError("toe_roll_frames", self.toe_roll_frames, "an integer >= 0")
+        if not 0.0 < self.toe_lateral <= 1.0:
+            raise OptionError("toe_lateral", self.toe_lateral, "a fraction in (0, 1]")
         if not 0.0 <= self.toe_cop_fraction < 1.0:
             raise OptionError("toe_cop_fraction", self.toe_cop_fraction, "a fraction in [0, 1)")
         require_finite(self, ("min_normal_force_n", "contact_height_m", "landing_depth_m"),

@@ -43,13 +43,19 @@ The contact wrench cone of a rectangular sole of half sizes X, Y with friction c
 ``WbcConfig.cop_margin`` so that the centre of pressure stays off the edge.
 
 A sole that the plan lifts within ``WbcConfig.toe_roll_frames`` frames, at the end of a double
-support, rolls over its toe edge: its six contact rows become the toe edge's linear
-acceleration (3), the angular acceleration about the sole's normal and forward axes (2) and its
-pitch following the reference sole's (1), and its centre of pressure stays in the front fifth of
-the sole's half length (``WbcConfig.toe_cop_fraction``). A human foot rolls over its toes
-while the other foot takes the weight; a sole held flat to the last frame made the QP unload
-it early (1-6 N in the last 40 ms on the G1 walk) and lose the capture point at every
-lift-off.
+support, rolls over its toe edge: its contact rows become the toe edge's linear acceleration
+(3) and the angular acceleration about the sole's normal and forward axes (2); its pitch is
+free, so the heel rises as its leg's posture bends the knee with the reference's. Standing on
+its toe edge the sole is a line contact: its wrench stays in the cone of the front strip ``x >=
+a X`` of the sole (``a = WbcConfig.toe_cop_fraction``), ``WbcConfig.toe_lateral`` of the half
+width wide (both toe corners carry it: a centre of pressure near one corner stood the sole on
+that corner alone in DART, which holds no moment about the vertical, and the heel swung 7 mm
+sideways). A human foot rolls over its toes while the other foot takes the weight; a sole held
+flat to the last frame made the QP unload it early (1-6 N in the last 40 ms on the G1 walk) and
+lose the capture point at every lift-off; a roll whose pitch followed the reference sole's
+(flat until it lifts) straightened the knee in the push-off while the reference bent it, and
+the swing knee lagged 0.3-0.6 rad behind after the lift-off (key points 80-112 mm off on the
+JVRC-1 veer and the HRP-4C walk, 27 and 46 mm with the free pitch).
 
 A sole is in contact when the reference plans it in support and the simulated sole is within
 ``WbcConfig.contact_height_m`` of the ground; a planned support whose sole is still in the air
@@ -67,6 +73,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..balance.cwc import sole_wrench_cone
 from ..contacts.phases import SIDES
 from .config import WbcConfig
 from .so3 import log_so3, quat_xyzw_to_matrix
@@ -90,29 +97,6 @@ def contact_frame_rotation(normal: np.ndarray) -> np.ndarray:
     x = np.array([1.0, 0.0, 0.0]) - n[0] * n
     x /= np.linalg.norm(x)
     return np.column_stack([x, np.cross(n, x), n])
-
-
-def wrench_cone(half_x: float, half_y: float, mu: float) -> np.ndarray:
-    """(16, 6) float ``C`` with ``C w <= 0`` for a wrench ``w = (f, m)`` in the sole frame at
-    the sole centre inside the contact wrench cone (Caron et al. 2015), ``fz >= 0`` included.
-
-    Rows: friction (4), centre of pressure (4), yaw moment (8); ``-fz <= 0`` is the last row.
-    """
-    X, Y = half_x, half_y
-    rows = [
-        [1, 0, -mu, 0, 0, 0], [-1, 0, -mu, 0, 0, 0],
-        [0, 1, -mu, 0, 0, 0], [0, -1, -mu, 0, 0, 0],
-        [0, 0, -Y, 1, 0, 0], [0, 0, -Y, -1, 0, 0],
-        [0, 0, -X, 0, 1, 0], [0, 0, -X, 0, -1, 0],
-    ]
-    # mz <= mu (X+Y) fz - |Y fx + mu mx| - |X fy + mu my|
-    # mz >= -mu (X+Y) fz + |Y fx - mu mx| + |X fy - mu my|
-    for s1 in (1, -1):
-        for s2 in (1, -1):
-            rows.append([s1 * Y, s2 * X, -mu * (X + Y), s1 * mu, s2 * mu, 1])
-            rows.append([s1 * Y, s2 * X, -mu * (X + Y), -s1 * mu, -s2 * mu, -1])
-    rows.append([0, 0, -1, 0, 0, 0])
-    return np.array(rows, dtype=float)
 
 
 @dataclass(frozen=True)
@@ -162,9 +146,11 @@ class WholeBodyController:
         self.contact_R = np.array([contact_frame_rotation(robot.soles[s].normal)
                                    for s in SIDES])
         mu = config.friction_fraction * friction
+        self.mu = mu
         keep = 1.0 - config.cop_margin
-        self.cones = [wrench_cone(keep * robot.soles[s].half_extents[0],
-                                  keep * robot.soles[s].half_extents[1], mu) for s in SIDES]
+        self.cones = [sole_wrench_cone(keep * robot.soles[s].half_extents[0],
+                                       keep * robot.soles[s].half_extents[1], mu)
+                      for s in SIDES]
         self.half_extents = np.array([robot.soles[s].half_extents for s in SIDES])
         self.tau_max = robot.effort_max * config.torque_fraction
         self.q_lower, self.q_upper = robot.q_lower, robot.q_upper
@@ -221,10 +207,11 @@ class WholeBodyController:
             return np.zeros(2, dtype=bool)
         return np.logical_not(ahead.all(axis=0))
 
-    def _toe_rows(self, dyn, s: int, ref: TrackPoint) -> tuple[np.ndarray, np.ndarray]:
-        """(6, nv) rows and (6,) right-hand side of a sole rolling over its toe edge: the
-        toe-edge centre's linear acceleration 0 (with damping), the angular acceleration about
-        the sole's forward and normal axes 0, the pitch following the reference sole's."""
+    def _toe_rows(self, dyn, s: int) -> tuple[np.ndarray, np.ndarray]:
+        """(5, nv) rows and (5,) right-hand side of a sole rolling over its toe edge: the
+        toe-edge centre's linear acceleration 0 (with damping) and the angular acceleration
+        about the sole's forward and normal axes 0; its pitch is free (the heel rises as the
+        leg's posture bends the knee)."""
         g = self.config.gains
         Rc = dyn.poses[s, :3, :3] @ self.contact_R[s]  # contact frame in the world
         r = Rc[:, 0] * self.half_extents[s, 0]  # sole centre -> toe edge
@@ -234,15 +221,10 @@ class WholeBodyController:
         drift = dyn.drifts[s, :3] + np.cross(dyn.drifts[s, 3:], r) + w * (w @ r) - r * (w @ w)
         v_toe = dyn.twists[s, :3] + np.cross(w, r)
         fixed = np.stack([Rc[:, 0], Rc[:, 2]])
-        lateral = Rc[:, 1]
-        pitch = (ref.sole_alpha[s] + g.sole_kp * _rotation_error(ref.sole_rotations[s],
-                                                                 dyn.poses[s, :3, :3])
-                 + g.sole_kd * (ref.sole_omega[s] - w))
         # the toe's alpha x r, column by column of the angular Jacobian
-        rows = np.vstack([J_lin + np.cross(J_ang.T, r).T, fixed @ J_ang, lateral @ J_ang])
+        rows = np.vstack([J_lin + np.cross(J_ang.T, r).T, fixed @ J_ang])
         rhs = np.r_[-drift - g.contact_kd * v_toe,
-                    -fixed @ dyn.drifts[s, 3:] - g.contact_kd * (fixed @ w),
-                    lateral @ (pitch - dyn.drifts[s, 3:])]
+                    -fixed @ dyn.drifts[s, 3:] - g.contact_kd * (fixed @ w)]
         return rows, rhs
 
     def step(self, t: float, q: np.ndarray, v: np.ndarray) -> ControlStep:
@@ -257,6 +239,7 @@ class WholeBodyController:
         ref = self.track.at(t)
         dyn = self.robot.dynamics(q, v, self.frames, self.centres)
         contact = self.contacts(ref, self.sole_heights(dyn.poses))
+        rolling = self.rolling(t) & contact
         active = np.flatnonzero(contact)
         k = len(active)
         n = nv + 6 * k
@@ -335,23 +318,21 @@ class WholeBodyController:
         # --- equalities: floating-base dynamics, contacts -------------------------------------
         M, h = dyn.mass_matrix, dyn.bias.copy()
         h[6:] += self.damping * v[6:]  # the joints' viscous damping, as the simulator has it
-        E = np.zeros((6 + 6 * k, n))
-        e = np.zeros(6 + 6 * k)
-        E[:6, :nv] = M[:6]
-        e[:6] = -h[:6]
         # generalized torque rows of the contact wrenches: J_c^T w_c
         Jt = np.zeros((nv, 6 * k))
-        rolling = self.rolling(t)
+        E_rows, e_rows = [M[:6]], [-h[:6]]
         for j, s in enumerate(active):
             Jt[:, 6 * j:6 * j + 6] = dyn.jacobians[s].T
             if rolling[s]:
-                E[6 + 6 * j:12 + 6 * j, :nv], e[6 + 6 * j:12 + 6 * j] = self._toe_rows(
-                    dyn, int(s), ref)
-                continue
-            E[6 + 6 * j:12 + 6 * j, :nv] = dyn.jacobians[s]
-            flat = self._flat_error(dyn.poses[s], int(s))
-            e[6 + 6 * j:12 + 6 * j] = (-dyn.drifts[s] - cfg.gains.contact_kd * dyn.twists[s]
-                                       + cfg.gains.contact_kp * flat)
+                rows, rhs = self._toe_rows(dyn, int(s))
+            else:
+                rows = dyn.jacobians[s]
+                rhs = (-dyn.drifts[s] - cfg.gains.contact_kd * dyn.twists[s]
+                       + cfg.gains.contact_kp * self._flat_error(dyn.poses[s], int(s)))
+            E_rows.append(rows)
+            e_rows.append(rhs)
+        E = np.hstack([np.vstack(E_rows), np.zeros((sum(len(r) for r in E_rows), n - nv))])
+        e = np.concatenate(e_rows)
         E[:6, nv:] = -Jt[:6]
 
         # --- inequalities: wrench cones, torque limits ----------------------------------------
@@ -362,14 +343,22 @@ class WholeBodyController:
             block[:3, :3] = Rc.T
             block[3:, 3:] = Rc.T
             C = self.cones[s] @ block
-            if rolling[s]:  # centre of pressure x >= a: my + a fz <= 0 (sole frame); the
-                # cone's last row stays -fz (its bound is the minimum normal force)
-                a = cfg.toe_cop_fraction * self.half_extents[s, 0]
-                C = np.vstack([C[:-1], np.array([0.0, 0.0, a, 0.0, 1.0, 0.0]) @ block, C[-1:]])
-            G = np.zeros((len(C), n))
-            G[:, nv + 6 * j:nv + 6 * j + 6] = C
+            if rolling[s]:
+                # the heel is up: the sole stands on its toe edge, a line contact. Its cone is
+                # that of the front strip x >= toe_cop_fraction X (within toe_lateral of the
+                # half width), about the strip's centre r: w_strip = (f, m - r x f)
+                X, Y = self.half_extents[s]
+                a = cfg.toe_cop_fraction
+                strip = sole_wrench_cone(0.5 * (1.0 - a) * X, cfg.toe_lateral * Y, self.mu)
+                r = 0.5 * (1.0 + a) * X
+                shift = np.eye(6)
+                shift[4, 2] = r   # my_strip = my + r fz
+                shift[5, 1] = -r  # mz_strip = mz - r fy
+                C = strip @ shift @ block
             upper = np.zeros(len(C))
             upper[-1] = -cfg.min_normal_force_n
+            G = np.zeros((len(C), n))
+            G[:, nv + 6 * j:nv + 6 * j + 6] = C
             G_rows.append(G)
             l_rows.append(np.full(len(C), -np.inf))
             u_rows.append(upper)

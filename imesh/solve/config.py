@@ -148,6 +148,13 @@ class ForceOptions(NonNegative):
         kinetic_friction: the largest mu of a sliding sole: where the only support slides, the
             ground's horizontal force is against the slide and at most ``kinetic_friction``
             times the normal force (a floor at most this rough); 0: no kinetic rows.
+        yaw_sole_scale: in single support on the floor the ground's wrench stays inside the
+            contact wrench cone of the support sole scaled by this about its centre (its yaw
+            moment within ``yaw_sole_scale`` of what the sole's friction holds, the ZMP rows
+            unchanged: :mod:`.cwc`); 0: no such rows. Without them the walks, veers and waves
+            of docs/wholebody.md needed up to 1.85 times the friction a single support sole
+            has (the evaluator's ``yaw_ratio``: G1 walk; beyond 1 in up to 16 frames a run),
+            and in the DART check the stance sole turned under the robot; with them 0.42-0.52.
     """
 
     min_normal: float = 0.7
@@ -156,12 +163,15 @@ class ForceOptions(NonNegative):
     impact_normal: float = 3.0
     impact_s: float = 0.3
     kinetic_friction: float = 0.3
+    yaw_sole_scale: float = 0.5
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.max_normal < self.min_normal:
             raise OptionError("max_normal", self.max_normal,
                               f"a number >= min_normal ({self.min_normal})")
+        if self.yaw_sole_scale > 1:
+            raise OptionError("yaw_sole_scale", self.yaw_sole_scale, "a fraction in [0, 1]")
         if self.impact_normal < self.max_normal:
             raise OptionError("impact_normal", self.impact_normal,
                               f"a number >= max_normal ({self.max_normal})")
@@ -180,8 +190,13 @@ class LimitMargins(NonNegative):
             HRP-4C walk, veer and wave read 97.8, 84.9 and 88.8 mm (0.2: 111.7, 102.4, 90.0),
             their marker RMS 78.6, 95.1 and 69.8 mm (71.5, 91.2, 69.2 at 1e-3); the JVRC-1 and G1
             runs hardly touch their speed limits and barely change.
-        acceleration: the acceleration limits are used times (1 - acceleration), so the written
-            motion meets them with room for rounding.
+        acceleration: the acceleration limits are used times (1 - acceleration): room for a
+            tracking controller, as the velocity margin. At 1e-3 the plan used them to the
+            full at the lift-offs (JVRC-1's swing knee from 0.3 to 8 rad/s in two frames) and
+            in the DART check the hip reached its torque limit following it; with the
+            controller's earlier toe roll (its pitch held to the reference's) the JVRC-1
+            veer's swing knee lagged 0.6 rad after its first lift-off, key points 112 mm off,
+            80 mm at 0.3 (marker RMS +0.5-2.0 mm on the walks and veers).
         torque: the net joint torques (inverse dynamics, the base wrench split between the
             support soles as the evaluator's ``torque_ratio_ref``) stay within
             ``1 - torque`` of the effort limits (elastic rows, :mod:`.torque`); 1: no torque
@@ -189,7 +204,7 @@ class LimitMargins(NonNegative):
     """
 
     velocity: float = 0.3
-    acceleration: float = 1e-3
+    acceleration: float = 0.3
     torque: float = 0.15
 
     def __post_init__(self) -> None:

@@ -1,8 +1,11 @@
-"""Balance rows where the ZMP does not apply: the contact wrench cone in the whole-body QP.
+"""Balance rows beyond the ZMP: the contact wrench cone in the whole-body QP.
 
 On a frame whose contacts are not all soles on the floor (a foot on a prop's top, feet at two
 heights, a hand or knee held on a top: :mod:`.touches`) the ZMP rows are replaced by the
-contact wrench cone of Caron, Pham & Nakamura (RSS 2015; :mod:`imesh.balance.cwc`): the wrench
+contact wrench cone of Caron, Pham & Nakamura (RSS 2015; :mod:`imesh.balance.cwc`); on the
+single-support frames of a plan on the floor the cone of the support sole scaled by
+``ForceOptions.yaw_sole_scale`` about its centre is added to the ZMP rows (the ZMP says nothing
+of the moment about the vertical, which one sole's friction bounds). The wrench
 the contacts must supply per unit mass about the cone's reference point ``o``,
 
     w_t = [f_t; (c_t - o) x f_t + Ld_t / m],   f_t = c''_t - g,
@@ -72,8 +75,8 @@ class ConePlan:
 
 
 def plan_cones(robot, support: np.ndarray, sole_targets: np.ndarray, anchors: np.ndarray | None,
-               active: np.ndarray | None, frames: np.ndarray, mu: float = FRICTION
-               ) -> ConePlan | None:
+               active: np.ndarray | None, frames: np.ndarray, mu: float = FRICTION,
+               sole_scale: float = 1.0) -> ConePlan | None:
     """The cones of ``frames`` from their contacts: the corners of each support sole on its
     footprint (``sole_targets`` (T, 2, 4, 4), normal the footprint's sole normal) and the held
     points' ``anchors`` (C, 3) active there (``active`` (T, C), normal up).
@@ -82,6 +85,8 @@ def plan_cones(robot, support: np.ndarray, sole_targets: np.ndarray, anchors: np
         robot: the robot (its soles' rectangles).
         support: (T, 2) bool support soles.
         frames: (F,) the frames that get cone rows (each with at least one contact).
+        sole_scale: the soles' rectangles scaled by this about their centres (< 1: the cone
+            of a smaller sole, whose yaw moment ``mu (X + Y) f_z`` scales with it).
     """
     frames = np.asarray(frames, dtype=int)
     if not len(frames):
@@ -102,7 +107,8 @@ def plan_cones(robot, support: np.ndarray, sole_targets: np.ndarray, anchors: np
         for k, side in enumerate(SIDES):
             if support[t, k]:
                 sole, M = robot.soles[side], sole_targets[t, k]
-                pts.append(sole.corners() @ M[:3, :3].T + M[:3, 3])
+                local = sole.center + sole_scale * (sole.corners() - sole.center)
+                pts.append(local @ M[:3, :3].T + M[:3, 3])
                 normals.append(np.tile(M[:3, :3] @ sole.normal, (4, 1)))
         if C and active[t].any():
             pts.append(anchors[active[t]])

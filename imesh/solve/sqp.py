@@ -513,6 +513,13 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                            None if points is None else points.anchor_m,
                            None if points is None else points.active,
                            np.flatnonzero(~flight & ~zmp))
+    elif props is None and config.forces.yaw_sole_scale > 0:
+        # one sole on the floor holds a yaw moment of at most mu (X + Y) f_z: the cone of the
+        # sole scaled by yaw_sole_scale keeps the plan's inside it (the ZMP rows stay)
+        single = np.flatnonzero(support.sum(axis=1) == 1)
+        if len(single):
+            cones = plan_cones(robot, support, sole_targets, None, None, single,
+                               sole_scale=config.forces.yaw_sole_scale)
     tracks = footprint_tracks(footprints, T, fps)
     kp_markers = markers[:, targets.kp_markers]
     lap = keypoint_laplacians(kp_markers)
@@ -652,7 +659,10 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     elastic = False
     phi = merit(lin, plan, q, config)
     trust = config.sqp.trust_region
-    unknown_contacts = plan.cones is not None or bool(plan.flight.any())
+    # the floor's single-support yaw cones (ForceOptions.yaw_sole_scale) are not contacts the
+    # plan has to find: only prop contacts and flight get contact_iterations
+    prop_cones = plan.props is not None and plan.cones is not None
+    unknown_contacts = prop_cones or bool(plan.flight.any())
     n_iter = config.sqp.contact_iterations if unknown_contacts else config.sqp.iterations
 
     def solve(qp, it: int):
