@@ -263,7 +263,7 @@ def test_a_fall_in_the_dart_check_fails_verification(jvrc1):
     assert not failed and report["physics_fell"]["value"] is False
 
 
-def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(tmp_path):
+def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(request):
     """The CMU walk retargeted to G1 with default settings and read back from its file stands
     to its end in DART at the clip's own speed: key points within 25 mm RMS and 150 mm max of
     the reference (measured 12.0 / 68.1), the base within 50 mm at the end (2 mm); with its
@@ -274,19 +274,12 @@ def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(tmp_path):
     captured, before it was levelled on its floor: 11.8 and 2.2)."""
     import dataclasses
 
-    from conftest import mocap_path
-
     from imesh.evaluate import load_motion_file
-    from imesh.io import load_motion
-    from imesh.io.robot_motion import save_robot_motion
     from imesh.physics import PhysicsConfig, simulate_motion
-    from imesh.pipeline.retarget import retarget
 
     robot = _robot("g1")
-    path = tmp_path / "walk.npz"
-    save_robot_motion(path, retarget(load_motion(mocap_path("cmu_02_01_walk.bvh")),
-                                     robot).motion)
-    motion = load_motion_file(path, robot)
+    # ``imesh retarget`` of the walk (conftest's g1_walk), after the skip above
+    motion = load_motion_file(request.getfixturevalue("g1_walk")[0], robot)
     physics = PhysicsConfig()
     res = simulate_motion(robot, motion, config=physics)
     assert not res.fell and res.survived_s == pytest.approx(res.duration_s)
