@@ -303,7 +303,11 @@ def test_the_veer_stands_from_its_lead_in(tmp_path):
     down and swings it up into the clip, its markers carried with the foot
     (imesh.solve.lead.LeadFeet). The reference's sole rises at most 30 mm per frame in that
     swing (it rose 99 mm and pitched 32 deg in one frame, and the robot was lost in the lead-in
-    at 1.17 s), and the robot stands to the end with the base within 50 mm of the reference."""
+    at 1.17 s), and the robot stands to the end with the base within 50 mm of the reference.
+    On the clip's first 1.7 s (frames 0-200 at 120 fps: the lifted foot's swing and two more
+    steps, ending with both feet down; with the lead-in and lead-out, 3.6 s in DART), measured:
+    12.98 mm rise at most, the base 1.8 mm off at the end (the whole 4.45 s veer: 12.81 mm and
+    2.0 mm, for 3.4 times the retarget's time)."""
     from conftest import mocap_path
 
     from imesh.evaluate import load_motion_file
@@ -315,7 +319,8 @@ def test_the_veer_stands_from_its_lead_in(tmp_path):
 
     robot = _robot("g1")
     path = tmp_path / "veer.npz"
-    result = retarget(load_motion(mocap_path("cmu_16_11_walk_veer_left.bvh")), robot)
+    result = retarget(load_motion(mocap_path("cmu_16_11_walk_veer_left.bvh")).frames(0, 200),
+                      robot)
     save_robot_motion(path, result.motion)
     motion = load_motion_file(path, robot)
     n_in = result.lead_frames[0]
