@@ -58,20 +58,65 @@ def mocap():
     return mocap_path
 
 
-@pytest.fixture(scope="session")
-def g1_walk(tmp_path_factory):
-    """The demo walk retargeted to the G1 by ``imesh retarget`` (about 45 s, once per session):
-    (the motion file, the retarget's JSON report)."""
+def made_once(tmp_path_factory, name: str, make) -> Path:
+    """The folder ``name`` that ``make(folder)`` fills, made once per test run: with
+    pytest-xdist the workers share it (the first one that needs it makes it while the others
+    wait on a lock; they never write into it). A ``make`` that raises leaves no folder, and the
+    next test needing it tries again (and fails with the same error)."""
+    import fcntl
+    import shutil
+
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # the run's folder above every worker's basetemp
+    folder = root / f"made-once-{name}"
+    with open(root / f"made-once-{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if not (folder / ".done").is_file():
+            shutil.rmtree(folder, ignore_errors=True)
+            folder.mkdir()
+            try:
+                make(folder)
+            except BaseException:
+                shutil.rmtree(folder, ignore_errors=True)
+                raise
+            (folder / ".done").touch()
+    return folder
+
+
+def _demo_walk(tmp_path_factory, robot: str):
+    """``imesh retarget`` of the demo walk to ``robot`` with default settings, made once per
+    test run (:func:`made_once`): (the motion file, the retarget's JSON report, the adapted
+    markers file of ``--markers``)."""
     import json
 
     from imesh.api import demo_clip
     from imesh.cli import main
 
-    folder = tmp_path_factory.mktemp("g1_walk")
-    out, report = folder / "walk_g1.npz", folder / "walk_g1.json"
-    assert main(["-q", "retarget", str(demo_clip()), "--robot", "g1", "-o", str(out),
-                 "--json", str(report)]) == 0
-    return out, json.loads(report.read_text())
+    out, report, markers = (f"walk_{robot}.npz", f"walk_{robot}.json",
+                            f"walk_{robot}_markers.npz")
+
+    def make(folder: Path) -> None:
+        assert main(["-q", "retarget", str(demo_clip()), "--robot", robot, "-o",
+                     str(folder / out), "--json", str(folder / report), "--markers",
+                     str(folder / markers)]) == 0
+
+    folder = made_once(tmp_path_factory, f"walk_{robot}", make)
+    return folder / out, json.loads((folder / report).read_text()), folder / markers
+
+
+@pytest.fixture(scope="session")
+def g1_walk(tmp_path_factory):
+    """The demo walk retargeted to the G1 by ``imesh retarget`` (30 s alone here, once per test run,
+    shared by the xdist workers): (the motion file, the retarget's JSON report, the adapted
+    markers file). Read it; never write into its folder."""
+    return _demo_walk(tmp_path_factory, "g1")
+
+
+@pytest.fixture(scope="session")
+def jvrc1_walk(tmp_path_factory):
+    """The demo walk retargeted to JVRC-1 by ``imesh retarget``, as :func:`g1_walk`."""
+    return _demo_walk(tmp_path_factory, "jvrc1")
 
 
 def run_cli(capsys, *argv) -> tuple[int, str]:

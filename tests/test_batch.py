@@ -24,13 +24,27 @@ ROOT = Path(__file__).resolve().parents[1]
 pytest.importorskip("ray")
 
 
+def _first_frames(src: Path, dst: Path, n: int) -> None:
+    """The BVH ``src`` up to its frame ``n`` (the hierarchy and the values as they are)."""
+    lines = src.read_bytes().splitlines(keepends=True)
+    k = next(i for i, line in enumerate(lines) if line.lstrip().startswith(b"Frames:"))
+    eol = lines[k][len(lines[k].rstrip(b"\r\n")):]
+    assert int(lines[k].split()[1]) >= n and lines[k + 1].lstrip().startswith(b"Frame Time:")
+    dst.write_bytes(b"".join(lines[:k]) + b"Frames: %d" % n + eol
+                    + b"".join(lines[k + 1:k + 2 + n]))
+
+
 @pytest.fixture(scope="module")
 def clips(tmp_path_factory) -> Path:
+    """Two real clips, the first 1.3 s of the demo walk (156 frames at 120 fps: two steps,
+    ending with both feet down) and of the wave, a corrupt one and a text file. The whole
+    walk's solve is kept for the tests that stop a batch while it runs
+    (:func:`test_batch_interrupted_leaves_no_partial_file`)."""
     import imesh
 
     folder = tmp_path_factory.mktemp("clips")
-    shutil.copy(imesh.demo_clip(), folder / "walk.bvh")
-    shutil.copy(mocap_path("cmu_141_16_wave_hello.bvh"), folder / "wave.bvh")
+    _first_frames(imesh.demo_clip(), folder / "walk.bvh", 156)
+    _first_frames(mocap_path("cmu_141_16_wave_hello.bvh"), folder / "wave.bvh", 156)
     # corrupt: the walk cut off in its hierarchy
     (folder / "cut.bvh").write_bytes(imesh.demo_clip().read_bytes()[:3000])
     (folder / "notes.txt").write_text("not a clip: ignored by the folder search\n")
@@ -87,13 +101,16 @@ def test_batch_partial_then_resumed(clips, tmp_path, capsys):
                                                                           fps=25.0))
 
 
-def test_batch_interrupted_leaves_no_partial_file(clips, tmp_path):
+def test_batch_interrupted_leaves_no_partial_file(tmp_path):
     """SIGTERM while the clips are being solved: nothing half-written; the restart ends with
-    the same outputs as an uninterrupted run."""
+    the same outputs as an uninterrupted run. (The whole demo walk: its solve outlasts the
+    12 s before the signal.)"""
+    import imesh
+
     out = tmp_path / "out"
     single = tmp_path / "in"
     single.mkdir()
-    shutil.copy(clips / "walk.bvh", single / "walk.bvh")
+    shutil.copy(imesh.demo_clip(), single / "walk.bvh")
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     cmd = [sys.executable, "-c", "import sys; from imesh.cli import main; sys.exit(main())",
            "-q", "batch", str(single), "--robot", "jvrc1", "-o", str(out), "--workers", "1"]
@@ -139,15 +156,17 @@ def test_batch_from_the_folder_holding_the_checkout(clips, tmp_path):
 
 
 @pytest.mark.parametrize("seconds", [0.5, 2.0, 4.0, 6.0, 8.0, 12.0])
-def test_batch_sigterm_at_any_moment(clips, tmp_path, seconds):
+def test_batch_sigterm_at_any_moment(tmp_path, seconds):
     """SIGTERM while Python imports the command (0.5 s), around Ray's start-up (2-4 s, where
     ray.init had its own handler: exit 15 without a word before), as the driver's core worker
     starts (6-8 s on a loaded machine: its abseil failure-signal handler printed a C++ stack
     and aborted, -6) and while the clip is solved (12 s): exit 130 with one line on stderr
     (-q: nothing else), no output or temporary file."""
+    import imesh
+
     single = tmp_path / "in"
     single.mkdir()
-    shutil.copy(clips / "walk.bvh", single / "walk.bvh")
+    shutil.copy(imesh.demo_clip(), single / "walk.bvh")  # the whole walk: solved after 12 s
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen([sys.executable, "-m", "imesh", "-q", "batch", str(single),

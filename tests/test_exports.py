@@ -194,14 +194,15 @@ def test_cli_export_round_trip(g1_motion, g1_mjcf, tmp_path):
 
 
 @pytest.fixture(scope="module")
-def walks(g1_motion):
-    """The demo walk retargeted to G1 (conftest's), JVRC-1 and HRP-4C (a user URDF)."""
+def walks(g1_motion, jvrc1_walk):
+    """The demo walk retargeted to G1 and JVRC-1 (conftest's g1_walk and jvrc1_walk) and its
+    first two steps (clip frames 0-156, 1.3 s, ending in double support) to HRP-4C (a user
+    URDF): the exports' claims hold frame by frame, whatever the length."""
     import imesh
 
-    out = {"g1": g1_motion}
-    for name in ("jvrc1", "hrp4c"):
-        out[name] = imesh.retarget(imesh.demo_clip(), load_test_robot(name)).motion
-    return out
+    clip = imesh.load_motion(imesh.demo_clip()).frames(0, 156)
+    return {"g1": g1_motion, "jvrc1": read_export(jvrc1_walk[0]),
+            "hrp4c": imesh.retarget(clip, load_test_robot("hrp4c")).motion}
 
 
 @pytest.mark.parametrize("name", ["g1", "jvrc1", "hrp4c"])

@@ -23,7 +23,7 @@ def test_the_file_records_its_timeline_clip_and_robot(g1_walk):
     from imesh.core.provenance import file_sha256, robot_sha256
     from imesh.io.robot_motion import load_robot_motion
 
-    path, report = g1_walk
+    path, report, _ = g1_walk
     motion = load_robot_motion(path)
     prov = motion.provenance
     assert (prov.lead_in, prov.lead_out) == tuple(report["lead_frames"]) == (30, 30)
@@ -43,7 +43,7 @@ def test_evaluate_source_gives_the_retargets_close_pair_error(g1_walk, tmp_path,
     from imesh.evaluate.scoreboard import evaluate_motion
     from imesh.io.robot_motion import load_robot_motion
 
-    path, report = g1_walk
+    path, report, _ = g1_walk
     own = report["metrics"]["close_pair_error"]["value"]
     out = tmp_path / "ev.json"
     assert main(["-q", "evaluate", str(path), "--source", str(demo_clip()),
@@ -72,7 +72,7 @@ def test_another_clip_is_refused_by_hash(g1_walk, mocap, capsys):
     from imesh.evaluate.scoreboard import evaluate_motion
     from imesh.io.robot_motion import load_robot_motion
 
-    path, _ = g1_walk
+    path = g1_walk[0]
     other = mocap("cmu_16_11_walk_veer_left.bvh")  # a walk too, at 120 fps
     assert main(["-q", "evaluate", str(path), "--source", str(other), "--resample"]) == 2
     err = capsys.readouterr().err
@@ -93,7 +93,7 @@ def test_view_evaluate_export_take_the_robot_from_the_file(g1_walk, tmp_path, ca
     """Acceptance 3: a G1 file, no --robot."""
     from imesh.io.formats import read_export
 
-    path, _ = g1_walk
+    path = g1_walk[0]
     page = tmp_path / "v.html"
     assert main(["-q", "view", str(path), "--html", str(page)]) == 0
     assert page.stat().st_size > 100_000 and '"g1"' in page.read_text()

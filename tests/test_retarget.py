@@ -141,14 +141,15 @@ def test_flight_is_planned_by_default_and_allow_flight_is_retired(mocap, tmp_pat
             np.testing.assert_array_equal(np.load(out)[key], np.load(out2)[key])
 
 
-def test_evaluate_reads_the_adapted_markers_from_the_motion_file(mocap, tmp_path, capsys):
+def test_evaluate_reads_the_adapted_markers_from_the_motion_file(jvrc1_walk, tmp_path,
+                                                                  capsys):
     """retarget stores the adapted markers in its .npz: imesh evaluate measures marker_rms_mm
-    against them (the same number as with --adapted), not against the arranged source."""
+    against them (the same number as with --adapted), not against the arranged source.
+    (``imesh retarget ... --robot jvrc1 -o walk_jvrc1.npz --markers walk_jvrc1_markers.npz`` of
+    the demo walk: conftest's jvrc1_walk.)"""
     import json
 
-    out, markers = tmp_path / "walk.npz", tmp_path / "walk_markers.npz"
-    assert main(["-q", "retarget", str(mocap("cmu_02_01_walk.bvh")), "--robot", "jvrc1", "-o",
-                 str(out), "--markers", str(markers)]) == 0
+    out, _, markers = jvrc1_walk
     reports = []
     for extra in ([], ["--adapted", str(markers)]):
         rep = tmp_path / f"rep{len(reports)}.json"

@@ -250,19 +250,19 @@ def test_flight_is_refused_before_the_work_by_the_nishiwaki_loop(robot, mocap):
     assert err.value.phases
 
 
-def test_default_pipeline_walk(robot, mocap):
-    """The CMU walk on JVRC-1 with default settings, scored by the evaluator: no limit
-    violation, support soles still, the multibody ZMP inside the support polygon, the key
-    points near the adapted markers. (The evaluator's sole deviation also counts the
-    heel-strike/toe-off frames it detects as support: docs/wholebody.md.)"""
+def test_default_pipeline_walk(robot, jvrc1_walk):
+    """The CMU walk on JVRC-1 with default settings (``imesh retarget``, conftest's
+    jvrc1_walk), scored by the evaluator on the written file against the adapted markers it
+    carries: no limit violation, support soles still, the multibody ZMP inside the support
+    polygon, the key points near the adapted markers. (The evaluator's sole deviation also
+    counts the heel-strike/toe-off frames it detects as support: docs/wholebody.md.)"""
+    from imesh.evaluate import load_motion_file
     from imesh.evaluate.scoreboard import evaluate_motion, metric_values
-    from imesh.io import load_motion
-    from imesh.pipeline.retarget import retarget
 
-    motion = load_motion(mocap("cmu_02_01_walk.bvh"))
-    res = retarget(motion, robot)
-    assert res.lead_frames == (30, 30)
-    m = metric_values(evaluate_motion(robot, res.motion, adapted=res.adapted))
+    path, report, _ = jvrc1_walk
+    assert tuple(report["lead_frames"]) == (30, 30)
+    motion = load_motion_file(path, robot)
+    m = metric_values(evaluate_motion(robot, motion, adapted=motion.adapted))
     assert m["limit_violation_frames"] == 0
     assert m["foot_skid_mm_per_frame"] <= 0.5
     assert m["zmp_inside_fraction"] >= 0.99
