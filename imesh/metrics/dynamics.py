@@ -115,8 +115,8 @@ def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                 R = pose[:3, :3]
                 # the moment about the sole centre (the wrench is at the frame's origin)
                 m = fk[0, 3:] - np.cross(R @ sole.center, fk[0, :3])
-                yaw[t] = sole_yaw_ratio(np.r_[R.T @ fk[0, :3], R.T @ m],
-                                        *sole.half_extents, mu)
+                half_x, half_y = sole.half_extents
+                yaw[t] = sole_yaw_ratio(np.r_[R.T @ fk[0, :3], R.T @ m], half_x, half_y, mu)
         ratio[t] = np.abs(tau) / robot.effort_max
     tw, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)   # the worst frame, joint
     sup = support.any(axis=1)

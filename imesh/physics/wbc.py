@@ -348,9 +348,9 @@ class WholeBodyController:
                 # that of the front strip x >= toe_cop_fraction X (within toe_lateral of the
                 # half width), about the strip's centre r: w_strip = (f, m - r x f)
                 X, Y = self.half_extents[s]
-                a = cfg.toe_cop_fraction
-                strip = sole_wrench_cone(0.5 * (1.0 - a) * X, cfg.toe_lateral * Y, self.mu)
-                r = 0.5 * (1.0 + a) * X
+                front = cfg.toe_cop_fraction
+                strip = sole_wrench_cone(0.5 * (1.0 - front) * X, cfg.toe_lateral * Y, self.mu)
+                r = 0.5 * (1.0 + front) * X
                 shift = np.eye(6)
                 shift[4, 2] = r   # my_strip = my + r fz
                 shift[5, 1] = -r  # mz_strip = mz - r fy
