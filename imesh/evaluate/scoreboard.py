@@ -35,7 +35,7 @@ from ..metrics.collision import (
     check_self_collisions,
 )
 from ..metrics.derivatives import motion_derivatives
-from ..metrics.dynamics import MU, reference_dynamics
+from ..metrics.dynamics import MU, reference_dynamics, worst_frame
 from ..metrics.flight import skid_apart_from_slides
 from ..metrics.limits import limit_violations
 from ..metrics.markers import (
@@ -127,17 +127,13 @@ def _reference_dynamics_blocked(robot, q, v, a, support):
         if r.torque_ratio > best.torque_ratio:
             start, best = s, r
     friction = np.concatenate([r.friction_ratios for _, r in parts])
-    sup = support.any(axis=1)
-    ft = int(np.argmax(np.where(sup, friction, -1.0))) if sup.any() else -1
     yaw = np.concatenate([r.yaw_ratios for _, r in parts])
-    single = support.sum(axis=1) == 1
-    yt = int(np.argmax(np.where(single, yaw, -1.0))) if single.any() else -1
+    ft, fv = worst_frame(friction, support.any(axis=1))
+    yt, yv = worst_frame(yaw, support.sum(axis=1) == 1)
     return dataclasses.replace(
-        best, torque_frame=best.torque_frame + start,
-        friction_ratio=float(friction[ft]) if ft >= 0 else float("nan"), friction_frame=ft,
+        best, torque_frame=best.torque_frame + start, friction_ratio=fv, friction_frame=ft,
         torque_ratios=np.concatenate([r.torque_ratios for _, r in parts]),
-        friction_ratios=friction, yaw_ratio=float(yaw[yt]) if yt >= 0 else float("nan"),
-        yaw_frame=yt, yaw_ratios=yaw)
+        friction_ratios=friction, yaw_ratio=yv, yaw_frame=yt, yaw_ratios=yaw)
 
 
 def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = False, *,

@@ -96,7 +96,7 @@ def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
     kin = robot.trajectory_kinematics(q, frames)
     ratio = np.zeros((T, robot.dof))
     friction = np.zeros(T)
-    yaw = np.zeros(T)
+    wrench = np.zeros((T, 6))  # the single support sole's wrench (world axes, at its frame)
     tau_all, _ = robot.inverse_dynamics_trajectory(q, v, a)
     for t in range(T):  # one small least-squares problem per frame
         feet = np.flatnonzero(support[t])
@@ -109,24 +109,33 @@ def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = np.where(fz > 0, tang / (mu * np.maximum(fz, 1e-12)), np.inf)
             friction[t] = r.max()
-            if len(feet) == 1:
-                sole = robot.soles[SIDES[feet[0]]]
-                pose = kin.placements[t, feet[0]]
-                R = pose[:3, :3]
-                # the moment about the sole centre (the wrench is at the frame's origin)
-                m = fk[0, 3:] - np.cross(R @ sole.center, fk[0, :3])
-                half_x, half_y = sole.half_extents
-                yaw[t] = sole_yaw_ratio(np.r_[R.T @ fk[0, :3], R.T @ m], half_x, half_y, mu)
+            wrench[t] = fk[0]
         ratio[t] = np.abs(tau) / robot.effort_max
+    yaw = np.zeros(T)
+    for k, side in enumerate(SIDES):  # every single-support frame of a sole at once
+        sel = support[:, k] & ~support[:, 1 - k]
+        if not sel.any():
+            continue
+        sole = robot.soles[side]
+        R = kin.placements[sel, k, :3, :3]  # (S, 3, 3)
+        f, m = wrench[sel, :3], wrench[sel, 3:]
+        m = m - np.cross(R @ sole.center, f)  # about the sole centre, not the frame's origin
+        local = np.concatenate([np.einsum("sji,sj->si", R, f), np.einsum("sji,sj->si", R, m)], 1)
+        yaw[sel] = sole_yaw_ratio(local, sole.half_extents[0], sole.half_extents[1], mu)
     tw, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)   # the worst frame, joint
-    sup = support.any(axis=1)
-    ft = int(np.argmax(np.where(sup, friction, -1.0))) if sup.any() else -1
-    single = support.sum(axis=1) == 1
-    yt = int(np.argmax(np.where(single, yaw, -1.0))) if single.any() else -1
+    ft, fv = worst_frame(friction, np.any(support, axis=1))
+    yt, yv = worst_frame(yaw, np.sum(support, axis=1) == 1)
     return ReferenceDynamics(torque_ratio=float(ratio[tw, j]), torque_joint=robot.joint_names[j],
-                             torque_frame=int(tw),
-                             friction_ratio=float(friction[ft]) if ft >= 0 else float("nan"),
-                             friction_frame=ft, torque_ratios=ratio.max(axis=1),
-                             friction_ratios=friction,
-                             yaw_ratio=float(yaw[yt]) if yt >= 0 else float("nan"),
-                             yaw_frame=yt, yaw_ratios=yaw)
+                             torque_frame=int(tw), friction_ratio=fv, friction_frame=ft,
+                             torque_ratios=ratio.max(axis=1), friction_ratios=friction,
+                             yaw_ratio=yv, yaw_frame=yt, yaw_ratios=yaw)
+
+
+def worst_frame(values: np.ndarray, frames) -> tuple[int, float]:
+    """(frame, value) of the largest of ``values`` (T,) over the (T,) bool ``frames``;
+    (-1, NaN) without any."""
+    frames = np.asarray(frames, dtype=bool)
+    if not frames.any():
+        return -1, float("nan")
+    t = int(np.argmax(np.where(frames, values, -np.inf)))
+    return t, float(values[t])

@@ -146,12 +146,12 @@ class WholeBodyController:
         self.contact_R = np.array([contact_frame_rotation(robot.soles[s].normal)
                                    for s in SIDES])
         mu = config.friction_fraction * friction
-        self.mu = mu
         keep = 1.0 - config.cop_margin
         self.cones = [sole_wrench_cone(keep * robot.soles[s].half_extents[0],
                                        keep * robot.soles[s].half_extents[1], mu)
                       for s in SIDES]
         self.half_extents = np.array([robot.soles[s].half_extents for s in SIDES])
+        self.toe_cones = [self._toe_cone(X, Y, mu) for X, Y in self.half_extents]
         self.tau_max = robot.effort_max * config.torque_fraction
         self.q_lower, self.q_upper = robot.q_lower, robot.q_upper
         self.v_max = robot.v_max
@@ -206,6 +206,20 @@ class WholeBodyController:
         if not len(ahead):
             return np.zeros(2, dtype=bool)
         return np.logical_not(ahead.all(axis=0))
+
+    def _toe_cone(self, half_x: float, half_y: float, mu: float) -> np.ndarray:
+        """(16, 6) the wrench cone of a sole standing on its toe edge, for the wrench at the
+        sole centre (sole frame): that of the front strip ``x >= a X`` (``a =
+        toe_cop_fraction``), ``toe_lateral`` of the half width wide, about the strip's centre
+        ``r``: ``w_strip = (f, m - r x f)``."""
+        front = self.config.toe_cop_fraction
+        strip = sole_wrench_cone(0.5 * (1.0 - front) * half_x,
+                                 self.config.toe_lateral * half_y, mu)
+        r = 0.5 * (1.0 + front) * half_x
+        shift = np.eye(6)
+        shift[4, 2] = r   # my_strip = my + r fz
+        shift[5, 1] = -r  # mz_strip = mz - r fy
+        return strip @ shift
 
     def _toe_rows(self, dyn, s: int) -> tuple[np.ndarray, np.ndarray]:
         """(5, nv) rows and (5,) right-hand side of a sole rolling over its toe edge: the
@@ -343,18 +357,8 @@ class WholeBodyController:
             block[:3, :3] = Rc.T
             block[3:, 3:] = Rc.T
             C = self.cones[s] @ block
-            if rolling[s]:
-                # the heel is up: the sole stands on its toe edge, a line contact. Its cone is
-                # that of the front strip x >= toe_cop_fraction X (within toe_lateral of the
-                # half width), about the strip's centre r: w_strip = (f, m - r x f)
-                X, Y = self.half_extents[s]
-                front = cfg.toe_cop_fraction
-                strip = sole_wrench_cone(0.5 * (1.0 - front) * X, cfg.toe_lateral * Y, self.mu)
-                r = 0.5 * (1.0 + front) * X
-                shift = np.eye(6)
-                shift[4, 2] = r   # my_strip = my + r fz
-                shift[5, 1] = -r  # mz_strip = mz - r fy
-                C = strip @ shift @ block
+            if rolling[s]:  # the heel is up: a line contact on the toe edge
+                C = self.toe_cones[s] @ block
             upper = np.zeros(len(C))
             upper[-1] = -cfg.min_normal_force_n
             G = np.zeros((len(C), n))
