@@ -5,14 +5,17 @@ from __future__ import annotations
 
 import numpy as np
 
+_I3 = np.eye(3)
+_I3.flags.writeable = False
+
 
 def exp_so3(w: np.ndarray) -> np.ndarray:
     """(3, 3) rotation of the rotation vector ``w`` (3,) [rad] (Rodrigues' formula)."""
     theta = float(np.sqrt(w @ w))
     K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
     if theta < 1e-9:
-        return np.eye(3) + K
-    return (np.eye(3) + (np.sin(theta) / theta) * K
+        return _I3 + K
+    return (_I3 + (np.sin(theta) / theta) * K
             + ((1.0 - np.cos(theta)) / theta ** 2) * (K @ K))
 
 
@@ -24,7 +27,7 @@ def log_so3(R: np.ndarray) -> np.ndarray:
     if theta < 1e-6:
         return 0.5 * v
     if theta > np.pi - 1e-4:  # near pi: from the symmetric part
-        B = 0.5 * (R + np.eye(3))
+        B = 0.5 * (R + _I3)
         axis = np.sqrt(np.maximum(np.diag(B), 0.0))
         k = int(np.argmax(axis))
         axis[:] = B[k] / axis[k]

@@ -161,6 +161,10 @@ class WholeBodyController:
         self.omega = np.sqrt(GRAVITY / max(track.com_height_m, 0.1))
         self.damping = (np.zeros(self.n_joints) if joint_damping is None
                         else np.asarray(joint_damping, dtype=float))
+        self._accel_diag = np.diag_indices(self.nv)
+        self._wrench_weights = np.repeat([config.weights.force, config.weights.moment], 3)
+        self._joint_diag = (np.arange(6, self.nv), np.arange(6, self.nv))
+        self._limit_rows = np.hstack([np.zeros((self.n_joints, 6)), np.eye(self.n_joints)])
         self.relaxed_steps = 0
 
     # ------------------------------------------------------------------------------------------
@@ -237,8 +241,8 @@ class WholeBodyController:
         fixed = np.stack([Rc[:, 0], Rc[:, 2]])
         # the toe's alpha x r, column by column of the angular Jacobian
         rows = np.vstack([J_lin + np.cross(J_ang.T, r).T, fixed @ J_ang])
-        rhs = np.r_[-drift - g.contact_kd * v_toe,
-                    -fixed @ dyn.drifts[s, 3:] - g.contact_kd * (fixed @ w)]
+        rhs = np.concatenate([-drift - g.contact_kd * v_toe,
+                              -fixed @ dyn.drifts[s, 3:] - g.contact_kd * (fixed @ w)])
         return rows, rhs
 
     def step(self, t: float, q: np.ndarray, v: np.ndarray) -> ControlStep:
@@ -258,15 +262,16 @@ class WholeBodyController:
         k = len(active)
         n = nv + 6 * k
 
-        # --- tasks: rows A x = b with weights --------------------------------------------------
-        A_rows, b_rows, w_rows = [], [], []
+        # --- tasks: rows J a = b with weights, summed into the Hessian's acceleration block
+        # (no task weighs the wrenches): H_aa = sum_i W_i J_i^T J_i, c_a = -sum_i W_i J_i^T b_i
+        H = np.zeros((n, n))
+        c = np.zeros(n)
+        H_aa, c_a = H[:nv, :nv], c[:nv]  # views
 
         def task(J: np.ndarray, b: np.ndarray, weight: float) -> None:
-            A = np.zeros((len(b), n))
-            A[:, :nv] = J
-            A_rows.append(A)
-            b_rows.append(b)
-            w_rows.append(np.full(len(b), weight))
+            WJt = weight * J.T
+            H_aa[...] += WJt @ J
+            c_a[...] -= WJt @ b
 
         g = cfg.gains
         # CoM: capture-point feedback horizontally, PD vertically
@@ -286,14 +291,14 @@ class WholeBodyController:
         task(dyn.centroidal_map[3:] * scale, (Ld - dyn.centroidal_drift[3:]) * scale,
              cfg.weights.momentum)
 
-        # base orientation (the free flyer's angular velocity in the world: R v[3:6])
+        # base orientation (the free flyer's angular velocity in the world: R v[3:6]); its
+        # Jacobian is R on the base's angular columns
         R = quat_xyzw_to_matrix(q[3:7])
-        J_base = np.zeros((3, nv))
-        J_base[:, 3:6] = R
         w_base = R @ v[3:6]
         alpha = (ref.base_alpha + g.base_kp * _rotation_error(ref.base_rotation, R)
                  + g.base_kd * (ref.base_omega - w_base))
-        task(J_base, alpha, cfg.weights.base)
+        H_aa[3:6, 3:6] += cfg.weights.base * (R.T @ R)
+        c_a[3:6] -= cfg.weights.base * (R.T @ alpha)
 
         # swing soles
         for s in np.flatnonzero(~contact):
@@ -307,27 +312,19 @@ class WholeBodyController:
             ang = (ref.sole_alpha[s]
                    + g.sole_kp * _rotation_error(ref.sole_rotations[s], pose[:3, :3])
                    + g.sole_kd * (ref.sole_omega[s] - dyn.twists[s, 3:]))
-            task(dyn.jacobians[s], np.r_[lin, ang] - dyn.drifts[s], cfg.weights.swing)
+            task(dyn.jacobians[s], np.concatenate([lin, ang]) - dyn.drifts[s],
+                 cfg.weights.swing)
 
-        # joints
-        J_post = np.zeros((nj, nv))
-        J_post[:, 6:] = np.eye(nj)
+        # joints (posture, an identity Jacobian on the joint columns)
         qdd = (ref.qdd_joints + g.joint_kp * (ref.q_joints - q[7:])
                + g.joint_kd * (ref.qd_joints - v[6:]))
-        A_rows.append(np.hstack([J_post, np.zeros((nj, n - nv))]))
-        b_rows.append(qdd)
-        w_rows.append(self.posture_weights)
-
-        A = np.vstack(A_rows)
-        b = np.concatenate(b_rows)
-        W = np.concatenate(w_rows)
-        H = (A.T * W) @ A
-        c = -(A.T * W) @ b
-        H[np.diag_indices(nv)] += cfg.weights.acceleration
+        joints = self._joint_diag
+        H[joints] += self.posture_weights
+        c[6:nv] -= self.posture_weights * qdd
+        H[self._accel_diag] += cfg.weights.acceleration
         if k:
             idx = np.arange(nv, n)
-            H[idx, idx] += np.tile(np.r_[np.full(3, cfg.weights.force),
-                                         np.full(3, cfg.weights.moment)], k)
+            H[idx, idx] += np.tile(self._wrench_weights, k)
 
         # --- equalities: floating-base dynamics, contacts -------------------------------------
         M, h = dyn.mass_matrix, dyn.bias.copy()
@@ -373,7 +370,7 @@ class WholeBodyController:
         up_a = np.minimum(2.0 * (self.q_upper - qj - vj * hz) / hz ** 2, (self.v_max - vj) / hz)
         lo_a = np.minimum(lo_a, up_a)  # beyond a limit already: brake as hard as the other side
         Gl = np.zeros((nj, n))
-        Gl[:, 6:nv] = np.eye(nj)
+        Gl[:, :nv] = self._limit_rows
         G_rows.append(Gl)
         l_rows.append(lo_a)
         u_rows.append(up_a)

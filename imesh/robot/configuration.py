@@ -70,6 +70,7 @@ class Configuration:
         self.mass: float = float(self._pin.computeTotalMass(model))
         self.q: np.ndarray | None = None
         self.has_jacobians = False
+        self._lower_triangle = np.tril_indices(self.nv, -1)
 
     # --- what the data holds --------------------------------------------------------------
 
@@ -269,20 +270,21 @@ class Configuration:
         model, data = self.model, self.data
         pin.computeAllTerms(model, data, q, v)
         M = np.array(data.M)
-        M = np.triu(M) + np.triu(M, 1).T  # pinocchio fills the upper triangle
+        lower = self._lower_triangle
+        M[lower] = M.T[lower]  # pinocchio fills the upper triangle
         bias = np.array(data.nle)
         com = np.array(data.com[0])
         com_vel = np.array(data.vcom[0])
         Jcom = np.array(data.Jcom)
         pin.updateFramePlacements(model, data)
         F = len(ids)
-        poses = np.empty((F, 4, 4))
+        poses = np.zeros((F, 4, 4))
+        poses[:, 3, 3] = 1.0
         jac = np.empty((F, 6, self.nv))
         for k, i in enumerate(ids):
             oMf = data.oMf[i]
             R = oMf.rotation
             r = R @ offsets[k]
-            poses[k] = np.eye(4)
             poses[k, :3, :3] = R
             poses[k, :3, 3] = oMf.translation + r
             J = pin.getFrameJacobian(model, data, i, pin.LOCAL_WORLD_ALIGNED)
