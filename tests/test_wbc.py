@@ -163,7 +163,9 @@ def test_wbc_models_the_joint_damping_the_simulator_applies():
     """HRP-4C's URDF gives every joint 0.2 N m s/rad of damping, which DART applies and
     pinocchio's dynamics leave out: a wrist of a few grams then barely moves under the torques
     a model without it computes (0.20 rad RMS behind a 0.3 rad, 1 Hz wrist wave). With the
-    damping in the controller's joint rows it follows within 0.08 rad RMS."""
+    damping in the controller's joint rows as an explicit force it followed within 0.034 rad
+    RMS; DART integrates the damping implicitly (``M + dt B``), and with that in the
+    controller's torque rows within 0.018 rad."""
     pytest.importorskip("dartpy")
     from imesh.physics import PhysicsConfig, TimingConfig, simulate_motion
     from imesh.physics.world import DartRobot
@@ -179,7 +181,7 @@ def test_wbc_models_the_joint_damping_the_simulator_applies():
     result = simulate_motion(robot, motion,
                              config=PhysicsConfig(timing=TimingConfig(settle_s=0.2)))
     assert not result.fell
-    assert np.sqrt(np.nanmean(result.joint_error_rad[:, wrist] ** 2)) < 0.08
+    assert np.sqrt(np.nanmean(result.joint_error_rad[:, wrist] ** 2)) < 0.025
 
 
 def _lean(robot, theta: float) -> np.ndarray:

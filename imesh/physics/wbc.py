@@ -129,10 +129,12 @@ class WholeBodyController:
             ``config.friction_fraction`` of it).
         joint_damping: (n,) float viscous damping of the joints [N m s/rad] (the simulator's,
             from the URDF), added to the joint rows of the equation of motion; None: 0.
+        time_step_s: the simulator's time step [s], over which it integrates the damping
+            implicitly (below); None: the damping as an explicit force only.
     """
 
     def __init__(self, robot, track: ReferenceTrack, config: WbcConfig, friction: float,
-                 joint_damping: np.ndarray | None = None):
+                 joint_damping: np.ndarray | None = None, time_step_s: float | None = None):
         from .qp import dense_qp  # noqa: PLC0415  (the solver's import is lazy)
 
         self._solve = dense_qp
@@ -161,6 +163,13 @@ class WholeBodyController:
         self.omega = np.sqrt(GRAVITY / max(track.com_height_m, 0.1))
         self.damping = (np.zeros(self.n_joints) if joint_damping is None
                         else np.asarray(joint_damping, dtype=float))
+        # DART integrates the joints' damping implicitly (the step's damping force is
+        # ``B qd_next = B (qd + a dt)``): the realised acceleration of a torque is that of a
+        # mass matrix ``M + dt B``. A light joint with a strong damping (iCub's wrists:
+        # ``dt B / M_jj`` = 0.7-1.9) reached a third of the commanded acceleration with ``M``
+        # alone, and the controller lost the arms and the torso in the settle.
+        self._implicit = (np.zeros(self.n_joints) if time_step_s is None
+                          else time_step_s * self.damping)
         self._accel_diag = np.diag_indices(self.nv)
         self._wrench_weights = np.repeat([config.weights.force, config.weights.moment], 3)
         self._joint_diag = (np.arange(6, self.nv), np.arange(6, self.nv))
@@ -328,6 +337,7 @@ class WholeBodyController:
 
         # --- equalities: floating-base dynamics, contacts -------------------------------------
         M, h = dyn.mass_matrix, dyn.bias.copy()
+        M[self._joint_diag] += self._implicit
         h[6:] += self.damping * v[6:]  # the joints' viscous damping, as the simulator has it
         # generalized torque rows of the contact wrenches: J_c^T w_c
         Jt = np.zeros((nv, 6 * k))
