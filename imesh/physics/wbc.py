@@ -12,7 +12,9 @@ simulator's), one dense QP chooses the generalized accelerations ``a`` (nv) and 
            |M_j a + h_j - sum_c J_{c,j}^T w_c| <= tau_max     (joint torques within the limits)
 
 ``h`` is pinocchio's ``C v + g`` plus the joints' viscous damping ``B qd`` of the simulated
-robot (the URDF's ``<dynamics damping>``, which DART applies and pinocchio leaves out).
+robot (the URDF's ``<dynamics damping>``, which DART applies and pinocchio leaves out); DART
+integrates that damping implicitly over its step ``dt`` (the damping force of a step is ``B (qd
++ a dt)``), so the joint rows use ``M_j + dt B`` for the mass matrix.
 The torques ``tau = M_j a + h_j - sum_c J_{c,j}^T w_c`` are applied as they are (never clamped
 afterwards: the limits are constraints). Tasks (``A_i x = b_i``, PD feedback on the reference of
 :class:`imesh.physics.track.ReferenceTrack`):
