@@ -163,9 +163,18 @@ def test_qp_stalled_at_the_iteration_limit_is_solved_again(robot, monkeypatch):
     sol = solve_qp(qp, "piqp", 1e-8)
     assert sol.status == str(piqp.PIQP_SOLVED)
     assert sol.iterations > 3  # the capped attempt and the retry
+    assert sol.unscaled and not full.unscaled
     assert sol.kkt_residual < 1e-5
     assert max(sol.residuals.values()) < 1e-7
     assert np.abs(sol.x - full.x).max() < 1e-5
+    # what the SQP asks for after such a stall: straight to the unscaled solve, which stops
+    # on its residuals (the same point, without the capped attempt's iterations)
+    direct = solve_qp(qp, "piqp", 1e-8, unscaled=True)
+    assert direct.unscaled and direct.iterations == sol.iterations - 3
+    assert direct.kkt_residual < 1e-5
+    assert max(direct.residuals.values()) < 1e-7
+    assert np.abs(direct.x - full.x).max() < 1e-5
+
 
 def test_an_infeasible_qp_switches_to_elastic_speed_rows(robot):
     """An initializer swinging the arms at 1.5 times the margin-reduced speed limit for longer

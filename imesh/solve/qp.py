@@ -66,6 +66,8 @@ class QpSolution:
         residuals: largest equality / inequality / bound violation at ``x``.
         kkt_residual: infinity norm of the stationarity residual
             ``P x + c + A^T y + G^T z + z_x`` with the solver's multipliers (NaN if not given).
+        unscaled: PIQP solved it without preconditioning (its retry, or asked for with
+            ``solve_qp(..., unscaled=True)``).
     """
 
     x: np.ndarray
@@ -74,6 +76,7 @@ class QpSolution:
     seconds: float
     residuals: dict
     kkt_residual: float
+    unscaled: bool = False
 
 
 #: PIQP's iteration limit for a first attempt. The whole-body QPs take 23-47 interior-point
@@ -100,9 +103,9 @@ PIQP_KKT_SOLVER = "sparse_ldlt_eq_cond"
 PIQP_RETRY_KKT_SOLVER = "sparse_ldlt"
 
 
-def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
+def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool = False):
     piqp = optional("piqp", "pip install piqp", "the whole-body QP (solver piqp)")
-    def attempt(preconditioner_iter: int | None, max_iter: int, kkt: str):
+    def attempt(preconditioner_iter: int | None, max_iter: int, kkt: str, gap_check: bool):
         solver = piqp.SparseSolver()
         solver.settings.eps_abs = tol
         solver.settings.eps_rel = 0.0
@@ -118,22 +121,29 @@ def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True):
                      p.x_l, p.x_u)
         return solver.solve(), solver.result
 
-    status, r = attempt(PIQP_PRECONDITIONER_ITER, PIQP_MAX_ITER, PIQP_KKT_SOLVER)
-    iterations = int(r.info.iter)
-    if status == piqp.PIQP_MAX_ITER_REACHED:
-        log.info("PIQP: no convergence in %d iterations (dual residual %.3g); solving again "
-                 "without preconditioning", iterations, r.info.dual_res)
-        status, r = attempt(0, PIQP_RETRY_MAX_ITER, PIQP_RETRY_KKT_SOLVER)
+    iterations = 0
+    if not unscaled:
+        status, r = attempt(PIQP_PRECONDITIONER_ITER, PIQP_MAX_ITER, PIQP_KKT_SOLVER,
+                            gap_check)
+        iterations = int(r.info.iter)
+        unscaled = status == piqp.PIQP_MAX_ITER_REACHED
+        if unscaled:
+            log.info("PIQP: no convergence in %d iterations (dual residual %.3g); solving "
+                     "again without preconditioning", iterations, r.info.dual_res)
+    if unscaled:
+        # unscaled, the duality gap can stay open where the residuals have met the
+        # tolerance (iCub's QPs: 250 iterations without it closing, 27 to the residuals)
+        status, r = attempt(0, PIQP_RETRY_MAX_ITER, PIQP_RETRY_KKT_SOLVER, False)
         iterations += int(r.info.iter)
     x = np.asarray(r.x)
     # PIQP's multipliers: y (equalities), z_l/z_u (G rows), z_bl/z_bu (bounds)
     stat = p.P @ x + p.c + p.A.T @ np.asarray(r.y) \
         + p.G.T @ (np.asarray(r.z_u) - np.asarray(r.z_l)) \
         + (np.asarray(r.z_bu) - np.asarray(r.z_bl))
-    return x, str(status), iterations, float(np.abs(stat).max(initial=0.0))
+    return x, str(status), iterations, float(np.abs(stat).max(initial=0.0)), unscaled
 
 
-def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True):
+def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool = False):
     clarabel = optional("clarabel", "pip install clarabel", "the whole-body QP (solver clarabel)")
     finite_lo, finite_hi = np.isfinite(p.l), np.isfinite(p.u)
     bl, bu = np.isfinite(p.x_l), np.isfinite(p.x_u)
@@ -151,10 +161,10 @@ def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True):
     solver = clarabel.DefaultSolver(sp.triu(p.P, format="csc"), p.c, A, np.concatenate(rhs),
                                     cones, settings)
     sol = solver.solve()
-    return np.asarray(sol.x), str(sol.status), int(sol.iterations), float("nan")
+    return np.asarray(sol.x), str(sol.status), int(sol.iterations), float("nan"), False
 
 
-def _solve_osqp(p: QpProblem, tol: float, gap_check: bool = True):
+def _solve_osqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool = False):
     osqp = optional("osqp", "pip install osqp", "the whole-body QP (solver osqp)")
     eye = sp.identity(p.n, format="csc")
     A = sp.vstack([p.A, p.G, eye], format="csc")
@@ -164,17 +174,19 @@ def _solve_osqp(p: QpProblem, tol: float, gap_check: bool = True):
     solver.setup(sp.triu(p.P, format="csc"), p.c, A, lo, hi, eps_abs=tol, eps_rel=0.0,
                  max_iter=20000, polishing=True, verbose=False)
     r = solver.solve()
-    return np.asarray(r.x), str(r.info.status), int(r.info.iter), float("nan")
+    return np.asarray(r.x), str(r.info.status), int(r.info.iter), float("nan"), False
 
 
 def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7,
-             gap_check: bool = True) -> QpSolution:
+             gap_check: bool = True, unscaled: bool = False) -> QpSolution:
     """Solve a QP with one of :data:`SOLVERS`.
 
     ``gap_check=False`` lets PIQP stop on its primal and dual residuals alone: on the QPs of a
     window of a long clip (:mod:`imesh.solve.windows`) its duality-gap test did not close in
     250 iterations where the residuals met ``tol`` after 23, at the same objective to 7
-    digits (docs/speed.md).
+    digits (docs/speed.md). ``unscaled=True`` skips PIQP's first attempt and solves as its
+    retry does (no preconditioning, :data:`PIQP_RETRY_KKT_SOLVER`): the SQP asks for it once
+    a QP of its solve needed the retry.
 
     Raises:
         OptionError: unknown solver.
@@ -185,7 +197,7 @@ def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7,
     if run is None:
         raise OptionError("QP solver", solver, SOLVERS)
     t0 = time.perf_counter()
-    x, status, iterations, kkt = run(problem, tol, gap_check)
+    x, status, iterations, kkt, unscaled = run(problem, tol, gap_check, unscaled)
     seconds = time.perf_counter() - t0
     if not np.all(np.isfinite(x)):
         raise SolverError(f"QP solver {solver} returned a non-finite point (status {status})")
@@ -194,4 +206,4 @@ def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7,
         raise SolverError(f"QP solver {solver} stopped with status {status}: constraint "
                           f"residuals {res}", residual=max(res.values()))
     return QpSolution(x=x, status=status, iterations=iterations, seconds=seconds,
-                      residuals=res, kkt_residual=kkt)
+                      residuals=res, kkt_residual=kkt, unscaled=unscaled)

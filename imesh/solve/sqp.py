@@ -665,11 +665,20 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     unknown_contacts = prop_cones or bool(plan.flight.any())
     n_iter = config.sqp.contact_iterations if unknown_contacts else config.sqp.iterations
 
+    # once PIQP's scaled first attempt stalls on a QP of this solve, the later ones start
+    # unscaled: their linearizations share the scaling that stalled it (iCub: every first
+    # attempt stalled at its 80-iteration limit, 5-6 s of a 10-30 s QP)
+    unscaled = False
+
     def solve(qp, it: int):
+        nonlocal unscaled
         try:
             # a window's QP (fixed first frames): PIQP's duality-gap test stalls there
-            return solve_qp(qp, config.sqp.solver, config.sqp.qp_tolerance,
-                            gap_check=plan.fixed_frames == 0 and plan.fixed_end_frames == 0)
+            sol = solve_qp(qp, config.sqp.solver, config.sqp.qp_tolerance,
+                           gap_check=plan.fixed_frames == 0 and plan.fixed_end_frames == 0,
+                           unscaled=unscaled)
+            unscaled = unscaled or sol.unscaled
+            return sol
         except SolverError as exc:
             if config.sqp.solver == "clarabel":
                 raise SolverError(f"whole-body solve, iteration {it + 1}: {exc}",
