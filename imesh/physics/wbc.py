@@ -170,8 +170,7 @@ class WholeBodyController:
         # mass matrix ``M + dt B``. A light joint with a strong damping (iCub's wrists:
         # ``dt B / M_jj`` = 0.7-1.9) reached a third of the commanded acceleration with ``M``
         # alone, and the controller lost the arms and the torso in the settle.
-        self._implicit = (np.zeros(self.n_joints) if time_step_s is None
-                          else time_step_s * self.damping)
+        self._implicit = (time_step_s or 0.0) * self.damping
         self._accel_diag = np.diag_indices(self.nv)
         self._wrench_weights = np.repeat([config.weights.force, config.weights.moment], 3)
         self._joint_diag = (np.arange(6, self.nv), np.arange(6, self.nv))
@@ -329,8 +328,7 @@ class WholeBodyController:
         # joints (posture, an identity Jacobian on the joint columns)
         qdd = (ref.qdd_joints + g.joint_kp * (ref.q_joints - q[7:])
                + g.joint_kd * (ref.qd_joints - v[6:]))
-        joints = self._joint_diag
-        H[joints] += self.posture_weights
+        H[self._joint_diag] += self.posture_weights
         c[6:nv] -= self.posture_weights * qdd
         H[self._accel_diag] += cfg.weights.acceleration
         if k:
