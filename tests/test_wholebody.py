@@ -157,7 +157,9 @@ def test_qp_stalled_at_the_iteration_limit_is_solved_again(robot, monkeypatch):
     q = _sway(robot, T=20)
     plan, _, targets = _plan(robot, q)
     lin = linearize(robot, q, _Frames(robot, targets), FPS)
-    qp = build_qp(lin, plan, q, WholeBodyConfig())
+    # the ZMP's full weight in double support: the QP this test was measured on (with the
+    # default 1 there the retry lands within 2e-5 of the unlimited solve, not 1e-5)
+    qp = build_qp(lin, plan, q, WholeBodyConfig(zmp=ZmpOptions(double_weight=10.0)))
     full = solve_qp(qp, "piqp", 1e-8)
     monkeypatch.setattr(qpmod, "PIQP_MAX_ITER", 3)
     sol = solve_qp(qp, "piqp", 1e-8)
@@ -245,6 +247,30 @@ def test_balanced_sway_is_left_unchanged(robot):
     assert last.sole_error_m < 1e-6
 
 
+def test_zmp_weight_is_lower_in_settled_double_support():
+    """w_z per frame (:func:`imesh.solve.zmp.band_weights`): ``weight`` in single support and
+    within ``near_single_s`` (0.1 s = 3 frames at 30 fps) of it, ``double_weight`` in the rest
+    of double support, ``weight`` in flight (whose frames have no band)."""
+    from types import SimpleNamespace
+
+    from imesh.solve.zmp import band_weights
+
+    # 30 standing frames, a 10-frame lift of the right foot, 40 standing, 3 of flight, 17
+    support = np.ones((100, 2), bool)
+    support[30:40, 1] = False
+    support[80:83] = False
+    config = WholeBodyConfig()
+    assert (config.zmp.weight, config.zmp.double_weight) == (10.0, 1.0)
+    w = band_weights(SimpleNamespace(support=support, fps=FPS), config)
+    expected = np.full(100, 1.0)
+    expected[30 - 3:40 + 3] = 10.0
+    expected[80:83] = 10.0
+    np.testing.assert_array_equal(w, expected)
+    # no single support at all (a wash): the lower weight everywhere
+    w = band_weights(SimpleNamespace(support=np.ones((50, 2), bool), fps=FPS), config)
+    assert (w == 1.0).all()
+
+
 def test_flight_is_refused_before_the_work_by_the_nishiwaki_loop(robot, mocap):
     """The pirouette/jete dance has flight phases: the paper's Nishiwaki loop (which has no
     flight model) refuses it naming the frames; the whole-body solve plans flight
@@ -276,7 +302,8 @@ def test_default_pipeline_walk(robot, jvrc1_walk):
     assert m["limit_violation_frames"] == 0
     assert m["foot_skid_mm_per_frame"] <= 0.5
     assert m["zmp_inside_fraction"] >= 0.99
-    assert m["marker_rms_mm"] <= 60.0
+    # 48.2 mm; 56.5 with the ZMP's full weight in all of double support (ZmpOptions)
+    assert m["marker_rms_mm"] <= 52.0
     # the normal force stays within [0.7, 1.3] m g, so the sole forces the motion needs stay
     # inside the friction cone (mu = 0.7; 1.2-1.3 on this walk with a lower bound of 0.3 m g)
     assert m["friction_ratio_max"] <= 1.0

@@ -44,20 +44,24 @@ class ZmpOptions(NonNegative):
 
     Attributes:
         weight: w_z, weight of the squared distance of the ZMP beyond ``band_m`` from the
-            desired ZMP (per axis) [1/m^2].
-        band_m: a dead band around the desired ZMP [m]: a ZMP already within it costs nothing,
-            so a balanced motion is left as it is.
-        margin: the fraction of each sole's half length and half width kept free of the ZMP:
-            the plan's support polygon is the hull of the soles shrunk about their centres by
-            it, so the closed-loop controller of the physics check has room for feedback: the
-            plan uses its polygon to the edge, and a controller corrects with the rest of the
-            sole. At 0.4 no walk stood in the DART check and the JVRC-1 and G1 waves fell (3.5
-            and 3.4 s); at 0.7 the walks of all three robots stand (docs/checking.md).
+            desired ZMP (per axis) [1/m^2] in single support and in the double support
+            within ``near_single_s`` of it.
+        double_weight: w_z in the rest of double support (standing, the lead-in and
+            lead-out, the middle of a walk's double support): the support polygon spans both
+            soles there and the tracking controller has room on either; at 10 the cost leaned
+            the trunk towards the middle of the stance (marker RMS of the walks and waves of
+            docs/wholebody.md 5-13 mm higher, changelog).
+        near_single_s: [s] double-support frames this close to a single-support frame keep
+            ``weight``: with ``double_weight`` in all of double support the G1 wave was lost in
+            the DART check 0.1 s after the landing of its lifted foot (2.8 s); at 0.3 s the
+            walks gained less than 3 mm.
     """
 
     weight: float = 10.0
     band_m: float = 0.015
     margin: float = 0.7
+    double_weight: float = 1.0
+    near_single_s: float = 0.1
 
     def __post_init__(self) -> None:
         super().__post_init__()

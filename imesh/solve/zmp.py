@@ -13,8 +13,9 @@ from the multibody ZMP, so at convergence they hold for the ZMP the evaluator co
 (Nishiwaki's correction idea in joint space).
 
 Rows: ``p_t`` inside the support polygon of the soles shrunk by ``ZmpOptions.margin`` (elastic,
-:func:`polygon_rows`) and a cost ``w_z |b_t|^2`` on the excess over a dead band around the
-desired ZMP, ``|p_t - p*_t| <= band + b_t`` per axis (:func:`band_cost`).
+:func:`polygon_rows`) and a cost ``w_z,t |b_t|^2`` on the excess over a dead band around the
+desired ZMP, ``|p_t - p*_t| <= band + b_t`` per axis (:func:`band_cost`), its weight lower in
+settled double support (:func:`band_weights`).
 """
 
 from __future__ import annotations
@@ -88,10 +89,27 @@ def zmp_frames(plan: Plan) -> np.ndarray:
     return sup & has
 
 
+def band_weights(plan: Plan, config: WholeBodyConfig) -> np.ndarray:
+    """(T,) w_z of every frame: ``ZmpOptions.weight`` in single support and in the double
+    support within ``ZmpOptions.near_single_s`` of a single-support frame (lift-offs and
+    landings), ``ZmpOptions.double_weight`` in the rest of double support."""
+    n_support = np.asarray(plan.support).sum(axis=1)
+    single = np.flatnonzero(n_support == 1)
+    near = n_support < 2
+    if len(single):
+        t = np.arange(len(n_support))
+        # distance to the nearest single-support frame, from its neighbours on either side
+        i = np.searchsorted(single, t)
+        gap = np.minimum(np.abs(t - single[np.minimum(i, len(single) - 1)]),
+                         np.abs(t - single[np.maximum(i - 1, 0)]))
+        near |= gap <= config.zmp.near_single_s * plan.fps + 1e-9
+    return np.where(near, config.zmp.weight, config.zmp.double_weight)
+
+
 def band_cost(P: sp.spmatrix, lin: Linearization, plan: Plan, zl: ZmpLinearization,
               config: WholeBodyConfig, lay: Layout) -> tuple[sp.spmatrix, tuple | None]:
-    """P plus ``w_z b^2`` on the excess b of the supported frames, and the rows
-    ``|p0 + Z x - p*| <= band + b`` (per axis) as (Z rows, excess selector, p0 - p*) for
+    """P plus ``w_z,t b^2`` (:func:`band_weights`) on the excess b of the supported frames, and
+    the rows ``|p0 + Z x - p*| <= band + b`` (per axis) as (Z rows, excess selector, p0 - p*) for
     :func:`band_rows` (None without the cost or without support)."""
     sup = zl.support
     if not (config.zmp.weight > 0 and sup.any()):
@@ -103,7 +121,9 @@ def band_cost(P: sp.spmatrix, lin: Linearization, plan: Plan, zl: ZmpLinearizati
                                                  (rows // 2) * nx + B0 + rows % 2)),
                            shape=(len(rows), lay.n))
     diag = np.zeros(lay.n)
-    diag[(np.flatnonzero(sup)[:, None] * nx + B0 + np.arange(2)).ravel()] = config.zmp.weight
+    w = band_weights(plan, config)
+    diag[(np.flatnonzero(sup)[:, None] * nx + B0 + np.arange(2)).ravel()] = \
+        np.repeat(w[sup], 2)
     return P + sp.diags(diag), (zl.Z[rows], excess, r_z)
 
 
