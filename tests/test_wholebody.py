@@ -155,11 +155,12 @@ def test_qp_stalled_at_the_iteration_limit_is_solved_again(robot, monkeypatch):
     import imesh.solve.qp as qpmod
 
     q = _sway(robot, T=20)
-    plan, _, targets = _plan(robot, q)
-    lin = linearize(robot, q, _Frames(robot, targets), FPS)
     # the ZMP's full weight in double support: the QP this test was measured on (with the
     # default 1 there the retry lands within 2e-5 of the unlimited solve, not 1e-5)
-    qp = build_qp(lin, plan, q, WholeBodyConfig(zmp=ZmpOptions(double_weight=10.0)))
+    config = WholeBodyConfig(zmp=ZmpOptions(double_weight=10.0))
+    plan, _, targets = _plan(robot, q, config=config)
+    lin = linearize(robot, q, _Frames(robot, targets), FPS)
+    qp = build_qp(lin, plan, q, config)
     full = solve_qp(qp, "piqp", 1e-8)
     monkeypatch.setattr(qpmod, "PIQP_MAX_ITER", 3)
     sol = solve_qp(qp, "piqp", 1e-8)
@@ -229,11 +230,12 @@ def test_balanced_sway_is_left_unchanged(robot):
     """Arms swinging slowly: the ZMP is already inside the polygon, so the constraints leave
     every key point within 1 mm of the input and the soles on their footprints. (With the
     default ZMP tracking weight the solve also pulls a ZMP farther than ``zmp_band_m`` from the
-    desired ZMP towards it: JVRC-1's nominal CoM is 40 mm from the hull centre; here w_z = 0.
+    desired ZMP towards it: JVRC-1's nominal CoM is 40 mm from the hull centre; here w_z = 0,
+    in single and in double support.
     A margin of 70 % of the soles' half sizes would put that CoM outside the shrunk polygon;
     at 40 %, the default, the sway is inside it.)"""
     q = _sway(robot)
-    config = WholeBodyConfig(zmp=ZmpOptions(weight=0.0, margin=0.4))
+    config = WholeBodyConfig(zmp=ZmpOptions(weight=0.0, double_weight=0.0, margin=0.4))
     plan, footprints, targets = _plan(robot, q, rest_frames=0, config=config)
     assert plan.halfplanes[0].size
     sol = solve_whole_body(robot, plan, footprints, targets, config)
@@ -248,11 +250,10 @@ def test_balanced_sway_is_left_unchanged(robot):
 
 
 def test_zmp_weight_is_lower_in_settled_double_support():
-    """w_z per frame (:func:`imesh.solve.zmp.band_weights`): ``weight`` in single support and
-    within ``near_single_s`` (0.1 s = 3 frames at 30 fps) of it, ``double_weight`` in the rest
-    of double support, ``weight`` in flight (whose frames have no band)."""
-    from types import SimpleNamespace
-
+    """w_z per frame (:func:`imesh.solve.zmp.band_weights`, ``Plan.zmp_weights``): ``weight``
+    in single support and within ``near_single_s`` (0.1 s = 3 frames at 30 fps) of it,
+    ``double_weight`` in the rest of double support, ``weight`` in flight (whose frames have
+    no band)."""
     from imesh.solve.zmp import band_weights
 
     # 30 standing frames, a 10-frame lift of the right foot, 40 standing, 3 of flight, 17
@@ -261,13 +262,13 @@ def test_zmp_weight_is_lower_in_settled_double_support():
     support[80:83] = False
     config = WholeBodyConfig()
     assert (config.zmp.weight, config.zmp.double_weight) == (10.0, 1.0)
-    w = band_weights(SimpleNamespace(support=support, fps=FPS), config)
+    w = band_weights(support, FPS, config.zmp)
     expected = np.full(100, 1.0)
     expected[30 - 3:40 + 3] = 10.0
     expected[80:83] = 10.0
     np.testing.assert_array_equal(w, expected)
     # no single support at all (a wash): the lower weight everywhere
-    w = band_weights(SimpleNamespace(support=np.ones((50, 2), bool), fps=FPS), config)
+    w = band_weights(np.ones((50, 2), bool), FPS, config.zmp)
     assert (w == 1.0).all()
 
 

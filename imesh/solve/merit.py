@@ -20,7 +20,7 @@ from .forces import normal_bounds
 from .plan import GRAVITY, Linearization, Plan
 from .props import shared_violation
 from .touches import touch_violation
-from .zmp import band_weights, zmp_frames
+from .zmp import zmp_frames
 
 
 def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
@@ -46,8 +46,7 @@ def merit(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig
     band = sup if plan.props is None else zmp_frames(plan)
     over = np.maximum(np.abs(lin.zmp_multibody - plan.desired_zmp)[band] - config.zmp.band_m,
                       0)
-    w = band_weights(plan, config)
-    f += np.sum(w[band][:, None] * over ** 2)
+    f += np.sum(plan.zmp_weights[band][:, None] * over ** 2)
     penalty = 0.0
     hp_frame, hp_n, hp_b = plan.halfplanes
     if len(hp_frame):

@@ -98,6 +98,8 @@ class Plan:
             support).
         halfplanes: (frame (R,), normal (R, 2), offset (R,)) of the support polygons.
         desired_zmp: (T, 2) [m].
+        zmp_weights: (T,) w_z of the ZMP's band cost per frame
+            (:func:`imesh.solve.zmp.band_weights`).
         q_init: (T, nq) the initializer.
         lower, upper, v_max, a_max: (n,) joint limits.
         fps: frame rate.
@@ -139,6 +141,7 @@ class Plan:
     sole_targets: np.ndarray
     halfplanes: tuple
     desired_zmp: np.ndarray
+    zmp_weights: np.ndarray
     q_init: np.ndarray
     lower: np.ndarray
     upper: np.ndarray

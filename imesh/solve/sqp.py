@@ -51,6 +51,7 @@ from .props import linearize_props, shared_violation
 from .qp import solve_qp
 from .torque import linearize_torques
 from .touches import ContactPoints, plan_contact_points, touch_violation
+from .zmp import band_weights
 
 log = logging.getLogger(__name__)
 
@@ -533,7 +534,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                 support=np.asarray(support, dtype=bool), sole_targets=sole_targets,
                 halfplanes=(support_halfplanes(footprints, support) if halfplanes is None
                             else halfplanes),
-                desired_zmp=desired_zmp(tracks, support, transition_s), q_init=q_init,
+                desired_zmp=desired_zmp(tracks, support, transition_s),
+                zmp_weights=band_weights(support, fps, config.zmp), q_init=q_init,
                 lower=limits.lower, upper=limits.upper, v_max=limits.v_max,
                 a_max=limits.a_max, fps=fps,
                 rest_frames=rest_frames,

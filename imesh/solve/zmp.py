@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .config import WholeBodyConfig
+from .config import WholeBodyConfig, ZmpOptions
 from .operators import Layout, Rows, gradient_operator
 from .plan import GRAVITY, Linearization, Plan
 
@@ -89,11 +89,11 @@ def zmp_frames(plan: Plan) -> np.ndarray:
     return sup & has
 
 
-def band_weights(plan: Plan, config: WholeBodyConfig) -> np.ndarray:
-    """(T,) w_z of every frame: ``ZmpOptions.weight`` in single support and in the double
-    support within ``ZmpOptions.near_single_s`` of a single-support frame (lift-offs and
-    landings), ``ZmpOptions.double_weight`` in the rest of double support."""
-    n_support = np.asarray(plan.support).sum(axis=1)
+def band_weights(support: np.ndarray, fps: float, options: ZmpOptions) -> np.ndarray:
+    """(T,) w_z of every frame of a (T, 2) support plan (``Plan.zmp_weights``): ``weight`` in
+    single support and in the double support within ``near_single_s`` of a single-support
+    frame (lift-offs and landings), ``double_weight`` in the rest of double support."""
+    n_support = np.asarray(support).sum(axis=1)
     single = np.flatnonzero(n_support == 1)
     near = n_support < 2
     if len(single):
@@ -102,17 +102,18 @@ def band_weights(plan: Plan, config: WholeBodyConfig) -> np.ndarray:
         i = np.searchsorted(single, t)
         gap = np.minimum(np.abs(t - single[np.minimum(i, len(single) - 1)]),
                          np.abs(t - single[np.maximum(i - 1, 0)]))
-        near |= gap <= config.zmp.near_single_s * plan.fps + 1e-9
-    return np.where(near, config.zmp.weight, config.zmp.double_weight)
+        near |= gap <= options.near_single_s * fps + 1e-9
+    return np.where(near, options.weight, options.double_weight)
 
 
 def band_cost(P: sp.spmatrix, lin: Linearization, plan: Plan, zl: ZmpLinearization,
               config: WholeBodyConfig, lay: Layout) -> tuple[sp.spmatrix, tuple | None]:
-    """P plus ``w_z,t b^2`` (:func:`band_weights`) on the excess b of the supported frames, and
+    """P plus ``w_z,t b^2`` (``plan.zmp_weights``) on the excess b of the supported frames, and
     the rows ``|p0 + Z x - p*| <= band + b`` (per axis) as (Z rows, excess selector, p0 - p*) for
     :func:`band_rows` (None without the cost or without support)."""
     sup = zl.support
-    if not (config.zmp.weight > 0 and sup.any()):
+    w = plan.zmp_weights
+    if not (w[sup] > 0).any():
         return P, None
     nx, B0 = lay.nx, lay.offset["band_excess"]
     rows = np.flatnonzero(np.repeat(sup, 2))
@@ -121,7 +122,6 @@ def band_cost(P: sp.spmatrix, lin: Linearization, plan: Plan, zl: ZmpLinearizati
                                                  (rows // 2) * nx + B0 + rows % 2)),
                            shape=(len(rows), lay.n))
     diag = np.zeros(lay.n)
-    w = band_weights(plan, config)
     diag[(np.flatnonzero(sup)[:, None] * nx + B0 + np.arange(2)).ravel()] = \
         np.repeat(w[sup], 2)
     return P + sp.diags(diag), (zl.Z[rows], excess, r_z)
