@@ -312,6 +312,14 @@ def test_default_pipeline_walk(robot, jvrc1_walk):
     # scaled by 0.5 (ForceOptions.yaw_sole_scale) keeps the share of its friction at 0.44
     # (1.54 without those rows, beyond 1 in 11 of the 65 single-support frames)
     assert full["friction_ratio_max"]["yaw_ratio"] <= 0.6
+    # the SQP stops once the soles are on their footprints and the ZMP uses at most
+    # SqpOptions.margin_use of its margin (JVRC-1's soles: 42 mm half width, 0.7 of it kept
+    # free, a quarter of that usable: 7.35 mm), not at its iteration limit
+    wb, sqp = report["wholebody"], SqpOptions()
+    assert wb["converged"] and wb["iterations"] < sqp.iterations
+    assert wb["sole_error_mm"] < 1.0
+    half = min(min(robot.soles[s].half_extents) for s in ("left", "right"))
+    assert wb["zmp_outside_mm"] <= 1e3 * sqp.margin_use * ZmpOptions().margin * half
 
 
 @pytest.mark.parametrize("supported", [False, True])

@@ -269,6 +269,20 @@ class SqpOptions:
             within 1 mm, torques), and no coordinate of the update exceeded this [m or rad]:
             the tail of iterations after that moves the key points by hundredths of a
             millimetre (G1 walk: 18 -> 11 iterations, marker RMS 48.18 -> 48.22 mm).
+        margin_use: ... or when the soles are within 1 mm of their footprints, the swing feet
+            clear, the key points settled (``keypoint_change``) and the other constraints hold
+            with at most this fraction of the plan's margins used: the ZMP outside its shrunk
+            polygon by at most ``margin_use`` of the distance the ZMP margin keeps from the
+            soles' edges (``ZmpOptions.margin`` times the soles' smallest half size), the
+            torques within ``margin_use`` of their margin, the cone rows beyond theirs by at
+            most the same distance of the centre of pressure (speeds, accelerations and
+            self-collision as for ``settled_step``). The margins are room for the tracking
+            controller, not targets to reach to the millimetre: the QP has no curvature of the
+            ZMP, normal-force and cone rows, so their last millimetres converge linearly (JVRC-1
+            walk: -10 % per iteration over iterations 8-20) while the key points stay where
+            they are.
+        keypoint_change: the key points have settled when an iteration changed their RMS
+            distance to the markers by less than this fraction.
         trust_region: largest change of any base or joint coordinate in one iteration [m or
             rad], so the linearization stays valid.
         base_trust: the base translation's region is this fraction of ``trust_region`` [m].
@@ -284,6 +298,8 @@ class SqpOptions:
     step_tolerance: float = 1e-4
     merit_tolerance: float = 3e-2
     settled_step: float = 1e-2
+    margin_use: float = 0.25
+    keypoint_change: float = 5e-3
     trust_region: float = 0.3
     base_trust: float = 0.2
     solver: str = "piqp"
@@ -293,7 +309,10 @@ class SqpOptions:
         require_count(self, ("iterations", "contact_iterations"))
         require_finite(self, ("step_tolerance", "qp_tolerance", "merit_tolerance"),
                        positive=True)
-        require_finite(self, ("trust_region", "base_trust", "settled_step"), positive=False)
+        require_finite(self, ("trust_region", "base_trust", "settled_step", "keypoint_change"),
+                       positive=False)
+        if not 0.0 <= self.margin_use <= 1.0:
+            raise OptionError("margin_use", self.margin_use, "a fraction in [0, 1]")
         if self.solver not in SOLVERS:
             raise OptionError("solver", self.solver, SOLVERS)
 

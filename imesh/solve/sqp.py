@@ -45,7 +45,7 @@ from .footprints import (
 from .holds import held_frames
 from .merit import merit
 from .obstacles import Obstacles, linearize_obstacles
-from .plan import Linearization, Plan
+from .plan import GRAVITY, Linearization, Plan
 from .problem import build_qp
 from .props import linearize_props, shared_violation
 from .qp import solve_qp
@@ -599,11 +599,15 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
                            qp_iterations=qp_iterations)
 
 
-def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBodyConfig
-             ) -> bool:
+def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBodyConfig,
+             use: float = 0.0, zmp_m: float = 0.0) -> bool:
     """Every other constraint the evaluator scores also holds at the iterate: joint velocities
     and accelerations within their limits, no self-collision distance more than 1 mm inside
-    its margin, no torque more than 0.1 % of its limit above the margin-reduced limit."""
+    its margin, no torque more than 0.1 % of its limit above the margin-reduced limit, no
+    cone row more than 1e-3 above its margin. With ``SqpOptions.margin_use``: the torques may
+    take the fraction ``use`` of their margin, and the cone rows ``g zmp_m`` more (a cone row
+    of ``g d`` is a centre of pressure ``d`` beyond its face at 1 g, the distance the ZMP
+    rows may use)."""
     if r.velocity_ratio > 1.0 or r.acceleration_ratio > 1.0:
         return False
     if lin.collision is not None and len(lin.collision.min_distance) and \
@@ -616,10 +620,21 @@ def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBo
     if plan.points is not None and lin.held_points is not None and \
             touch_violation(lin.held_points, plan.points).max() > 1e-3:
         return False
-    if plan.cones is not None and cone_violation(lin, plan).max() > 1e-3:
+    if plan.cones is not None and cone_violation(lin, plan).max() > 1e-3 + GRAVITY * zmp_m:
         return False
-    return lin.torques is None or \
-        lin.torques.excess(1.0 - config.margins.torque).max(initial=0.0) <= 1e-3
+    return lin.torques is None or lin.torques.excess(1.0 - config.margins.torque).max(
+        initial=0.0) <= 1e-3 + use * config.margins.torque
+
+
+def zmp_margin_m(footprints: list[Footprint], margin: float) -> float:
+    """[m] the smallest distance the ZMP margin keeps between a footprint's usable polygon and
+    its sole's edge: ``margin`` times the smallest half size of the soles (0 without
+    footprints)."""
+    if not footprints:
+        return 0.0
+    half = min(float(np.linalg.norm(f.corners_m[k + 1] - f.corners_m[k])) / 2.0
+               for f in footprints for k in range(2))
+    return margin * half
 
 
 def _violation(lin: Linearization, config: WholeBodyConfig) -> float:
@@ -666,6 +681,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     prop_cones = plan.props is not None and plan.cones is not None
     unknown_contacts = prop_cones or bool(plan.flight.any())
     n_iter = config.sqp.contact_iterations if unknown_contacts else config.sqp.iterations
+    zmp_use = config.sqp.margin_use * zmp_margin_m(footprints, config.zmp.margin)
 
     # once PIQP's scaled first attempt stalls on a QP of this solve, the later ones start
     # unscaled: their linearizations share the scaling that stalled it (iCub: every first
@@ -753,11 +769,16 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                  1e3 * r.sole_error_m, np.degrees(r.sole_error_rad), 1e3 * r.lowest_swing_m,
                  1e3 * r.zmp_outside_m, r.velocity_ratio, r.acceleration_ratio,
                  1e3 * r.keypoint_rms_m, sol.seconds, sol.iterations)
-        feasible = (r.sole_error_m < 1e-3 and r.zmp_outside_m < 1e-3
-                    and r.lowest_swing_m > config.feet.clearance_m - 1e-3)
+        placed = (r.sole_error_m < 1e-3 and r.lowest_swing_m > config.feet.clearance_m - 1e-3)
+        feasible = placed and r.zmp_outside_m < 1e-3
+        # the key points' change against the previous accepted iterate
+        kept = abs(r.keypoint_rms_m - history[-2].keypoint_rms_m) < \
+            config.sqp.keypoint_change * history[-2].keypoint_rms_m
         if step < config.sqp.step_tolerance or (
                 feasible and gain < config.sqp.merit_tolerance * phi) or (
-                step < config.sqp.settled_step and feasible and _settled(lin, plan, r, config)):
+                step < config.sqp.settled_step and feasible and _settled(lin, plan, r, config)
+                ) or (placed and kept and r.zmp_outside_m <= zmp_use
+                      and _settled(lin, plan, r, config, config.sqp.margin_use, zmp_use)):
             converged = True
             break
     seconds["total"] = time.perf_counter() - t_all
