@@ -126,7 +126,7 @@ def retarget(clip: MarkerMotion | PathLike, robot: Robot | str = "jvrc1", *,
 
     Examples:
         >>> import imesh
-        >>> result = imesh.retarget(imesh.demo_clip(), "jvrc1")  # about 15 s
+        >>> result = imesh.retarget(imesh.demo_clip(), "jvrc1")  # about a minute
         >>> motion = result.motion
         >>> motion.robot, motion.fps, motion.q.shape[1] == 7 + len(motion.joint_names)
         ('jvrc1', 30.0, True)
