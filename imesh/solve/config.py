@@ -274,13 +274,13 @@ class SqpOptions:
             with at most this fraction of the plan's margins used: the ZMP outside its shrunk
             polygon by at most ``margin_use`` of the distance the ZMP margin keeps from the
             soles' edges (``ZmpOptions.margin`` times the soles' smallest half size), the
-            torques within ``margin_use`` of their margin, the cone rows beyond theirs by at
-            most the same distance of the centre of pressure (speeds, accelerations and
-            self-collision as for ``settled_step``). The margins are room for the tracking
-            controller, not targets to reach to the millimetre: the QP has no curvature of the
-            ZMP, normal-force and cone rows, so their last millimetres converge linearly (JVRC-1
-            walk: -10 % per iteration over iterations 8-20) while the key points stay where
-            they are.
+            joint speeds, accelerations and torques within ``margin_use`` of their margins
+            (``LimitMargins``), the cone rows beyond theirs by at most the same distance of the
+            centre of pressure, self-collision as for ``settled_step``. The margins are room
+            for the tracking controller, not targets to reach to the millimetre: the QP has no
+            curvature of the ZMP, normal-force and cone rows, so their last millimetres
+            converge linearly (JVRC-1 walk: -10 % per iteration over iterations 8-20) while
+            the key points stay where they are.
         keypoint_change: the key points have settled when an iteration changed their RMS
             distance to the markers by less than this fraction.
         trust_region: largest change of any base or joint coordinate in one iteration [m or

@@ -600,15 +600,19 @@ def _report(lin: Linearization, plan: Plan, q: np.ndarray, step: float, qp_secon
 
 
 def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBodyConfig,
-             use: float = 0.0, zmp_m: float = 0.0) -> bool:
+             use: float | None = None, zmp_m: float = 0.0) -> bool:
     """Every other constraint the evaluator scores also holds at the iterate: joint velocities
     and accelerations within their limits, no self-collision distance more than 1 mm inside
     its margin, no torque more than 0.1 % of its limit above the margin-reduced limit, no
-    cone row more than 1e-3 above its margin. With ``SqpOptions.margin_use``: the torques may
-    take the fraction ``use`` of their margin, and the cone rows ``g zmp_m`` more (a cone row
-    of ``g d`` is a centre of pressure ``d`` beyond its face at 1 g, the distance the ZMP
-    rows may use)."""
-    if r.velocity_ratio > 1.0 or r.acceleration_ratio > 1.0:
+    cone row more than 1e-3 above its margin. With ``use`` (``SqpOptions.margin_use``): the
+    speeds, accelerations and torques may take that fraction of their margins, and the cone
+    rows ``g zmp_m`` more (a cone row of ``g d`` is a centre of pressure ``d`` beyond its face
+    at 1 g, the distance the ZMP rows may use)."""
+    m = config.margins
+    v_cap, a_cap = ((1.0, 1.0) if use is None else
+                    (1.0 - (1.0 - use) * m.velocity, 1.0 - (1.0 - use) * m.acceleration))
+    use = use or 0.0
+    if r.velocity_ratio > v_cap + 1e-6 or r.acceleration_ratio > a_cap + 1e-6:
         return False
     if lin.collision is not None and len(lin.collision.min_distance) and \
             (config.collision.margin_m - lin.collision.min_distance).max() > 1e-3:
