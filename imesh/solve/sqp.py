@@ -778,11 +778,15 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         # the key points' change against the previous accepted iterate
         kept = abs(r.keypoint_rms_m - history[-2].keypoint_rms_m) < \
             config.sqp.keypoint_change * history[-2].keypoint_rms_m
-        if step < config.sqp.step_tolerance or (
-                feasible and gain < config.sqp.merit_tolerance * phi) or (
-                step < config.sqp.settled_step and feasible and _settled(lin, plan, r, config)
-                ) or (placed and kept and r.zmp_outside_m <= zmp_use
-                      and _settled(lin, plan, r, config, config.sqp.margin_use, zmp_use)):
+        rule = ("step" if step < config.sqp.step_tolerance else
+                "merit" if feasible and gain < config.sqp.merit_tolerance * phi else
+                "settled" if step < config.sqp.settled_step and feasible
+                and _settled(lin, plan, r, config) else
+                "margins" if placed and kept and r.zmp_outside_m <= zmp_use
+                and _settled(lin, plan, r, config, config.sqp.margin_use, zmp_use) else None)
+        if rule is not None:
+            log.info("whole-body solve stopped after iteration %d (SqpOptions rule: %s)",
+                     it + 1, rule)
             converged = True
             break
     seconds["total"] = time.perf_counter() - t_all
