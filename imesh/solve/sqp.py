@@ -630,17 +630,6 @@ def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBo
         initial=0.0) <= 1e-3 + use * config.margins.torque
 
 
-def zmp_margin_m(footprints: list[Footprint], margin: float) -> float:
-    """[m] the smallest distance the ZMP margin keeps between a footprint's usable polygon and
-    its sole's edge: ``margin`` times the smallest half size of the soles (0 without
-    footprints)."""
-    if not footprints:
-        return 0.0
-    half = min(float(np.linalg.norm(f.corners_m[k + 1] - f.corners_m[k])) / 2.0
-               for f in footprints for k in range(2))
-    return margin * half
-
-
 def _violation(lin: Linearization, config: WholeBodyConfig) -> float:
     """The self-collision (and prop) shortfalls a step may not deepen."""
     if lin.props is None and lin.obstacles is None:
@@ -685,7 +674,10 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     prop_cones = plan.props is not None and plan.cones is not None
     unknown_contacts = prop_cones or bool(plan.flight.any())
     n_iter = config.sqp.contact_iterations if unknown_contacts else config.sqp.iterations
-    zmp_use = config.sqp.margin_use * zmp_margin_m(footprints, config.zmp.margin)
+    # the distance the ZMP margin keeps from the soles' edges (the footprints are the robot's
+    # sole rectangles): margin times their smallest half size; a stop may use margin_use of it
+    zmp_use = config.sqp.margin_use * config.zmp.margin * min(
+        min(robot.soles[s].half_extents) for s in SIDES)
 
     # once PIQP's scaled first attempt stalls on a QP of this solve, the later ones start
     # unscaled: their linearizations share the scaling that stalled it (iCub: every first
