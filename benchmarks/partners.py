@@ -1,6 +1,6 @@
 """The acceptance table of issue 35: the CMU salsa couple on two robots (docs/partners.md).
 
-    PYTHONPATH=. IMESH_DATA=../shared/data python benchmarks/partners.py [--frames 400:760]
+    PYTHONPATH=. IMESH_DATA=../shared/data python benchmarks/partners.py [--frames 460:640]
         [--pairs g1:g1 g1:jvrc1] [--json OUT.json]
 
 For every robot pair, the couple is retargeted together (one interaction mesh, robot b
@@ -8,8 +8,9 @@ avoiding robot a and meeting its hands where the people hold hands), together wi
 avoidance (``no-avoid``: mesh and holds), and each person alone (own mesh, no avoidance, no
 holds; same world, same settings): the baseline of the inter-person close-pair error. One
 row per robot and mode with the single-robot gates and the pair's figures. ``--frames``
-takes clip frames at the file's header rate (120 fps); the default window 400:760 (3 s)
-holds the couple's hand hold (clip frames 504-611) and not partner A's hop (304-318);
+takes clip frames; the clips are read at their capture rate, 60 fps (their headers say 120:
+:mod:`imesh.human.timing`), so the default window 460:640 is 3 s, holds the couple's hand
+hold (clip frames 504-611) and not partner A's hop (304-318);
 ``--frames all`` runs the whole clip. ``--plot DIR`` writes one figure per robot pair (the
 held hands' distance and the robots' smallest distance per frame, per mode; docs/partners/).
 """
@@ -102,7 +103,7 @@ def plot(path, pair: str, runs: dict, lead: int, fps: float) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", default="400:760", help="START:STOP clip frames, or 'all'")
+    ap.add_argument("--frames", default="460:640", help="START:STOP clip frames, or 'all'")
     ap.add_argument("--pairs", nargs="+", default=["g1:g1", "g1:jvrc1"])
     ap.add_argument("--modes", nargs="+", default=list(MODES), choices=list(MODES))
     ap.add_argument("--json", help="write the rows here")

@@ -22,7 +22,7 @@ from imesh.solve.obstacles import Obstacles, linearize_obstacles
 
 SALSA_A = "cmu_60_10_salsa_partnerA_sl_scaled.bvh"
 SALSA_B = "cmu_61_10_salsa_partnerB_sl_scaled.bvh"
-#: clip frames (header rate) around the couple's hand hold (504-611)
+#: clip frames around the couple's hand hold (504-611): 3 s at their capture rate, 60 fps
 HOLD_WINDOW = (460, 640)
 
 
@@ -133,7 +133,7 @@ def test_partners_of_different_lengths_are_refused_before_work(couple):
 def short_pair(couple):
     """G1 + G1 on 1.2 s of the hold (36 frames at 30 fps, 0.5 s lead-in and out): together,
     together without the avoidance, alone."""
-    a, b = (m.frames(60, 204) for m in couple)  # clip frames 520-664 at 120 fps
+    a, b = (m.frames(60, 132) for m in couple)  # clip frames 520-592 at 60 fps
     config = PairConfig(retarget=dataclasses.replace(RetargetConfig(), lead_s=0.5))
     robot = load_test_robot("g1")
     return {name: evaluate_pair(retarget_pair(a, b, robot, robot, config=c))
@@ -164,14 +164,15 @@ def test_pair_holds_hands_and_avoids(short_pair):
 def test_retarget_partner_command_line_writes_both_robots(tmp_path, mocap):
     out = tmp_path / "pair.npz"
     status = main(["-q", "retarget", str(mocap(SALSA_A)), "--partner", str(mocap(SALSA_B)),
-                   "--robot", "g1", "--partner-robot", "jvrc1", "--frames", "520:640",
+                   "--robot", "g1", "--partner-robot", "jvrc1", "--frames", "520:580",
                    "--no-lead", "--force", "-o", str(out)])
     assert status == 0
     report = json.loads((tmp_path / "pair.pair.json").read_text())
     assert report["robots"] == {"a": "g1", "b": "jvrc1"}
     for f in (out, tmp_path / "pair.partner.npz"):
         with np.load(f) as z:
-            assert z["joint_positions"].shape[0] == 30  # 120 clip frames at 120 fps -> 30 at 30 fps
+            # 60 clip frames at the couple's capture rate, 60 fps (imesh.human.timing) -> 30
+            assert z["joint_positions"].shape[0] == 30
     assert report["pair_metrics"]["hold_frames"] > 0
     # imesh evaluate --pair scores the written files as the retarget did
     assert main(["-q", "evaluate", str(out), "--pair", str(tmp_path / "pair.pair.json"),

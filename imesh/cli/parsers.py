@@ -80,8 +80,10 @@ def _add_load_options(p: argparse.ArgumentParser, resample: bool = True) -> None
     if resample:
         p.add_argument("--fps", type=float, help="resample to this frame rate")
     p.add_argument("--source-fps", type=float,
-                   help="frame rate of formats that store none (AMC: default 120; joint-position "
-                   ".npy: required)")
+                   help="the clip's capture rate: for formats that store none (AMC: default 120; "
+                   "joint-position .npy: required), or replacing the file's (default: the "
+                   "file's, halved where the performer's balance says it is twice the capture "
+                   "rate: docs/clips.md)")
     p.add_argument("--asf", help="skeleton (.asf) of an .amc clip (default: the .asf beside it "
                    "whose name starts the .amc name)")
     p.add_argument("--rig", help="rig table mapping the file to the standard markers: a .toml "
@@ -376,8 +378,10 @@ def add_reduce(sub) -> argparse.ArgumentParser:
     p.add_argument("--units", help="override the detected unit (m, cm, mm, in, cmu)")
     p.add_argument("--up-axis", help="override the detected up axis (+X -X +Y -Y +Z -Z)")
     p.add_argument("--source-fps", type=float,
-                   help="frame rate of formats that store none (AMC: default 120; joint-position "
-                   ".npy: required)")
+                   help="the clip's capture rate: for formats that store none (AMC: default 120; "
+                   "joint-position .npy: required), or replacing the file's (default: the "
+                   "file's, halved where the performer's balance says it is twice the capture "
+                   "rate: docs/clips.md)")
     return p
 
 

@@ -240,6 +240,7 @@ class MarkerMotion:
         return {
             "frames": self.n_frames,
             "fps": self.fps,
+            **({"fps_reason": self.meta["fps_reason"]} if "fps_reason" in self.meta else {}),
             "markers": list(self.names),
             "height_m": self.height_m,
             "units": self.meta.get("units", "m"),

@@ -8,8 +8,11 @@ logs each decision (units, up axis, floor) so it can be checked and overridden.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
+
+import numpy as np
 
 from ..core.motion import MarkerMotion
 from ..errors import MotionFileError, UnsupportedFormatError
@@ -47,11 +50,20 @@ def read_raw(path: str | os.PathLike, *, asf: str | os.PathLike | None = None,
             name is a prefix of the .amc name (``cmu_07.asf`` for ``cmu_07_05.amc``).
         fps: frame rate for formats that do not store one (AMC; default 120 as in the CMU
             listing; an AMASS file without ``mocap_framerate``; a joint-position file without
-            ``fps``, which then needs it); ignored otherwise.
+            ``fps``, which then needs it); for the others it replaces the file's rate (a wrong
+            header), which ``meta["header_fps"]`` keeps.
         body_model: the body-model folder an AMASS file needs (:mod:`imesh.io.amass`).
         joints: the joint-names file of a joint-position array (:mod:`imesh.io.joints`).
     """
-    p = Path(path)
+    raw = _read_raw(Path(path), asf=asf, fps=fps, body_model=body_model, joints=joints)
+    if fps is not None and raw.fps != fps:
+        if not (np.isfinite(fps) and fps > 0):
+            raise MotionFileError(str(path), f"frame rate {fps!r}; valid: a finite number > 0")
+        raw = dataclasses.replace(raw, fps=float(fps), meta={**raw.meta, "header_fps": raw.fps})
+    return raw
+
+
+def _read_raw(p: Path, *, asf, fps, body_model, joints) -> RawMotion:
     if not p.is_file():
         raise MotionFileError(str(p), "no such file")
     ext = p.suffix.lower()
@@ -94,7 +106,10 @@ def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
         ground: "auto" (level a floor tilted 0.25-2 degrees under the planted feet, then shift
             to the floor when off by > 3 cm), "none", or a shift in metres.
         fps: frame rate for AMC files, which store none (default 120), for AMASS files
-            without one, and for joint-position files without one (required: never guessed).
+            without one, and for joint-position files without one (required: never guessed);
+            for the other formats it replaces the file's rate. When None, a clip whose
+            performer cannot keep their balance at the file's rate but can at half of it is
+            read at half (:mod:`imesh.human.timing`; ``meta["fps_reason"]`` says why).
         asf: the skeleton for an .amc file (default: found beside it).
         body_model: the folder of SMPL-X/SMPL-H body-model files an AMASS .npz needs
             (docs/amass.md).
@@ -114,4 +129,4 @@ def load_motion(path: str | os.PathLike, *, units: str | float | None = None,
     """
     raw = read_raw(path, asf=asf, fps=fps, body_model=body_model, joints=joints)
     return finalize(raw, units=units, up_axis=up_axis, ground=ground, check=check,
-                    consume=True)
+                    consume=True, timing=fps is None)

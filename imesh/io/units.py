@@ -21,6 +21,7 @@ from ..errors import ImplausibleMotionError, OptionError
 from ..human.errors import RigRecognitionError, UnitsError
 from ..human.rig import recognize
 from ..human.rig_result import RECOGNIZED, Recognition
+from ..human.timing import TimingConfig, check_timing
 from .floor import fit_floor, floor_meta, floor_offset, level_positions, lowest_markers
 from .raw import RawMotion
 
@@ -187,7 +188,7 @@ _BLOCK_FRAMES = 16384
 
 def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str | None = None,
              ground: str | float = "auto", check: bool = True,
-             consume: bool = False) -> MarkerMotion:
+             consume: bool = False, timing: bool = False) -> MarkerMotion:
     """Convert a RawMotion to a MarkerMotion in metres, Z up, floor at z = 0.
 
     A skeleton is recognized as a human body first; ``meta`` then holds the recognition
@@ -207,6 +208,9 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
             body height, position range, marker speed); on by default.
         consume: the caller gives ``raw`` up: its positions array is converted in place and
             becomes the motion's (no second copy: a 30-minute clip's positions are 200 MB).
+        timing: check the file's frame rate by the performer's balance and read the clip at
+            a lower one when it says so (:func:`imesh.human.timing.check_timing`; ``meta``:
+            ``fps_reason``, and ``header_fps`` when the rate changed).
 
     Raises:
         ImplausibleMotionError: every marker missing, positions that overflow when converted to
@@ -269,10 +273,11 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
             f"not a finite number in metres ({int(overflow.sum())} samples)",
             valid="finite positions", frame=t, marker=raw.names[j])
 
+    fps, timing_meta = _capture_rate(raw, pos, scale, body) if timing else (raw.fps, {})
     floor = 0.0
     level = None
     if ground == "auto":
-        level = fit_floor(pos, raw.valid, raw.fps)
+        level = fit_floor(pos, raw.valid, fps)
         level_positions(pos, level, _BLOCK_FRAMES)
         floor, ground_why = floor_offset(lowest_markers(pos, raw.valid))
     elif ground == "none":
@@ -300,8 +305,24 @@ def finalize(raw: RawMotion, *, units: str | float | None = None, up_axis: str |
     if body is not None:
         meta.update(rig_recognition=body, standing_height_m=body.height * scale,
                     rig_confidence=body.overall_confidence)
-    motion = MarkerMotion(positions_m=pos, fps=raw.fps, names=raw.names, valid=raw.valid,
+    meta.update(timing_meta)
+    motion = MarkerMotion(positions_m=pos, fps=fps, names=raw.names, valid=raw.valid,
                           bones=raw.bones, source=raw.path, meta=meta)
     if check:
         check_plausible(motion)
     return motion
+
+
+def _capture_rate(raw: RawMotion, pos: np.ndarray, scale: float,
+                  body: Recognition | None) -> tuple[float, dict]:
+    """The rate to read ``raw`` at (:func:`imesh.human.timing.check_timing` on its first
+    ``TimingConfig.probe_s`` seconds, ``pos`` in metres, Z up) and its ``meta`` entries."""
+    n = min(len(pos), int(TimingConfig().probe_s * raw.fps))
+    probe_meta = ({"rig_recognition": body, "unit_scale_m": scale} if body is not None else {})
+    probe = MarkerMotion(positions_m=np.array(pos[:n]), fps=raw.fps, names=raw.names,
+                         valid=raw.valid[:n], bones=raw.bones, source=raw.path, meta=probe_meta)
+    verdict = check_timing(probe)
+    if not verdict.corrected:
+        return raw.fps, {"fps_reason": verdict.reason}
+    log.warning("%s: read at %s", raw.path, verdict.reason)
+    return verdict.fps, {"fps_reason": verdict.reason, "header_fps": verdict.header_fps}
