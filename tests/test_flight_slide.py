@@ -116,6 +116,45 @@ def test_a_standing_clip_with_markers_high_is_not_flight(standing):
     assert not contacts.moving.any()  # standing, not sliding
 
 
+
+def test_a_foot_carrying_a_body_that_does_not_fall_is_held_not_slid(standing):
+    """Both feet 10 cm up for 0.2 s, the lower one swept 0.3 m sideways (2 m/s), the body not
+    falling: the lower foot carries the body and is held (no slide: it is off the floor in the
+    clip, so nothing tells where on the floor it would slide)."""
+    s, pos = _clip(standing, 2.5)
+    fly = slice(30, 36)
+    for name in ("ankle_l", "toe_l", "ankle_r", "toe_r"):
+        pos[fly, s.names.index(name), 2] += 0.1
+    for name in ("ankle_l", "toe_l"):
+        pos[fly, s.names.index(name), 2] += 0.01
+    sweep = np.linspace(0.0, 0.3, 6)
+    for name in ("ankle_r", "toe_r"):
+        pos[fly, s.names.index(name), 1] += sweep
+    contacts = detect_contacts(_motion(s, pos, "synthetic:high-sweep"))
+    assert not contacts.flight.any()
+    assert contacts.support[fly, 1].all()
+    assert not contacts.moving[fly].any()
+
+
+def test_the_salsa_hop_is_carried_by_a_held_foot(mocap):
+    """Partner A's hop at its capture rate (60 fps; working frames 151-158 at 30 fps: both toes
+    8-24 cm up while the trunk rises and falls at 0.4 g at most, the partner holding its
+    hands): the right foot carries it, held still, not slid at the toe's 4-9 m/s."""
+    from imesh.io import load_motion
+    from imesh.pipeline.retarget import RetargetConfig, working_markers
+
+    w = working_markers(load_motion(mocap("cmu_60_10_salsa_partnerA_sl_scaled.bvh")),
+                        RetargetConfig())
+    assert w.fps == 30.0
+    contacts = detect_contacts(w)
+    lift = np.stack([w.positions_m[:, w.index(n), 2] for n in ("toe_l", "toe_r")], axis=1)
+    lift -= np.percentile(lift, 5, axis=0)
+    airborne = (lift > FlightConfig().ground_fraction * w.height_m).all(axis=1)
+    hop = np.arange(151, 159)
+    assert airborne[hop].all() and not contacts.flight[hop].any()
+    assert contacts.support[hop].any(axis=1).all()
+    assert not contacts.moving[hop].any()
+
 def _retarget_and_score(robot, motion, tmp_path):
     from imesh.evaluate.scoreboard import evaluate_motion, metric_values
     from imesh.io.robot_motion import load_robot_motion, save_robot_motion
@@ -411,3 +450,22 @@ def test_a_restep_does_not_land_for_a_frame_before_the_lift_off(robot):
     out = split_pivots(robot, moving_from(12), both, FPS)
     left = runs(out[:, 0])
     assert len(left) == 2 and left[1][1] == 30 and left[1][1] - left[1][0] >= 3
+
+
+def test_inferred_support_holds_the_sole_where_it_last_stood():
+    """hold_poses: a run of inferred support frames takes the pose of the foot's support frame
+    just before it (else just after it), so its footprint is where the foot stood, and the
+    pivot test sees no turn there (the salsa's hop: the fit's sole turned 1.5 rad and moved
+    0.2 m in those frames)."""
+    from imesh.solve.footprints import hold_poses
+
+    T = 8
+    poses = np.tile(np.eye(4), (T, 1, 1))
+    poses[:, 0, 3] = np.arange(T) * 0.1  # the fit's sole moves 0.1 m a frame
+    support = np.array([1, 1, 1, 1, 1, 0, 1, 1], dtype=bool)
+    inferred = np.array([0, 0, 1, 1, 0, 0, 1, 0], dtype=bool)
+    out = hold_poses(poses, support, inferred)
+    np.testing.assert_array_equal(out[2:4], np.stack([poses[1], poses[1]]))
+    np.testing.assert_array_equal(out[6], poses[7])  # no support before: the frame after
+    keep = ~inferred
+    np.testing.assert_array_equal(out[keep], poses[keep])

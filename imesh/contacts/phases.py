@@ -15,7 +15,8 @@ Low and slow is a *planted* foot. Where no foot is planted, the clip is not yet 
   it: a parabola fitted to the height of the trunk's centroid (pelvis, hips, spine, chest,
   neck) over the phase bends down by at least ``ballistic_fraction`` of g. Otherwise a foot
   carries the body whose markers read high (a dancer on the ball of the foot, a marker set off
-  the skin): the lower foot is in contact.
+  the skin): the lower foot is in contact, held still (it is off the floor in the clip, so
+  its motion there tells no slide: the salsa's hop, partner A's hands in its partner's).
 
 Within a planted phase a foot whose toe travels more than ``slide_m`` at more than
 ``slide_speed_fraction`` body heights per second (for at least ``PhaseFilter.min_phase_s``) also
@@ -162,12 +163,26 @@ class Contacts:
             a pivot); None: none.
         pivoting: (T, 2) bool the sliding frames in which the foot turns about a point; None:
             none.
+        inferred: (T, 2) bool support frames in which the foot is off the floor in the clip
+            but carries the body (no foot at ground height, no free fall): the robot's foot
+            holds still where it last stood (:func:`imesh.solve.sqp.plan_whole_body`); None:
+            none.
     """
 
     support: np.ndarray
     fps: float
     sliding: np.ndarray | None = None
     pivoting: np.ndarray | None = None
+    inferred: np.ndarray | None = None
+
+    def within(self, support: np.ndarray) -> Contacts:
+        """These contacts on a (T, 2) bool ``support`` that is a subset of theirs (the sliding,
+        pivoting and inferred frames kept where it holds)."""
+        def keep(mask):
+            return None if mask is None else mask & support
+
+        return Contacts(support=support, fps=self.fps, sliding=keep(self.sliding),
+                        pivoting=keep(self.pivoting), inferred=keep(self.inferred))
 
     @property
     def modes(self) -> np.ndarray:
@@ -383,6 +398,7 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
     # on the ground next to them)
     z = _trunk_height(motion)
     accel_z = np.gradient(np.gradient(z, 1.0 / fps), 1.0 / fps)
+    carried = np.zeros_like(support)  # support inferred where no foot is at ground height
     for start, stop in runs(np.logical_not(support.any(axis=1))):
         a, b = _pushed_ends(accel_z, start, stop, fc.push_fraction * GRAVITY)
         before = support[start - 1] if start > 0 else None
@@ -394,12 +410,18 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
         else:
             k = int(np.argmin(lift[start:stop].mean(axis=0)))  # the lower foot carries it
             support[start:stop, k] = True
+            carried[start:stop, k] = True
     support = np.stack([drop_short(support[:, k], 1) for k in range(2)], axis=1)
     # moving contacts: off the planted frames where the foot moves or turns, and within
     # planted phases where the toe travels
+    # planted and not ground-height frames, held still: a foot inferred to carry a body that
+    # does not fall freely is off the floor in the clip and does not slide there (the salsa's
+    # hop, its partner holding its hands: the right toe 8-20 cm up moves at 4-9 m/s)
     vel_xy = vel[..., :2]
-    fast = support & (np.linalg.norm(vel_xy, axis=2) > fc.slide_speed_fraction * height)
-    moving = support & ~planted & (fast | (np.abs(yaw_rate) > fc.pivot_rad_s) | shuffled)
+    fast = (support & ~carried
+            & (np.linalg.norm(vel_xy, axis=2) > fc.slide_speed_fraction * height))
+    moving = (support & ~planted & ~carried
+              & (fast | (np.abs(yaw_rate) > fc.pivot_rad_s) | shuffled))
     min_frames = max(1, int(round(fc.slide_s * fps)))
     for k in range(2):
         for a, b in runs(fast[:, k]):
@@ -408,7 +430,8 @@ def detect_contacts(motion: MarkerMotion, config: ContactConfig | None = None) -
             if b - a >= min_frames and travel > fc.slide_m:
                 moving[a:b, k] = True
     pivoting = moving & (np.abs(yaw_rate) > fc.pivot_rad_s)
-    contacts = Contacts(support=support, fps=fps, sliding=moving, pivoting=pivoting)
+    contacts = Contacts(support=support, fps=fps, sliding=moving, pivoting=pivoting,
+                        inferred=carried & support)
     log.info("%s: %d footfalls, %d flight phases, %d slide and %d pivot frames", motion.source,
              contacts.footfalls(), len(contacts.flight_phases()),
              int((moving & ~pivoting).sum()), int(pivoting.sum()))

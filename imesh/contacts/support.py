@@ -186,9 +186,7 @@ def flat_support(motion: MarkerMotion, contacts: Contacts,
     # flat there, where a cut would make a flight the human never had
     bare = contacts.support.any(axis=1) & ~flat.any(axis=1)
     flat[bare] = contacts.support[bare]
-    return Contacts(support=flat, fps=contacts.fps,
-                    sliding=None if contacts.sliding is None else contacts.sliding & flat,
-                    pivoting=None if contacts.pivoting is None else contacts.pivoting & flat)
+    return contacts.within(flat)
 
 
 def support_blend(contacts: Contacts, ramp_s: float) -> np.ndarray:

@@ -83,9 +83,7 @@ def split_at_surface_changes(contacts: Contacts, heights_m: np.ndarray, gap_s: f
     for k in range(2):
         for t in np.flatnonzero(np.abs(np.diff(heights_m[:, k])) > step_m) + 1:
             support[max(t - n, 0):t + n, k] = False
-    return Contacts(support=support, fps=contacts.fps,
-                    sliding=None if contacts.sliding is None else contacts.sliding & support,
-                    pivoting=None if contacts.pivoting is None else contacts.pivoting & support)
+    return contacts.within(support)
 
 
 def drop_hanging(contacts: Contacts, lowered: MarkerMotion, above_m: float) -> Contacts:
@@ -109,6 +107,4 @@ def drop_hanging(contacts: Contacts, lowered: MarkerMotion, above_m: float) -> C
     if dropped:
         log.info("scene: %d support frames more than %.0f mm above any surface dropped (the "
                  "person hangs on the hands there)", dropped, 1e3 * above_m)
-    return Contacts(support=keep, fps=contacts.fps,
-                    sliding=None if contacts.sliding is None else contacts.sliding & keep,
-                    pivoting=None if contacts.pivoting is None else contacts.pivoting & keep)
+    return contacts.within(keep)

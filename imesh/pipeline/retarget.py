@@ -602,6 +602,9 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
         limits = joint_limits(robot, fit_config.limits)
         sliding = np.zeros_like(ext.support)
         sliding[n_lead:n_lead + n_work] = flat.moving
+        inferred = np.zeros_like(ext.support)
+        if flat.inferred is not None:
+            inferred[n_lead:n_lead + n_work] = flat.inferred
         surface_z = planes = None
         if surface is not None:
             faces = scene_planes(scene)
@@ -613,7 +616,8 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
                                            sliding=sliding, support_heights=surface_z,
                                            props=planes,
                                            effectors=(None if effectors is None
-                                                      else effectors.padded(n_lead, n_lead)))
+                                                      else effectors.padded(n_lead, n_lead)),
+                                           inferred=inferred)
         if plan_hook is not None:
             plan = plan_hook(plan, PlanContext(names=fit_markers.names, targets=targets,
                                                lead_frames=n_lead))

@@ -155,6 +155,26 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
     return out
 
 
+def hold_poses(poses: np.ndarray, support: np.ndarray, inferred: np.ndarray) -> np.ndarray:
+    """(T, 4, 4) one foot's sole poses with each run of ``inferred`` support frames given the
+    pose of the foot's support frame just before the run (else just after it): the foot holds
+    still where it last stood while the person's foot is in the air (``Contacts.inferred``).
+
+    Args:
+        poses: (T, 4, 4) sole frame poses along the initial trajectory.
+        support: (T,) bool the foot's planned support.
+        inferred: (T,) bool its inferred support frames.
+    """
+    out = np.array(poses)
+    inferred = inferred & support
+    for a, b in runs(inferred):
+        if a > 0 and support[a - 1] and not inferred[a - 1]:
+            out[a:b] = poses[a - 1]
+        elif b < len(poses) and support[b]:
+            out[a:b] = poses[b]
+    return out
+
+
 def ankle_reach(robot, side: str, load: float = 1.0) -> float:
     """[m] how far from the ankle (the sole frame's origin) the centre of pressure may go with
     ``load`` times the whole weight on one foot: the weaker of the two ankle joints' effort

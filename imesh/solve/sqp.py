@@ -36,6 +36,7 @@ from .cwc import cone_violation, plan_cones
 from .footprints import (
     Footprint,
     footprint_tracks,
+    hold_poses,
     place_under_zmp,
     plan_footprints,
     raised,
@@ -423,7 +424,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
                     transition_s: float = 0.1, rest_frames: int = 3,
                     sliding: np.ndarray | None = None, support_heights: np.ndarray | None = None,
                     props: np.ndarray | None = None,
-                    effectors: EffectorContacts | None = None) -> tuple[Plan, list[Footprint]]:
+                    effectors: EffectorContacts | None = None,
+                    inferred: np.ndarray | None = None) -> tuple[Plan, list[Footprint]]:
     """Fix the targets, mesh, support, footprints and limits of a whole-body solve.
 
     Args:
@@ -452,12 +454,18 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
             frames): held points on the tops (:mod:`.touches`). With props, every supported
             frame that is not all soles on the floor is balanced by the contact wrench cone
             (:mod:`.cwc`) instead of the ZMP.
+        inferred: (T, 2) bool support frames whose foot holds still where it last stood
+            (``Contacts.inferred``: the person's foot in the air while it carries the body): the
+            footprints and the pivot test take the sole pose of the foot's support frame next
+            to them (:func:`~imesh.solve.footprints.hold_poses`). None: none.
     """
     T = len(q_init)
     frames = _Frames(robot, targets)
     kin = robot.trajectory_kinematics(q_init, [frames.ids[i] for i in frames.soles])
-    poses = {s: kin.placements[:, k] for k, s in enumerate(SIDES)}
     support = np.asarray(support, dtype=bool)
+    poses = {s: (kin.placements[:, k] if inferred is None
+                 else hold_poses(kin.placements[:, k], support[:, k], inferred[:, k]))
+             for k, s in enumerate(SIDES)}
     sliding = (np.zeros_like(support) if sliding is None
                else np.asarray(sliding, dtype=bool) & support)
     # planted runs that pivot or slide in the fit become re-steps, or pivots where the other
