@@ -32,9 +32,10 @@ ROOT Hips
 def test_inspect_json(mocap, capsys):
     assert main(["inspect", str(mocap("cmu_02_01_walk.bvh")), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert set(data) == {"frames", "fps", "markers", "height_m", "units", "up_axis",
-                         "missing_fraction", "rig"}
+    assert set(data) == {"frames", "fps", "fps_reason", "markers", "height_m", "units",
+                         "up_axis", "missing_fraction", "rig"}
     assert data["frames"] == 343 and data["fps"] == pytest.approx(120.0, rel=1e-3)
+    assert data["fps_reason"].startswith("the file's (the performer's ZMP beyond 0.3 body")
     assert 1.3 < data["height_m"] < 1.5 and data["units"] == "cmu" and data["up_axis"] == "+Y"
     assert data["missing_fraction"] == 0.0
 

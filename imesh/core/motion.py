@@ -269,8 +269,8 @@ PLAUSIBLE_POSITION_M = 1000.0
 #: Plausible body height [m] (median vertical extent of the markers; joint rigs understate it).
 PLAUSIBLE_HEIGHT_M = (0.3, 3.0)
 #: Fastest plausible marker speed between two consecutive samples [m/s]. Body parts peak near
-#: 30 m/s; marker glitches in good clips reach 69 m/s (CMU salsa foot end site); a corrupted
-#: sample jumps far beyond.
+#: 30 m/s; marker glitches in good clips reach 69 m/s (CMU salsa foot end site at its header's
+#: 120 fps); a corrupted sample jumps far beyond.
 MAX_MARKER_SPEED_M_S = 100.0
 #: Plausible frame rates [1/s].
 PLAUSIBLE_FPS = (1.0, 10000.0)
