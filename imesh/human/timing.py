@@ -151,8 +151,8 @@ def off_balance_fraction(standard: MarkerMotion, fps: float, config: TimingConfi
     window = max(5, int(round(fps * config.window_s)) | 1)
     x, acc = _cubic_fit(prox + f * (dist - prox), window, 1.0 / fps)  # (T', S, 3) centres
     p = p[window // 2:window // 2 + len(x)]
-    lift = acc[..., 2] + GRAVITY                                   # (T, S)
-    weight = lift @ m                                              # (T,) per unit body mass
+    lift = acc[..., 2] + GRAVITY                                   # (T', S)
+    weight = lift @ m                                              # (T',) per unit mass
     carried = weight > config.flight_fraction * GRAVITY
     zmp = (np.einsum("s,tsk->tk", m, x[..., :2] * lift[..., None] - x[..., 2:3] * acc[..., :2])
            / np.where(carried, weight, 1.0)[:, None])
