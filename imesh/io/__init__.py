@@ -55,10 +55,10 @@ def read_raw(path: str | os.PathLike, *, asf: str | os.PathLike | None = None,
         body_model: the body-model folder an AMASS file needs (:mod:`imesh.io.amass`).
         joints: the joint-names file of a joint-position array (:mod:`imesh.io.joints`).
     """
+    if fps is not None and not (np.isfinite(fps) and fps > 0):
+        raise MotionFileError(str(path), f"frame rate {fps!r}; valid: a finite number > 0")
     raw = _read_raw(Path(path), asf=asf, fps=fps, body_model=body_model, joints=joints)
     if fps is not None and raw.fps != fps:
-        if not (np.isfinite(fps) and fps > 0):
-            raise MotionFileError(str(path), f"frame rate {fps!r}; valid: a finite number > 0")
         raw = dataclasses.replace(raw, fps=float(fps), meta={**raw.meta, "header_fps": raw.fps})
     return raw
 

@@ -19,8 +19,9 @@ units, up axis and floor are then detected like for any marker set (:func:`imesh
 
 **Frame rate.** An ``.npy`` stores none, and there is no convention for joint arrays (the
 120 fps of ``.amc`` files is the CMU listing's, documented for that database only). So the rate
-is the ``fps`` member of an ``.npz``, else ``fps=`` (``--source-fps``), else
-:class:`FrameRateMissingError` lists those options; it is never guessed. (The holosoma climbing
+is ``fps=`` (``--source-fps``; :func:`imesh.io.read_raw` puts it in place of a stored one),
+else the ``fps`` member of an ``.npz``, else :class:`FrameRateMissingError` lists those
+options; it is never guessed. (The holosoma climbing
 set is best read at 120 fps: its MANIFEST.)
 
 **Names.** A naming of a built-in rig table (:func:`imesh.human.rig_tables.rig_of`; e.g.
@@ -186,7 +187,7 @@ def read_joint_positions(path: str | os.PathLike, *, joints: str | os.PathLike |
         joints: joint-names file (one per line); overrides names stored in an ``.npz`` and the
             names file found beside the array.
         fps: the frame rate [1/s] when the file stores none (an ``fps`` member of an ``.npz``
-            wins, with a warning when they differ).
+            is read as stored here; :func:`imesh.io.read_raw` replaces it with a rate given).
 
     Returns:
         RawMotion (format "joints") with positions (T, J, 3) float64 in the file's units (NaN
@@ -246,10 +247,7 @@ def read_joint_positions(path: str | os.PathLike, *, joints: str | os.PathLike |
         raise MotionFileError(str(p), f"{key} has {n_joints} joints; valid: at most {MAX_JOINTS} "
                               "(is the array (T, J, 3)?)")
     names, origin = _names_for(p, joints, stored_names, n_joints)
-    if file_fps is not None:
-        if fps is not None and abs(fps - file_fps) > 1e-9 * file_fps:
-            log.warning("%s: the file stores %g fps; the %g fps given is ignored", p, file_fps,
-                        fps)
+    if file_fps is not None:  # a rate given replaces it in imesh.io.read_raw
         fps = file_fps
     if fps is None:
         raise FrameRateMissingError(str(p))
