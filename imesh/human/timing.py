@@ -28,7 +28,6 @@ not bring the ZMP to the feet, and an explicit rate (``fps=`` of :func:`imesh.io
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,8 +35,6 @@ import numpy as np
 from ..core.checks import require_finite
 from ..core.motion import MarkerMotion
 from ..errors import ImeshError, OptionError
-
-log = logging.getLogger(__name__)
 
 GRAVITY = 9.81
 
@@ -156,14 +153,13 @@ def off_balance_fraction(standard: MarkerMotion, fps: float, config: TimingConfi
     carried = weight > config.flight_fraction * GRAVITY
     zmp = (np.einsum("s,tsk->tk", m, x[..., :2] * lift[..., None] - x[..., 2:3] * acc[..., :2])
            / np.where(carried, weight, 1.0)[:, None])
-    reach = np.full(len(p), np.inf)
-    for side in "lr":
-        a = p[:, names.index(f"ankle_{side}"), :2]
-        b = p[:, names.index(f"toe_{side}"), :2]
-        ab = b - a
-        s = np.clip(np.einsum("tk,tk->t", zmp - a, ab) / np.maximum(np.einsum("tk,tk->t", ab, ab),
-                                                                    1e-12), 0.0, 1.0)
-        reach = np.minimum(reach, np.linalg.norm(a + s[:, None] * ab - zmp, axis=1))
+    # distance to the nearer ankle-toe line: (T', 2) closest points of the two feet
+    ankles = p[:, [names.index("ankle_l"), names.index("ankle_r")], :2]
+    foot = p[:, [names.index("toe_l"), names.index("toe_r")], :2] - ankles
+    rel = zmp[:, None] - ankles
+    s = np.clip(np.sum(rel * foot, axis=-1) / np.maximum(np.sum(foot * foot, axis=-1), 1e-12),
+                0.0, 1.0)
+    reach = np.linalg.norm(rel - s[..., None] * foot, axis=-1).min(axis=1)  # (T',)
     if not carried.any():
         return 0.0
     return float(np.mean(reach[carried] > config.reach_fraction * standard.height_m))
