@@ -55,6 +55,6 @@ def run(args) -> int:
         write_json(args.report, report)
     if args.report_html:
         write_report(args.report_html, robot, args.motion, metrics=report, source=source,
-                     fps=args.fps)
+                     fps=args.fps, props=scene)
         print(f"report: {args.report_html}")
     return 0
