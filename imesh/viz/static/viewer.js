@@ -552,7 +552,8 @@
         var t = Math.floor(clock * fps);
         if (t >= T - 1) { setFrame(T - 1); play(false); } else if (t !== current) setFrame(t);
       }
-      renderer.render(scene3, camera);
+      // an idle page draws only when something changes (setFrame, orbit, resize): a page
+      // redrawn every animation frame keeps a report's compositor busy on its figures
       window.requestAnimationFrame(tick);
     }
     ["mousemove", "wheel"].forEach(function (n) {
