@@ -162,10 +162,13 @@ def test_props_in_the_scene_are_the_saved_scene(props_motion, tmp_path):
     assert main(["-q", "view", str(props_motion), "--source", "--html", str(page)]) == 0
     text = page.read_text()
     assert '"props":[{"name":"box1"' in text and '"source":{' in text
-    # the report's viewer draws them too
-    report = props_motion.with_name("g1.html").read_text()
-    assert "props</td><td>3 (box1, box2, box3)" in report
-    assert "&quot;props&quot;:[{&quot;name&quot;:&quot;box1&quot;" in report
+    # the reports' viewer draws them too: retarget --scene --report, and evaluate --report (which
+    # failed on a motion with a scene: its table took the scene's figures for a metric)
+    assert main(["-q", "evaluate", str(props_motion), "--report", str(tmp_path / "e.html")]) == 0
+    for report in (props_motion.with_name("g1.html"), tmp_path / "e.html"):
+        text = report.read_text()
+        assert "props</td><td>3 (box1, box2, box3)" in text, report
+        assert "&quot;props&quot;:[{&quot;name&quot;:&quot;box1&quot;" in text, report
 
 
 # ----------------------------------------------------------------------------------------------
