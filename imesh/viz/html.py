@@ -67,8 +67,9 @@ button {{ min-width: 56px; }}
 <div id="view"><div id="info"></div>
 <div id="legend"><i id="legend-markers"><span style="background:#1a5af2"></span>adapted markers
 </i><i id="legend-source"><span style="background:#8c33bf"></span>human source</i><i id="legend-b">
-(robot b: <span style="background:#0f9f8f"></span>markers <span style="background:#d0407a"></span>
-source)</i><i id="legend-props"><span style="background:#c8a165"></span>props</i>
+&nbsp;| robot b's <span style="background:#0f9f8f"></span>markers
+<span style="background:#d0407a"></span>source |</i><i id="legend-props">
+<span style="background:#c8a165"></span>props</i>
 <span style="background:#1aa64d"></span>support polygon
 <span style="background:#d91a1a"></span>ZMP <span style="background:#1a73e6"></span>desired ZMP
 <span style="background:#f21a1a"></span>self-collision<i id="legend-sim">

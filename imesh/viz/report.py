@@ -326,7 +326,7 @@ CAPTIONS = {
 
 def robot_section(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str, dict],
                   figures: Mapping[str, str], balanced: bool = True, table: str = "",
-                  level: int = 2, evaluate_args: str = "") -> str:
+                  level: int = 2, command: str = "") -> str:
     """One robot's part of a report: the verdict against the gates, the DART verdict, the
     metrics table and the figures.
 
@@ -334,8 +334,8 @@ def robot_section(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str
         robot, motion_path, metrics, figures, balanced: see :func:`report_html`.
         table: the tag of the table's rows (a pair's "a" or "b"; "" for one robot).
         level: the heading level of the section's parts (2; 3 inside a pair's robot).
-        evaluate_args: the options after ``imesh evaluate FILE`` that give these numbers
-            (default: ``--robot NAME``).
+        command: the command that writes these numbers (default: ``imesh evaluate FILE --robot
+            NAME [--physics] --json``).
     """
     rows = metrics_rows(metrics, balanced)
     failed = [r["name"] for r in rows if r["status"] == "fail"]
@@ -353,12 +353,11 @@ def robot_section(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str
     figs = "\n".join(f'<{h}>{html.escape(CAPTIONS.get(k, k))}</{h}>'
                      f'<img alt="{html.escape(k)}" src="data:image/png;base64,{v}">'
                      for k, v in figures.items())
-    args = evaluate_args or f"--robot {robot.name}"
+    command = command or (f"imesh evaluate {Path(motion_path).name} --robot {robot.name}"
+                          f"{' --physics' if _has_physics(metrics) else ''} --json")
     return (f'<{h}>Metrics</{h}><p>{verdict}</p>{_physics_verdict(metrics)}<p>The numbers '
-            f'<code>imesh evaluate {html.escape(Path(motion_path).name)} {html.escape(args)}'
-            f'{" --physics" if _has_physics(metrics) else ""} --json'
-            f'</code> writes for this file; gates of <code>imesh.evaluate.verify.Gates</code>.</p>'
-            f'{_table(rows, table)}{figs}')
+            f'<code>{html.escape(command)}</code> writes for this file; gates of '
+            f'<code>imesh.evaluate.verify.Gates</code>.</p>{_table(rows, table)}{figs}')
 
 
 def _page(title: str, facts: Mapping[str, str], body: str, viewer_page: str | None) -> str:
@@ -534,16 +533,17 @@ def write_pair_report(path: str | os.PathLike, robots: Sequence, motion_paths: S
             'the people kept by the robots, the robots\' penetration into each other, the held '
             'hands\' distance against the source\'s.'
             + (f' The numbers of <code>{html.escape(Path(manifest).name)}</code>'
-               if manifest else "") + '</p>' + _table(pair_rows(pair_metrics), "pair")]
-    pair_args = f"--pair {Path(manifest).name}" if manifest else ""
+               if manifest else "") + '.</p>' + _table(pair_rows(pair_metrics), "pair")]
     for key, robot, mpath, motion, m in zip(keys, robots, motion_paths, motions, metrics,
                                              strict=True):
         body.append(f"<h2>Robot {html.escape(key)}: {html.escape(robot.name)} "
                     f"({html.escape(Path(mpath).name)})</h2>")
+        command = "" if not manifest else (  # the pair's evaluation: its "metrics" -> key
+            f"imesh evaluate {Path(motion_paths[0]).name} --pair {Path(manifest).name} --json "
+            f"(robot {key})")
         body.append(robot_section(robot=robot, motion_path=mpath, metrics=m,
                                   figures=motion_figures(robot, motion), table=key, level=3,
-                                  evaluate_args=pair_args if key == keys[0] else
-                                  f"--robot {robot.name}"))
+                                  command=command))
     T, fps = motions[0].n_frames, motions[0].fps
     info = {"motions": ", ".join(f"{k}: {p} ({r.name})" for k, p, r in
                                  zip(keys, motion_paths, robots, strict=True)),
