@@ -375,10 +375,10 @@ def test_evaluator_counts_the_mesh_collisions(jvrc1_wave):
 def test_viewer_marks_the_evaluators_frames(jvrc1_wave):
     """The viewer's red bodies are the evaluator's check: the same frames and pairs."""
     from imesh.metrics.collision import check_self_collisions
-    from imesh.viz.scene import build_scene
+    from imesh.viz.scene import build_scene, robot_view
 
     robot, _, hit = jvrc1_wave
-    scene = build_scene(robot, hit)
+    scene = robot_view(build_scene(robot, hit))
     mesh = check_self_collisions(robot, hit.q).mesh
     marked = [t for t, c in enumerate(scene["collisions"]) if c]
     assert marked == list(np.flatnonzero(mesh.colliding))

@@ -270,10 +270,10 @@ def test_scene_simulation_is_the_forward_kinematics_of_the_check(physics):
     the motion's frames; frames after the fall or the end hold the last simulated pose."""
     from scipy.spatial.transform import Rotation
 
-    from imesh.viz.scene import build_scene, decode
+    from imesh.viz.scene import build_scene, decode, robot_view
 
     robot, motion, res = physics
-    scene = build_scene(robot, motion, physics=res)
+    scene = robot_view(build_scene(robot, motion, physics=res))
     sim = scene["simulation"]
     poses = decode(sim["link_poses"])
     T = motion.n_frames

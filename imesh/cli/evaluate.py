@@ -45,6 +45,7 @@ def run(args) -> int:
                              resample=args.resample)
     print(f"{args.motion}: {motion.n_frames} frames of {robot.name} at {motion.fps:g} fps")
     print(format_table(report))
+    metrics = report  # the motion's table (the scene's figures are a table of their own)
     if scene is not None:
         scene_report = evaluate_scene(robot, motion, scene, source=source)
         print(f"scene: {len(scene.props)} props ({', '.join(scene.names)}) at scale "
@@ -54,7 +55,7 @@ def run(args) -> int:
     if args.report:
         write_json(args.report, report)
     if args.report_html:
-        write_report(args.report_html, robot, args.motion, metrics=report, source=source,
-                     fps=args.fps)
+        write_report(args.report_html, robot, args.motion, metrics=metrics, source=source,
+                     fps=args.fps, props=scene)
         print(f"report: {args.report_html}")
     return 0

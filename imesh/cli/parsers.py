@@ -16,6 +16,8 @@ ARM_SOLVERS = ("gn", "slsqp")
 
 #: What ``imesh view|evaluate`` do without ``--robot``/``--urdf`` (the help says it).
 FILE_ROBOT = "the robot the motion file names"
+#: ``imesh view MOTION --source`` without a clip: the clip(s) the motion file or pair names.
+NAMED_CLIP = "the clip the motion names"
 
 #: The built-in clip of ``imesh demo`` (:func:`imesh.api.demo_clip`), named in its help.
 DEMO_CLIP = "cmu_02_01_walk.bvh"
@@ -386,16 +388,26 @@ def add_reduce(sub) -> argparse.ArgumentParser:
 
 
 def add_view(sub) -> argparse.ArgumentParser:
-    """``imesh view MOTION`` (the library is :mod:`imesh.viz`)."""
+    """``imesh view MOTION`` or ``imesh view OUT.pair.json`` (the library is :mod:`imesh.viz`)."""
     p = _robot_command(
-        sub, "view", "motion", "robot motion (.npz or .csv)", robot_default=FILE_ROBOT,
-        help="look at a robot motion: 3D viewer in the browser, one self-contained "
+        sub, "view", "motion", "robot motion (.npz or .csv), or a pair's OUT.pair.json (imesh "
+        "retarget --partner): both robots in one scene", robot_default=FILE_ROBOT,
+        help="look at a robot motion or a pair: 3D viewer in the browser, one self-contained "
         "page (--html) or a video (--video)",
         description="Show a robot motion (.npz/.csv from 'imesh retarget') in 3D: the robot's "
         "meshes, the adapted markers and the human source, the interaction mesh, soles, support "
         "polygon, desired and actual ZMP, self-collisions and limit violations, with a "
-        "timeline. Without --html/--video the page is served on 127.0.0.1 until Ctrl-C.")
-    p.add_argument("--source", help="the human clip, drawn beside the robot")
+        "timeline; the props of its scene (OUT.scene.npz beside it, or --scene). Given a "
+        "pair's OUT.pair.json, both robots in their one world, each with its own overlays, "
+        "and the pair's figures. Without --html/--video the page is served on 127.0.0.1 until "
+        "Ctrl-C.")
+    p.add_argument("--source", nargs="?", const=NAMED_CLIP, metavar="CLIP",
+                   help="the human clip, drawn beside the robot; without CLIP (after MOTION): "
+                   "the clip the motion file names, or both clips of a pair's manifest")
+    p.add_argument("--scene", action="append", default=[], metavar="FILE",
+                   help="the props to draw: a .scene.npz written by 'imesh retarget --scene', "
+                   "or meshes/URDF in the clip's frame, scaled like the retarget (needs the "
+                   "source clip); default: MOTION's .scene.npz beside it (repeatable)")
     p.add_argument("--fps", type=float, help="frame rate of motion files that store none")
     p.add_argument("--html", help="write the viewer as one self-contained page (.html): no "
                    "server, no network")
@@ -404,7 +416,7 @@ def add_view(sub) -> argparse.ArgumentParser:
     p.add_argument("--video-fps", type=float, help="video frame rate (default: the motion's)")
     p.add_argument("--physics", action="store_true",
                    help="run the DART check first and draw the simulated robot beside the "
-                        "reference, with its fall time (docs/checking.md)")
+                        "reference, with its fall time (docs/checking.md); each robot of a pair")
     p.add_argument("--controller", choices=("wbc", "kinematic", "spd", "pid"), default="wbc",
                    help="controller of the DART check (--physics; default wbc)")
     p.add_argument("--port", type=int, default=8765, help="server port (default 8765; 0: any)")

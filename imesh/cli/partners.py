@@ -2,16 +2,19 @@
 
 Writes robot a's motion to OUT, robot b's beside it as ``OUT.partner.<suffix>`` (each with its
 adapted markers, as ``imesh retarget`` writes one), and ``OUT.pair.json``: both files, both
-robots, the shared scale, the source's hand holds and the pair's metrics. Both motions are
-verified before anything is written (exit 3 unless ``--force``).
+robots, the shared scale, the source's hand holds and the pair's metrics (``--report R.html``:
+the pair's HTML report too). Both motions are verified before anything is written (exit 3
+unless ``--force``).
 """
 
 from __future__ import annotations
 
 import json
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 
+from ..core.motion import MarkerMotion
 from ..evaluate.motion_files import load_motion_file
 from ..evaluate.table import format_table
 from ..evaluate.verify import verify_motion
@@ -78,14 +81,13 @@ def run_pair(args, config) -> int:
                            "hand holds are rows of the whole-body solve (--balance wholebody)")
     unsupported = [opt for opt, given in (("--physics", args.physics),
                                           ("--scene", getattr(args, "scene", None)),
-                                          ("--report", args.report_html),
                                           ("--markers", args.markers),
                                           ("--mode arms", args.mode == "arms"))
                    if given]
     if unsupported:
         raise PartnerError(f"{', '.join(unsupported)} with --partner: not supported for a pair "
                            "yet (each robot's file carries its adapted markers; imesh evaluate "
-                           "and imesh view take each file; docs/partners.md)")
+                           "--pair and imesh view OUT.pair.json take the pair; docs/partners.md)")
     frames = parse_frames(getattr(args, "frames", None))
     motion_a, motion_b = load_pair(args, args.partner)  # both people on one floor
     if frames is not None:
@@ -123,6 +125,12 @@ def run_pair(args, config) -> int:
     write_json(pair_path(args.output), report)
     if args.report:
         write_json(args.report, report)
+    if args.report_html:  # from the files as written, as the report of one robot
+        from .view import write_pair_report_files
+
+        write_pair_report_files(args.report_html, pair_path(args.output),
+                                metrics=(reports[0], reports[1]), pair_metrics=pair.summary())
+        print(f"report: {args.report_html}")
     print(f"retargeted the pair: {Path(args.clip).name} -> {robot_a.name} ({args.output}), "
           f"{Path(args.partner).name} -> {robot_b.name} ({out_b}) in "
           f"{result.seconds['total']:.1f} s")
@@ -135,41 +143,97 @@ def run_pair(args, config) -> int:
     return 0
 
 
-def evaluate_pair_files(args) -> int:
-    """``imesh evaluate OUT.npz --pair OUT.pair.json``: both robots' metrics and the pair's
-    (:func:`imesh.partners.evaluate.evaluate_pair_motions`), from the files ``imesh retarget
-    --partner`` wrote; the people's markers are read again from the clips the manifest names
-    (same frames, the working rate and low-pass of the retarget's defaults)."""
-    manifest_path = Path(args.pair)
+@dataclass(frozen=True)
+class PairFiles:
+    """A pair's files as its manifest ``OUT.pair.json`` names them (:func:`run_pair`).
+
+    Attributes:
+        manifest_path: the manifest.
+        manifest: its contents.
+        motions: {"a": path, "b": path} the robots' motion files (as written, or beside the
+            manifest when the folder moved).
+        robots: {"a": name, "b": name} the robots.
+        clips: {"a": path, "b": path} the people's clips.
+        frames: (start, stop) clip frames retargeted (``--frames``), or None: all.
+        fps: the motions' frame rate [1/s] (the working rate).
+        scale: the human-to-robot scale the two people share.
+        centre_m: (3,) [m] the fixed point of that scale.
+        lead: frames of standing lead-in before the clip's first frame in the motions.
+    """
+
+    manifest_path: Path
+    manifest: dict
+    motions: dict[str, Path]
+    robots: dict[str, str]
+    clips: dict[str, str]
+    frames: tuple[int, int] | None
+    fps: float
+    scale: float
+    centre_m: tuple[float, float, float]
+    lead: int
+
+    def humans(self) -> tuple[MarkerMotion, MarkerMotion]:
+        """The people's working markers as the retarget made them: both clips read on one floor,
+        the same frames, the working rate and low-pass of the retarget's defaults.
+
+        Raises:
+            MotionFileError: a clip is missing or unreadable.
+        """
+        config = RetargetConfig(fps=self.fps)
+        humans = []
+        for motion in read_pair(self.clips["a"], self.clips["b"]):  # on one floor
+            if self.frames is not None:
+                motion = motion.frames(*self.frames)
+            humans.append(working_markers(motion, config))
+        return humans[0], humans[1]
+
+
+def read_pair_manifest(path: str | Path) -> PairFiles:
+    """Read ``OUT.pair.json`` (written by ``imesh retarget --partner``).
+
+    Raises:
+        PartnerError: not such a manifest (naming the file and what a manifest holds).
+    """
+    manifest_path = Path(path)
     try:
         manifest = json.loads(manifest_path.read_text())
         files, robots, clips = manifest["files"], manifest["robots"], manifest["clips"]
         pair = manifest["pair"]
-    except (OSError, ValueError, KeyError) as exc:
+        fps, scale, lead = float(pair["a"]["fps"]), float(pair["scale"]), pair["a"]["lead_frames"]
+        centre = tuple(float(c) for c in pair["centre_m"])
+        frames = manifest.get("frames")
+    except (OSError, ValueError, KeyError, TypeError) as exc:
         raise PartnerError(f"{manifest_path}: not a pair manifest of imesh retarget --partner "
-                           f"({exc})") from None
+                           f"({exc!r}); valid: the OUT.pair.json it writes beside OUT.npz"
+                           ) from None
 
     def beside(f: str) -> Path:  # as written, or beside the manifest
         p = Path(f)
         return p if p.is_file() else manifest_path.parent / p.name
 
-    if Path(args.motion).resolve() != beside(files["a"]).resolve():
-        raise PartnerError(f"{args.motion}: the pair manifest {manifest_path} is of "
-                           f"{files['a']} (robot a's motion)")
+    return PairFiles(manifest_path, manifest, {k: beside(files[k]) for k in ("a", "b")},
+                     dict(robots), dict(clips), tuple(frames) if frames is not None else None,
+                     fps, scale, centre, int(lead[0]))
+
+
+def evaluate_pair_files(args) -> int:
+    """``imesh evaluate OUT.npz --pair OUT.pair.json``: both robots' metrics and the pair's
+    (:func:`imesh.partners.evaluate.evaluate_pair_motions`), from the files ``imesh retarget
+    --partner`` wrote; the people's markers are read again from the clips the manifest names
+    (same frames, the working rate and low-pass of the retarget's defaults). ``--report
+    R.html`` writes the pair's HTML report (:func:`imesh.cli.view.write_pair_report_files`)."""
+    files = read_pair_manifest(args.pair)
+    if Path(args.motion).resolve() != files.motions["a"].resolve():
+        raise PartnerError(f"{args.motion}: the pair manifest {files.manifest_path} is of "
+                           f"{files.manifest['files']['a']} (robot a's motion)")
+    robots = files.robots
     robot_a, robot_b = load_robot(robots["a"]), load_robot(robots["b"])
-    motion_a = load_motion_file(beside(files["a"]), robot_a)
-    motion_b = load_motion_file(beside(files["b"]), robot_b)
-    config = RetargetConfig(fps=pair["a"]["fps"])
-    frames = manifest.get("frames")
-    humans = []
-    for motion in read_pair(clips["a"], clips["b"]):  # on one floor, as the retarget read them
-        if frames is not None:
-            motion = motion.frames(*frames)
-        humans.append(working_markers(motion, config))
-    human_a, human_b = humans
+    motion_a = load_motion_file(files.motions["a"], robot_a)
+    motion_b = load_motion_file(files.motions["b"], robot_b)
+    human_a, human_b = files.humans()
     holds = detect_holds(human_a, human_b)
     metrics = evaluate_pair_motions(robot_a, motion_a, robot_b, motion_b, human_a, human_b,
-                                    holds, pair["scale"], pair["a"]["lead_frames"][0])
+                                    holds, files.scale, files.lead)
     for key, report in (("a", metrics.robot_a), ("b", metrics.robot_b)):
         print(f"robot {key} ({robots[key]}):")
         print(format_table(report))
@@ -179,4 +243,11 @@ def evaluate_pair_files(args) -> int:
     if args.report:
         write_json(args.report, {"pair_metrics": metrics.summary(),
                                  "metrics": {"a": metrics.robot_a, "b": metrics.robot_b}})
+    if getattr(args, "report_html", None):
+        from .view import write_pair_report_files
+
+        write_pair_report_files(args.report_html, files.manifest_path,
+                                metrics=(metrics.robot_a, metrics.robot_b),
+                                pair_metrics=metrics.summary())
+        print(f"report: {args.report_html}")
     return 0

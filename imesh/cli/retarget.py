@@ -103,7 +103,7 @@ def run(args) -> int:
             write_json(args.report, report)
         if args.report_html:
             write_report(args.report_html, robot, args.output, source=motion,
-                         balanced=args.balance != "none",
+                         balanced=args.balance != "none", props=scene,
                          facts={"source clip": args.clip,
                                 "retarget time": f"{report['seconds']['total']:.1f} s"})
         bar.finish()

@@ -1,4 +1,5 @@
-"""The viewer page: one HTML file with three.js, the viewer script and the scene inlined.
+"""The viewer page: one HTML file with three.js, the viewer script and the scene inlined
+(:func:`imesh.viz.scene.build_robots_scene`: one robot or a pair, and the props).
 
 The page needs no server and no network (``imesh view --html``); :mod:`imesh.viz.server`
 serves the same page with the scene as ``scene.json``. three.js (MIT) is vendored in
@@ -36,6 +37,7 @@ body {{ display: flex; flex-direction: column; }}
 #legend {{ position: absolute; right: 8px; bottom: 8px; background: #ffffffcc; padding: 4px 6px;
            border-radius: 4px; pointer-events: none; }}
 #legend span {{ display: inline-block; width: 10px; height: 10px; margin: 0 3px 0 8px; }}
+#legend i {{ font-style: normal; }}
 button {{ min-width: 56px; }}
 #banner {{ padding: 3px 10px; font-weight: 600; }}
 #banner.fell {{ background: #fbe1e1; color: #a00; }}
@@ -55,6 +57,7 @@ button {{ min-width: 56px; }}
   <label><input id="opt-source" type="checkbox" checked> human source</label>
   <label><input id="opt-beside" type="checkbox"> markers beside</label>
   <label><input id="opt-floor" type="checkbox" checked> soles, support, ZMP</label>
+  <label><input id="opt-props" type="checkbox" checked> props</label>
   <label><input id="opt-follow" type="checkbox" checked> follow</label>
   <label title="key s"><input id="opt-sim" type="checkbox" checked> DART simulation</label>
   <label><input id="opt-sim-over" type="checkbox"> overlaid</label>
@@ -62,11 +65,14 @@ button {{ min-width: 56px; }}
 </div>
 <div id="banner"></div>
 <div id="view"><div id="info"></div>
-<div id="legend"><span style="background:#1a5af2"></span>adapted markers
-<span style="background:#8c33bf"></span>human source
+<div id="legend"><i id="legend-markers"><span style="background:#1a5af2"></span>adapted markers
+</i><i id="legend-source"><span style="background:#8c33bf"></span>human source</i><i id="legend-b">
+&nbsp;| robot b's <span style="background:#0f9f8f"></span>markers
+<span style="background:#d0407a"></span>source |</i><i id="legend-props">
+<span style="background:#c8a165"></span>props</i>
 <span style="background:#1aa64d"></span>support polygon
 <span style="background:#d91a1a"></span>ZMP <span style="background:#1a73e6"></span>desired ZMP
-<span style="background:#f21a1a"></span>self-collision<i id="legend-sim" style="font-style:normal">
+<span style="background:#f21a1a"></span>self-collision<i id="legend-sim">
 <span style="background:#5b8ef0;opacity:0.7"></span>DART simulation
 <span style="background:#d94a4a;opacity:0.7"></span>fallen</i></div></div>
 <script type="application/json" id="imesh-scene">{scene}</script>

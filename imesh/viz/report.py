@@ -9,7 +9,9 @@ embedded. Each metrics row carries its exact value (``data-metric``/``data-value
 (``imesh evaluate --physics``, ``imesh demo``) the page states its verdict in one line (fell or
 stood, key-point tracking error, base drift, torque ratio) and, given the
 :class:`~imesh.physics.PhysicsResult`, adds its figure; the embedded viewer then shows the
-simulated robot beside the reference.
+simulated robot beside the reference. The report of a pair (:func:`write_pair_report`, ``imesh
+retarget --partner --report``) holds the pair's figures, both robots' tables and figures, and
+the viewer with both robots; a motion's props (``OUT.scene.npz``) are drawn in the viewer.
 """
 
 from __future__ import annotations
@@ -22,8 +24,9 @@ import logging
 import os
 import re
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -44,7 +47,7 @@ from ..metrics.zmp import zmp_report, zmp_trajectory
 from .html import viewer_html
 from .physics import plot_physics
 from .pyplot import pyplot
-from .scene import build_scene
+from .scene import SceneRobot, build_robots_scene, build_scene
 
 log = logging.getLogger(__name__)
 
@@ -274,13 +277,16 @@ def metrics_rows(metrics: Mapping[str, dict], balanced: bool = True) -> list[dic
     return rows
 
 
-def _table(rows: list[dict]) -> str:
+def _table(rows: list[dict], table: str = "") -> str:
+    """The metrics table; ``table`` (a pair's "a", "b", "pair") tags its rows
+    (``data-table``, :func:`table_values`)."""
+    tag = f' data-table="{html.escape(table)}"' if table else ""
     out = ['<table class="metrics"><thead><tr><th>metric</th><th>value</th><th>unit</th>'
            '<th>gate</th><th>result</th><th>note</th></tr></thead><tbody>']
     for r in rows:
         out.append(
             f'<tr data-metric="{html.escape(r["name"])}" '
-            f'data-value="{html.escape(json.dumps(r["value"]))}" class="{r["status"]}">'
+            f'data-value="{html.escape(json.dumps(r["value"]))}"{tag} class="{r["status"]}">'
             f'<td>{html.escape(r["name"])}</td><td class="num">{html.escape(r["text"])}</td>'
             f'<td>{html.escape(r["unit"])}</td><td>{html.escape(r["gate"])}</td>'
             f'<td>{r["status"]}</td><td>{html.escape(str(r["note"]))}</td></tr>')
@@ -292,6 +298,7 @@ STYLE = """
 body { font: 14px/1.45 system-ui, sans-serif; max-width: 1240px; margin: 0 auto; padding: 16px;
        color: #222; }
 h1 { font-size: 22px; } h2 { font-size: 17px; margin-top: 28px; border-bottom: 1px solid #ddd; }
+h3 { font-size: 15px; margin-top: 20px; }
 table.metrics { border-collapse: collapse; font-size: 13px; }
 table.metrics td, table.metrics th { border-bottom: 1px solid #e4e4e4; padding: 3px 10px;
        text-align: left; }
@@ -306,11 +313,30 @@ img { max-width: 100%; } iframe { width: 100%; height: 640px; border: 1px solid 
 .meta td { padding: 1px 12px 1px 0; }
 """
 
+#: Captions of the report's figures.
+CAPTIONS = {
+    "zmp": "ZMP inside the support polygon",
+    "soles": "Sole heights and skid per foot",
+    "joints": "Joints against their position and velocity limits",
+    "torques": "Torques against effort limits, and friction",
+    "markers": "Marker errors per body part",
+    "physics": "DART check: joint error, base height, torque ratio, ZMP (contact vs planned)",
+}
 
-def report_html(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str, dict],
-                figures: Mapping[str, str], viewer_page: str | None, facts: Mapping[str, str],
-                balanced: bool = True) -> str:
-    """The report page from its parts (see :func:`write_report`)."""
+
+def robot_section(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str, dict],
+                  figures: Mapping[str, str], balanced: bool = True, table: str = "",
+                  level: int = 2, command: str = "") -> str:
+    """One robot's part of a report: the verdict against the gates, the DART verdict, the
+    metrics table and the figures.
+
+    Args:
+        robot, motion_path, metrics, figures, balanced: see :func:`report_html`.
+        table: the tag of the table's rows (a pair's "a" or "b"; "" for one robot).
+        level: the heading level of the section's parts (2; 3 inside a pair's robot).
+        command: the command that writes these numbers (default: ``imesh evaluate FILE --robot
+            NAME [--physics] --json``).
+    """
     rows = metrics_rows(metrics, balanced)
     failed = [r["name"] for r in rows if r["status"] == "fail"]
     # physics_fell is not a gate of the table (the retarget gates on it with --physics), but a
@@ -323,33 +349,40 @@ def report_html(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str, 
                    'DART check</span>')
     else:
         verdict = '<span class="verdict ok">passes every gate</span>'
-    meta = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>"
-                   for k, v in facts.items())
-    captions = {
-        "zmp": "ZMP inside the support polygon",
-        "soles": "Sole heights and skid per foot",
-        "joints": "Joints against their position and velocity limits",
-        "torques": "Torques against effort limits, and friction",
-        "markers": "Marker errors per body part",
-        "physics": "DART check: joint error, base height, torque ratio, ZMP (contact vs planned)",
-    }
-    figs = "\n".join(f'<h2>{html.escape(captions.get(k, k))}</h2>'
+    h = f"h{level}"
+    figs = "\n".join(f'<{h}>{html.escape(CAPTIONS.get(k, k))}</{h}>'
                      f'<img alt="{html.escape(k)}" src="data:image/png;base64,{v}">'
                      for k, v in figures.items())
+    command = command or (f"imesh evaluate {Path(motion_path).name} --robot {robot.name}"
+                          f"{' --physics' if _has_physics(metrics) else ''} --json")
+    return (f'<{h}>Metrics</{h}><p>{verdict}</p>{_physics_verdict(metrics)}<p>The numbers '
+            f'<code>{html.escape(command)}</code> writes for this file; gates of '
+            f'<code>imesh.evaluate.verify.Gates</code>.</p>{_table(rows, table)}{figs}')
+
+
+def _page(title: str, facts: Mapping[str, str], body: str, viewer_page: str | None) -> str:
+    """The report page: title, facts, ``body`` and the embedded viewer."""
+    meta = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>"
+                   for k, v in facts.items())
     view = ""
     if viewer_page is not None:
         view = ('<h2>3D view</h2><p>Drag to orbit, right-drag to pan, wheel to zoom; space '
                 'plays.</p><iframe title="3D view" srcdoc="'
                 + html.escape(viewer_page, quote=True) + '"></iframe>')
-    title = f"imesh report: {Path(motion_path).name} ({robot.name})"
     return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>'
             f'{html.escape(title)}</title><link rel="icon" href="data:,"><style>{STYLE}</style>'
             f'</head><body><h1>{html.escape(title)}</h1><table class="meta">{meta}</table>'
-            f'<h2>Metrics</h2><p>{verdict}</p>{_physics_verdict(metrics)}<p>The numbers '
-            f'<code>imesh evaluate {html.escape(Path(motion_path).name)} --robot '
-            f'{html.escape(robot.name)}{" --physics" if _has_physics(metrics) else ""} --json'
-            f'</code> writes for this file; gates of <code>imesh.evaluate.verify.Gates</code>.</p>'
-            f'{_table(rows)}{figs}{view}</body></html>')
+            f'{body}{view}</body></html>')
+
+
+def report_html(*, robot, motion_path: str | os.PathLike, metrics: Mapping[str, dict],
+                figures: Mapping[str, str], viewer_page: str | None, facts: Mapping[str, str],
+                balanced: bool = True) -> str:
+    """The report page of one robot motion from its parts (see :func:`write_report`)."""
+    title = f"imesh report: {Path(motion_path).name} ({robot.name})"
+    return _page(title, facts, robot_section(robot=robot, motion_path=motion_path,
+                                             metrics=metrics, figures=figures,
+                                             balanced=balanced), viewer_page)
 
 
 def _has_physics(metrics: Mapping[str, dict]) -> bool:
@@ -366,11 +399,35 @@ def _physics_verdict(metrics: Mapping[str, dict]) -> str:
             f'{html.escape(line)}</p>')
 
 
+def motion_figures(robot, motion, physics=None) -> dict[str, str]:
+    """The report's figures of one robot motion (base64 PNGs, keys of :data:`CAPTIONS`): ZMP,
+    soles, joints, torques (with support), markers (with adapted markers), and the DART run's
+    with ``physics``."""
+    q, fps = motion.q, motion.fps
+    t = np.arange(motion.n_frames) / fps
+    soles = sole_tracks(robot, q, fps)
+    support = motion_support(soles, motion.contact_modes).support
+    v, a = motion_derivatives(q, fps)
+    zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
+    figures = {"zmp": figure_zmp(t, zmp, support_polygons(soles, support), support),
+               "soles": figure_soles(t, soles, support),
+               "joints": figure_joints(t, robot, q, fps)}
+    if support.any():
+        figures["torques"] = figure_torques(t, reference_dynamics(robot, q, v, a, support))
+    adapted = motion.adapted
+    if adapted is not None:
+        figures["markers"] = figure_markers(t, keypoint_motion(robot, q, fps), adapted)
+    if physics is not None:
+        figures["physics"] = figure_physics(physics)
+    return figures
+
+
 def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike, *,
                  metrics: Mapping[str, dict] | None = None, source=None,
                  facts: Mapping[str, str] | None = None, viewer: bool = True,
                  scene: dict | None = None, balanced: bool = True,
-                 fps: float | None = None, physics=None, collisions=None) -> Path:
+                 fps: float | None = None, physics=None, collisions=None,
+                 props=None) -> Path:
     """Write the HTML report of a written robot motion file.
 
     Everything is computed from the file as written (:func:`imesh.evaluate.load_motion_file`).
@@ -394,6 +451,8 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
             is given).
         collisions: the file's :func:`~imesh.metrics.collision.check_self_collisions` result,
             if already computed (used for ``metrics`` and ``scene`` when they are computed here).
+        props: the motion's props (a robot-world :class:`imesh.scene.Scene`, ``OUT.scene.npz``),
+            drawn in the embedded viewer (unless ``scene`` is given).
 
     Returns:
         the path written.
@@ -401,31 +460,19 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
     motion = load_motion_file(motion_path, robot, fps=fps)
     if metrics is None:
         metrics = evaluate_motion(robot, motion, physics_result=physics, collisions=collisions)
-    q, fps = motion.q, motion.fps
-    t = np.arange(motion.n_frames) / fps
-    soles = sole_tracks(robot, q, fps)
-    support = motion_support(soles, motion.contact_modes).support
-    v, a = motion_derivatives(q, fps)
-    zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
-    figures = {"zmp": figure_zmp(t, zmp, support_polygons(soles, support), support),
-               "soles": figure_soles(t, soles, support),
-               "joints": figure_joints(t, robot, q, fps)}
-    if support.any():
-        figures["torques"] = figure_torques(t, reference_dynamics(robot, q, v, a, support))
-    adapted = motion.adapted
-    if adapted is not None:
-        figures["markers"] = figure_markers(t, keypoint_motion(robot, q, fps), adapted)
-    if physics is not None:
-        figures["physics"] = figure_physics(physics)
+    figures = motion_figures(robot, motion, physics)
     page = None
     if viewer:
         if scene is None:
             scene = build_scene(robot, motion, source=source, physics=physics,
-                                collisions=collisions,
+                                collisions=collisions, props=props,
                                 title=f"{Path(motion_path).name} ({robot.name})")
         page = viewer_html(scene)
     info = {"motion": str(motion_path), "robot": robot.name,
-            "frames": f"{motion.n_frames} at {fps:g} fps ({motion.n_frames / fps:.2f} s)"}
+            "frames": f"{motion.n_frames} at {motion.fps:g} fps "
+                      f"({motion.n_frames / motion.fps:.2f} s)"}
+    if props is not None:
+        info["props"] = f"{len(props.props)} ({', '.join(props.names)})"
     info.update(facts or {})
     with atomic_path(path) as tmp:
         tmp.write_text(report_html(robot=robot, motion_path=motion_path, metrics=metrics,
@@ -435,8 +482,87 @@ def write_report(path: str | os.PathLike, robot, motion_path: str | os.PathLike,
     return Path(path)
 
 
-def table_values(report_path: str | os.PathLike) -> dict:
-    """``{metric: value}`` read back from a report's table (``data-value`` of each row)."""
+#: Units and notes of a pair's figures (:meth:`imesh.partners.evaluate.PairMetrics.summary`).
+PAIR_UNITS = {"inter_close_pair_error": "height fraction", "inter_close_pairs": "samples",
+              "robot_penetration_mm": "mm", "penetration_frames": "frames",
+              "hold_frames": "samples", "hold_error_max_mm": "mm", "hold_error_mean_mm": "mm",
+              "hold_within_30mm": "fraction", "deepest": "frame, capsules"}
+
+
+def pair_rows(pair_metrics: Mapping[str, Any]) -> list[dict]:
+    """Rows of a pair's table (no gates: the pair's figures are measured, not gated)."""
+    return [{"name": k, "value": v, "unit": PAIR_UNITS.get(k, ""), "gate": "", "status": "",
+             "note": "", "text": "none" if v is None else (
+                 _fmt(v) if not isinstance(v, list) else ", ".join(map(str, v)))}
+            for k, v in pair_metrics.items()]
+
+
+def write_pair_report(path: str | os.PathLike, robots: Sequence, motion_paths: Sequence, *,
+                      metrics: Sequence[Mapping[str, dict]], pair_metrics: Mapping[str, Any],
+                      scene: dict | None = None, facts: Mapping[str, str] | None = None,
+                      keys: Sequence[str] = ("a", "b"), manifest: str = "") -> Path:
+    """Write the HTML report of a pair (``imesh retarget A --partner B --report R.html``):
+    the pair's figures, then per robot the metrics table with its gates and the figures of
+    its file as written, and the embedded viewer with both robots.
+
+    Args:
+        path: the ``.html`` file to write (atomically).
+        robots: the two robots (:class:`imesh.robot.Robot`).
+        motion_paths: their motion files (``OUT.npz``, ``OUT.partner.npz``).
+        metrics: each robot's evaluator report (``OUT.pair.json``'s ``metrics``).
+        pair_metrics: the pair's figures (``OUT.pair.json``'s ``pair_metrics``).
+        scene: the viewer's scene of the pair (:func:`imesh.viz.scene.build_robots_scene`);
+            None: built here from the two files (without the human sources and the pair's
+            per-frame distance).
+        facts: extra lines for the header (name -> text).
+        keys: the robots' names in the pair (the manifest's "a", "b"): the tags of their
+            tables' rows (:func:`table_values`).
+        manifest: the pair's manifest (``OUT.pair.json``), named in the page.
+
+    Returns:
+        the path written.
+    """
+    motions = [load_motion_file(p, r) for r, p in zip(robots, motion_paths, strict=True)]
+    if scene is None:
+        scene = build_robots_scene(
+            [SceneRobot(r, m, label=f"{k} {r.name}") for r, m, k in
+             zip(robots, motions, keys, strict=True)],
+            title=" + ".join(f"{Path(p).name} ({r.name})"
+                             for r, p in zip(robots, motion_paths, strict=True)))
+    body = ['<h2>The pair</h2><p>Measured, not gated (docs/partners.md): the relations between '
+            'the people kept by the robots, the robots\' penetration into each other, the held '
+            'hands\' distance against the source\'s.'
+            + (f' The numbers of <code>{html.escape(Path(manifest).name)}</code>'
+               if manifest else "") + '.</p>' + _table(pair_rows(pair_metrics), "pair")]
+    for key, robot, mpath, motion, m in zip(keys, robots, motion_paths, motions, metrics,
+                                             strict=True):
+        body.append(f"<h2>Robot {html.escape(key)}: {html.escape(robot.name)} "
+                    f"({html.escape(Path(mpath).name)})</h2>")
+        command = "" if not manifest else (  # the pair's evaluation: its "metrics" -> key
+            f"imesh evaluate {Path(motion_paths[0]).name} --pair {Path(manifest).name} --json "
+            f"(robot {key})")
+        body.append(robot_section(robot=robot, motion_path=mpath, metrics=m,
+                                  figures=motion_figures(robot, motion), table=key, level=3,
+                                  command=command))
+    T, fps = motions[0].n_frames, motions[0].fps
+    info = {"motions": ", ".join(f"{k}: {p} ({r.name})" for k, p, r in
+                                 zip(keys, motion_paths, robots, strict=True)),
+            "frames": f"{T} at {fps:g} fps ({T / fps:.2f} s)"}
+    if manifest:
+        info["pair"] = str(manifest)
+    info.update(facts or {})
+    title = "imesh report: " + " + ".join(f"{Path(p).name} ({r.name})" for r, p in
+                                          zip(robots, motion_paths, strict=True))
+    with atomic_path(path) as tmp:
+        tmp.write_text(_page(title, info, "".join(body), viewer_html(scene)), encoding="utf-8")
+    log.info("wrote the pair's report %s", path)
+    return Path(path)
+
+
+def table_values(report_path: str | os.PathLike, table: str = "") -> dict:
+    """``{metric: value}`` read back from a report's table (``data-value`` of each row); in a
+    pair's report ``table`` picks the table: "a", "b" or "pair"."""
     text = Path(report_path).read_text(encoding="utf-8")
     return {m: json.loads(html.unescape(v))
-            for m, v in re.findall(r'data-metric="([^"]+)" data-value="([^"]*)"', text)}
+            for m, v, t in re.findall(r'data-metric="([^"]+)" data-value="([^"]*)"'
+                                      r'(?: data-table="([^"]*)")?', text) if t == table}

@@ -1,12 +1,17 @@
-"""The data of the 3D viewer: a robot motion with its meshes, markers and balance overlays.
+"""The data of the 3D viewer: robot motions with their meshes, markers and balance overlays,
+and the static props around them.
 
-:func:`build_scene` computes everything the viewer page draws, once, in Python: the robot's
-visual meshes (from its URDF, in link frames), the world pose of every link at every frame, the
-human markers (the adapted markers the robot fitted, and optionally the source clip beside it),
-the interaction mesh edges per frame, the soles, support polygons, desired and actual ZMP, and
-the self-collisions and joint-limit violations per frame, and, given a DART check
-(:class:`imesh.physics.PhysicsResult`), the simulated robot's link poses beside the reference
-(:func:`simulation_entry`). The page only plays it back.
+:func:`build_robots_scene` computes everything the viewer page draws, once, in Python, for one
+robot or the two robots of a pair (``imesh retarget --partner``) in one world: each robot
+model's visual meshes (from its URDF, in link frames, sent once per model), and per robot the
+world pose of every link at every frame, the human markers (the adapted markers the robot
+fitted, and optionally the source clip beside it), the interaction mesh edges per frame, the
+soles, support polygons, desired and actual ZMP, and the self-collisions and joint-limit
+violations per frame, and, given a DART check (:class:`imesh.physics.PhysicsResult`), the
+simulated robot's link poses beside the reference (:func:`simulation_entry`); the props of a
+scene (``OUT.scene.npz``) as static meshes; for a pair, its figures and the robots' distance
+per frame (:class:`PairView`). :func:`build_scene` is the one-robot case. The page only plays
+it back.
 
 Arrays are sent as base64 of little-endian float32/uint16/uint8 (``{"b64": ..., "dtype": ...,
 "shape": ...}``), so a 5 s motion of JVRC-1 is about 1 MB of JSON.
@@ -16,8 +21,9 @@ from __future__ import annotations
 
 import base64
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -27,6 +33,7 @@ from ..core.lazy import optional
 from ..errors import ImeshError
 from ..evaluate.motion_files import arranged_source
 from ..evaluate.scoreboard import metric_values
+from ..human.arrange import arrange_for_robot
 from ..human.markerset import STANDARD_BONE_NAMES
 from ..mesh.interaction import tetrahedralize
 from ..metrics.collision import SelfCollisions, check_self_collisions
@@ -212,72 +219,202 @@ def link_poses(robot, q: np.ndarray, link_ids: list[int]) -> np.ndarray:
     return poses
 
 
-def build_scene(robot, motion, *, markers=None, source=None, title: str | None = None,
-                metrics: Mapping | None = None, collisions: SelfCollisions | None = None,
-                physics=None) -> dict:
-    """Everything the viewer draws for a robot motion, JSON-ready.
+@dataclass(frozen=True, eq=False)
+class SceneRobot:
+    """One robot of a viewer scene and what is drawn with it.
 
-    Args:
+    Attributes:
         robot: an :class:`imesh.robot.Robot`.
         motion: its :class:`imesh.core.robot_motion.RobotMotion` (T frames).
         markers: the adapted markers the robot fitted (a MarkerMotion frame-aligned with the
             motion), or None: ``motion.adapted`` (stored in imesh motion files).
         source: the human clip (a path or MarkerMotion), drawn beside the robot: arranged for
             the robot's size, resampled to the motion's fps and shifted by the lead-in.
-        title: page title.
+        label: the robot's name in the page (default: the robot model's name).
         metrics: an :func:`imesh.evaluate.evaluate_motion` report, shown in the page.
         collisions: the motion's :func:`imesh.metrics.collision.check_self_collisions` result
             if already computed; None: computed here (the evaluator's check: same geometry,
             pairs and threshold, so the page marks the frames ``self_collision_frames``
             counts).
         physics: a :class:`imesh.physics.PhysicsResult` of this motion (``simulate_motion``):
-            the simulated robot is drawn beside the reference (``simulation``,
-            :func:`simulation_entry`); None: not drawn.
+            the simulated robot is drawn beside the reference (:func:`simulation_entry`); None:
+            not drawn.
+        source_scale: the human-to-robot scale to arrange ``source`` with (two partners share
+            one: ``OUT.pair.json``'s ``pair.scale``); None: the robot's own.
+        source_centre_m: (3,) [m] the fixed point of that scale (``pair.centre_m``); None: the
+            floor point under the clip's centroid at its first frame.
+    """
+
+    robot: Any
+    motion: Any
+    markers: Any = None
+    source: Any = None
+    label: str = ""
+    metrics: Mapping | None = None
+    collisions: SelfCollisions | None = None
+    physics: Any = None
+    source_scale: float | None = None
+    source_centre_m: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class PairView:
+    """What the page shows of two robots together besides the robots (``imesh retarget
+    --partner``, docs/partners.md).
+
+    Attributes:
+        metrics: the pair's figures (``OUT.pair.json``'s ``pair_metrics``:
+            :meth:`imesh.partners.evaluate.PairMetrics.summary`), listed in the page.
+        distance_m: (T,) float [m] the robots' smallest capsule distance per frame (negative:
+            penetration; +inf beyond the broad phase), or None.
+        held: (T,) bool frames of a hand hold of the source, or None.
+    """
+
+    metrics: Mapping[str, Any]
+    distance_m: np.ndarray | None = None
+    held: np.ndarray | None = None
+
+
+def build_scene(robot, motion, *, markers=None, source=None, title: str | None = None,
+                metrics: Mapping | None = None, collisions: SelfCollisions | None = None,
+                physics=None, props=None) -> dict:
+    """Everything the viewer draws for one robot motion: :func:`build_robots_scene` of one
+    :class:`SceneRobot` (the arguments are its fields).
+
+    Args:
+        robot, motion, markers, source, metrics, collisions, physics: see :class:`SceneRobot`.
+        title: page title.
+        props: the static props of the motion (an :class:`imesh.scene.Scene` in the robot's
+            world: ``OUT.scene.npz``), drawn as translucent meshes; None: none.
+    """
+    return build_robots_scene(
+        [SceneRobot(robot, motion, markers=markers, source=source, metrics=metrics,
+                    collisions=collisions, physics=physics)],
+        title=title or f"{robot.name} motion", props=props)
+
+
+def build_robots_scene(robots: Sequence[SceneRobot], *, title: str, props=None,
+                       pair: PairView | None = None) -> dict:
+    """Everything the viewer draws for one or more robots in one world, JSON-ready.
+
+    The robots are drawn where their motions put them (two partners share one world: no
+    offset). Every robot carries its own overlays: markers, human source, interaction mesh,
+    soles, support polygon, ZMP, self-collisions, limits and DART simulation.
+
+    Args:
+        robots: the robots (one, or the two of a pair), all with the same frame count and
+            frame rate.
+        title: page title.
+        props: an :class:`imesh.scene.Scene` in the robot's world (its ``props``: name,
+            ``vertices_m`` (V, 3) [m], ``faces`` (F, 3)), drawn as static meshes; None: none.
+        pair: the pair's figures and per-frame distance (:class:`PairView`), or None.
 
     Returns:
-        dict (see the module docstring): ``fps``, ``frames``, ``links``, ``link_poses`` (T, L, 7:
-        position [m], quaternion x y z w), ``meshes``, ``markers``, ``source``, ``mesh_edges``,
-        ``soles`` (T, 2, 4, 3), ``support`` (T, 2), ``polygons`` (T, 8, 2) with ``polygon_sizes``
-        (T,), ``zmp`` and ``zmp_desired`` (T, 2), ``collision_bodies`` (the bodies of the
-        self-collision check: name and link indices), ``collisions`` (per frame the body pairs
-        penetrating deeper than 5 mm on the URDF geometry: [body a, body b, depth mm]),
-        ``limits`` (per frame the joints outside a limit), ``ground``, and with ``physics`` the
-        ``simulation`` entry.
+        dict: ``version`` (2), ``title``, ``fps``, ``frames`` (T), ``beside_m`` (how far the
+        markers and the human source are drawn beside the robots [m]), ``models`` (per robot
+        model: ``links``, ``root_link``, ``meshes`` in link frames, ``collision_bodies``: the
+        bodies of the self-collision check, name and link indices), ``robots`` (one entry per
+        robot, :func:`robot_entry`), ``props`` (name, ``vertices`` (V, 3) float32 [m],
+        ``faces`` (F, 3) uint32), and with ``pair`` a ``pair`` entry (``metrics``,
+        ``distance_mm`` (T,), ``held`` (T,)).
+
+    Raises:
+        ImeshError: no robot, or robots whose frame counts or rates differ.
     """
-    q = np.asarray(motion.q, dtype=float)
-    T, fps = len(q), float(motion.fps)
+    if not robots:
+        raise ImeshError("a viewer scene needs at least one robot motion")
+    T, fps = robots[0].motion.n_frames, float(robots[0].motion.fps)
+    for r in robots[1:]:
+        if r.motion.n_frames != T or abs(float(r.motion.fps) - fps) > 1e-6 * fps:
+            raise ImeshError(
+                f"viewer: robots of one scene need one timeline: {robots[0].robot.name} has "
+                f"{T} frames at {fps:g} fps, {r.robot.name} {r.motion.n_frames} at "
+                f"{r.motion.fps:g} fps")
+    models: dict[str, dict] = {}
+    keys: dict[tuple[str, str], str] = {}  # (name, URDF) -> key: one entry per robot model
+    entries = []
+    for r in robots:
+        model = (r.robot.name, str(getattr(r.robot, "urdf", "")))
+        if model not in keys:
+            keys[model] = r.robot.name if r.robot.name not in models else \
+                f"{r.robot.name}-{len(models)}"
+            models[keys[model]] = model_entry(r.robot)
+        key = keys[model]
+        entries.append(robot_entry(r, models[key], key))
+    scene: dict = {"version": 2, "title": title, "fps": fps, "frames": T,
+                   "beside_m": _beside_m(entries, models), "models": models, "robots": entries,
+                   "props": props_entry(props)}
+    if pair is not None:
+        scene["pair"] = pair_entry(pair, T)
+    return scene
+
+
+def robot_view(scene: Mapping, index: int = 0) -> dict:
+    """Robot ``index`` of a scene with its model's entries (``links``, ``meshes``,
+    ``collision_bodies`` ...) merged in: what :func:`build_scene` returned for one robot before
+    scenes held several."""
+    entry = scene["robots"][index]
+    return {**scene["models"][entry["model"]], **entry}
+
+
+def model_entry(robot) -> dict:
+    """The parts of a scene shared by the robots of one model: ``links`` (the links with a
+    visual mesh, sorted), ``root_link``, ``meshes`` (vertices [m] in the link frame, faces,
+    colour) and ``collision_bodies`` (name and link indices of each body of the self-collision
+    check)."""
     meshes = visual_meshes(robot)
     links = sorted({m.link for m in meshes})
-    link_ids = [robot.frame_id(n) for n in links]
-    poses = link_poses(robot, q, link_ids)
-    scene: dict = {
-        "version": 1, "title": title or f"{robot.name} motion", "robot": robot.name,
-        "fps": fps, "frames": T, "links": links, "link_poses": encode(poses),
+    members, _ = robot_bodies(robot)
+    return {
+        "name": robot.name, "links": links,
         "root_link": robot.waist_frame if robot.waist_frame in links else links[0],
         "meshes": [{"link": links.index(m.link), "color": list(m.color),
                     "vertices": encode(m.vertices), "faces": encode(m.faces, "uint32")}
                    for m in meshes],
+        "collision_bodies": [{"name": b, "links": [links.index(m) for m in members[b]
+                                                   if m in links]} for b in sorted(members)],
     }
 
-    if markers is None:
-        markers = motion.adapted
+
+def robot_entry(r: SceneRobot, model: Mapping, key: str) -> dict:
+    """One robot of a scene (see :func:`build_robots_scene`).
+
+    Returns:
+        dict: ``model`` (the key of its entry in ``models``), ``name``, ``label``,
+        ``link_poses`` (T, L, 7: position [m], quaternion x y z w, of the model's ``links``),
+        ``markers``, ``source``, ``mesh_edges``, ``soles`` (T, 2, 4, 3), ``support`` (T, 2),
+        ``polygons`` (T, 8, 2) with ``polygon_sizes`` (T,), ``zmp`` and ``zmp_desired``
+        (T, 2), ``zmp_inside`` (T,), ``collisions`` (per frame the body pairs penetrating
+        deeper than 5 mm on the URDF geometry: [body a, body b, depth mm], bodies indexing the
+        model's ``collision_bodies``), ``limits`` (per frame the joints outside a limit), with
+        ``metrics`` the metric values, and with ``physics`` the ``simulation`` entry.
+    """
+    robot, motion = r.robot, r.motion
+    q = np.asarray(motion.q, dtype=float)
+    T, fps = len(q), float(motion.fps)
+    links = list(model["links"])
+    link_ids = [robot.frame_id(n) for n in links]
+    entry: dict = {"model": key, "name": robot.name, "label": r.label or robot.name,
+                   "link_poses": encode(link_poses(robot, q, link_ids))}
+
+    markers = r.markers if r.markers is not None else motion.adapted
     lead = (0, 0)
     if markers is not None and markers.n_frames == T:
-        scene["markers"] = _marker_entry(markers.positions_m, markers.names,
+        entry["markers"] = _marker_entry(markers.positions_m, markers.names,
                                          "adapted markers (the robot's targets)")
-        scene["mesh_edges"] = _mesh_edges(markers.positions_m)
+        entry["mesh_edges"] = _mesh_edges(markers.positions_m)
         lead = lead_frames(markers.positions_m)
     elif markers is not None:
         log.warning("viewer: %d adapted-marker frames for %d motion frames: not drawn",
                     markers.n_frames, T)
-    if source is not None:
+    if r.source is not None:
         try:
-            scene["source"] = _source_entry(source, robot, fps, T, lead)
+            entry["source"] = _source_entry(r.source, robot, fps, T, lead, r.source_scale,
+                                            r.source_centre_m)
         except ImeshError as exc:  # the robot motion is still worth showing
             log.warning("viewer: the human source is not drawn: %s", exc)
 
     # soles, support, ZMP
-
     soles = sole_tracks(robot, q, fps)
     support = motion_support(soles, motion.contact_modes).support
     v, a = motion_derivatives(q, fps)
@@ -290,32 +427,76 @@ def build_scene(robot, motion, *, markers=None, source=None, title: str | None =
         if p is not None:
             poly_arr[t, :len(p)] = p
             sizes[t] = len(p)
-    scene["soles"] = encode(np.stack([soles.corners[s] for s in SIDES], axis=1))
-    scene["support"] = encode(support.astype(np.uint8), "uint8")
-    scene["polygons"] = encode(poly_arr)
-    scene["polygon_sizes"] = encode(sizes, "uint8")
-    scene["zmp"] = encode(np.nan_to_num(zmp.zmp_m))
-    scene["zmp_desired"] = encode(np.nan_to_num(zmp.desired_m))
-    scene["zmp_inside"] = encode(zmp.inside.astype(np.uint8), "uint8")
+    entry["soles"] = encode(np.stack([soles.corners[s] for s in SIDES], axis=1))
+    entry["support"] = encode(support.astype(np.uint8), "uint8")
+    entry["polygons"] = encode(poly_arr)
+    entry["polygon_sizes"] = encode(sizes, "uint8")
+    entry["zmp"] = encode(np.nan_to_num(zmp.zmp_m))
+    entry["zmp_desired"] = encode(np.nan_to_num(zmp.desired_m))
+    entry["zmp_inside"] = encode(zmp.inside.astype(np.uint8), "uint8")
 
     # self-collisions (the evaluator's check) and limits per frame
-    if collisions is None:
-        collisions = check_self_collisions(robot, q)
-    members, _ = robot_bodies(robot)
-    bodies = sorted(members)
-    body_index = {b: i for i, b in enumerate(bodies)}
-    scene["collision_bodies"] = [{"name": b, "links": [links.index(m) for m in members[b]
-                                                       if m in links]} for b in bodies]
-    scene["collisions"] = [[[body_index[a_], body_index[b_], round(1e3 * d, 1)]
+    collisions = r.collisions if r.collisions is not None else check_self_collisions(robot, q)
+    body_index = {b["name"]: i for i, b in enumerate(model["collision_bodies"])}
+    entry["collisions"] = [[[body_index[a_], body_index[b_], round(1e3 * d, 1)]
                             for a_, b_, d in hits] for hits in collisions.mesh.frame_hits()]
-    scene["limits"] = _limit_frames(robot, q, fps)
-    if metrics is not None:
-        scene["metrics"] = {k: v for k, v in metric_values(metrics).items()}
-    if physics is not None:
-        sim = simulation_entry(robot, physics, link_ids, T)
+    entry["limits"] = _limit_frames(robot, q, fps)
+    if r.metrics is not None:
+        entry["metrics"] = dict(metric_values(r.metrics))
+    if r.physics is not None:
+        sim = simulation_entry(robot, r.physics, link_ids, T)
         if sim is not None:
-            scene["simulation"] = sim
-    return scene
+            entry["simulation"] = sim
+    return entry
+
+
+def props_entry(props) -> list[dict]:
+    """The props of a robot-world :class:`imesh.scene.Scene` for the page: name, vertices
+    (V, 3) float32 [m] in the world, faces (F, 3) uint32; [] for None."""
+    if props is None:
+        return []
+    frame = getattr(props, "frame", "robot")
+    if frame != "robot":
+        log.warning("viewer: props in the %r frame are drawn as they are, not scaled to the "
+                    "robot", frame)
+    return [{"name": p.name, "vertices": encode(np.asarray(p.vertices_m, dtype=float)),
+             "faces": encode(np.asarray(p.faces), "uint32")} for p in props.props]
+
+
+def pair_entry(pair: PairView, n_frames: int) -> dict:
+    """The ``pair`` entry of a scene: ``metrics`` (JSON numbers; NaN as None), ``distance_mm``
+    (T,) float32 (+inf: beyond the broad phase) and ``held`` (T,) uint8 when given."""
+    def number(v):
+        if isinstance(v, float) and not np.isfinite(v):
+            return None
+        return v
+
+    entry: dict = {"metrics": {k: number(v) for k, v in pair.metrics.items()}}
+    for name, arr, dtype, scale in (("distance_mm", pair.distance_m, "float32", 1e3),
+                                    ("held", pair.held, "uint8", 1)):
+        if arr is None:
+            continue
+        arr = np.asarray(arr, dtype=float)
+        if arr.shape != (n_frames,):
+            log.warning("viewer: the pair's %s has %s values for %d frames: not drawn", name,
+                        arr.shape, n_frames)
+            continue
+        entry[name] = encode(arr * scale, dtype)
+    return entry
+
+
+def _beside_m(entries: Sequence[Mapping], models: Mapping[str, Mapping]) -> float:
+    """How far beside the robots the markers and the source are drawn [m]: 1 m beside one
+    robot, 1 m beyond the robots' sideways (y) spread for several."""
+    if len(entries) < 2:
+        return 1.0
+    ys = []
+    for e in entries:
+        model = models[e["model"]]
+        poses = decode(e["link_poses"])
+        ys.append(poses[:, model["links"].index(model["root_link"]), 1])
+    ys_all = np.concatenate(ys)
+    return float(np.round(1.0 + ys_all.max() - ys_all.min(), 1))
 
 
 def _limit_frames(robot, q: np.ndarray, fps: float) -> list[list[str]]:
@@ -331,10 +512,17 @@ def _limit_frames(robot, q: np.ndarray, fps: float) -> list[list[str]]:
     return [[names[j] for j in np.flatnonzero(row)] for row in over]
 
 
-def _source_entry(source, robot, fps: float, T: int, lead: tuple[int, int]) -> dict:
+def _source_entry(source, robot, fps: float, T: int, lead: tuple[int, int],
+                  scale: float | None = None, centre_m: np.ndarray | None = None) -> dict:
     """The arranged human clip at the motion's rate, frames shifted by the lead-in (held still
-    over the lead-in/out), placed 1 m to the robot's left."""
-    src = arranged_source(source, robot)
+    over the lead-in/out); the page draws it beside the robot. With ``scale`` (a pair's shared
+    scale about ``centre_m``) ``source`` is the person's standard markers
+    (:func:`imesh.pipeline.retarget.working_markers`), arranged with that scale (in the pair's
+    world), else it is arranged as :func:`imesh.evaluate.motion_files.arranged_source` does."""
+    if scale is None:
+        src = arranged_source(source, robot)
+    else:
+        src = arrange_for_robot(source, robot, scale=scale, centre_m=centre_m).motion
     if abs(src.fps - fps) > 1e-6 * fps:
         src = src.resample(fps)
     pos = src.positions_m

@@ -1,12 +1,13 @@
 """``imesh view --video``: the viewer page rendered frame by frame in headless Chromium and
 encoded to H.264 mp4 by ffmpeg (the binary of the PyPI package ``imageio-ffmpeg``).
 
-The video shows the robot with the adapted markers beside it (and the human source on the other
-side when the scene has it), the soles, support polygon and ZMP; the camera follows the robot.
-A scene with a DART check (``build_scene(..., physics=result)``) shows the simulated robot
-instead, a blue-tinted copy 1 m to the robot's right (the adapted markers then stay on the
-robot, the human source on its left), with the check's verdict and each frame's key-point error
-written in the corner; after a fall the copy holds where it lay, tinted red.
+The video shows the robot (or the two robots of a pair, where their motions put them) with the
+adapted markers beside it (and the human source on the other side when the scene has it), the
+soles, support polygon and ZMP, and the scene's props; the camera follows the robot (the middle
+of the pair). A scene with a DART check (``build_scene(..., physics=result)``) shows the
+simulated robot instead, a blue-tinted copy beside the robot's right (the adapted markers then
+stay on the robot, the human source on its left), with the check's verdict and each frame's
+key-point error written in the corner; after a fall the copy holds where it lay, tinted red.
 """
 
 from __future__ import annotations
@@ -71,9 +72,9 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
 
     Args:
         path: the ``.mp4`` file to write (atomically).
-        scene: the viewer scene; with a ``simulation`` (``build_scene(..., physics=result)``
-            of a :class:`imesh.physics.PhysicsResult`) the simulated robot is drawn beside the
-            reference.
+        scene: the viewer scene (:func:`imesh.viz.scene.build_robots_scene`); a robot with a
+            ``simulation`` (``build_scene(..., physics=result)`` of a
+            :class:`imesh.physics.PhysicsResult`) has the simulated robot drawn beside it.
         fps: video frame rate [1/s] (default: the motion's).
         size: (width, height) [px] of the video (even numbers).
         progress: a tqdm description to show a bar, or None.
@@ -97,7 +98,7 @@ def write_video(path: str | os.PathLike, scene: dict, *, fps: float | None = Non
         with chromium_page(size[0], size[1]) as (page, errors), \
                 atomic_path(path) as tmp:
             open_viewer(page, page_path.as_uri())
-            page.evaluate(_VIDEO_OPTIONS, "simulation" in scene)
+            page.evaluate(_VIDEO_OPTIONS, any("simulation" in r for r in scene["robots"]))
             writer = _ffmpeg_writer(tmp, size, fps)
             try:
                 for k in frames:
