@@ -200,7 +200,7 @@ def read_pair_manifest(path: str | Path) -> PairFiles:
         files, robots, clips = manifest["files"], manifest["robots"], manifest["clips"]
         pair = manifest["pair"]
         fps, scale, lead = float(pair["a"]["fps"]), float(pair["scale"]), pair["a"]["lead_frames"]
-        centre = tuple(float(c) for c in pair["centre_m"])
+        cx, cy, cz = (float(c) for c in pair["centre_m"])
         frames = manifest.get("frames")
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise PartnerError(f"{manifest_path}: not a pair manifest of imesh retarget --partner "
@@ -213,7 +213,7 @@ def read_pair_manifest(path: str | Path) -> PairFiles:
 
     return PairFiles(manifest_path, manifest, {k: beside(files[k]) for k in ("a", "b")},
                      dict(robots), dict(clips), tuple(frames) if frames is not None else None,
-                     fps, scale, centre, int(lead[0]))
+                     fps, scale, (cx, cy, cz), int(lead[0]))
 
 
 def evaluate_pair_files(args) -> int:

@@ -183,8 +183,9 @@ def _pair_view(files: PairFiles, robots, motions, humans, metrics, pair_metrics)
     if humans is None:
         return PairView(dict(pair_metrics))
     holds = detect_holds(*humans)
-    scored = evaluate_pair_motions(robots[0], motions[0], robots[1], motions[1], *humans, holds,
-                                   files.scale, files.lead, reports=(metrics[0], metrics[1]))
+    scored = evaluate_pair_motions(robots[0], motions[0], robots[1], motions[1], humans[0],
+                                   humans[1], holds, files.scale, files.lead,
+                                   reports=(metrics[0], metrics[1]))
     held = np.zeros(motions[0].n_frames, dtype=bool)
     held[np.clip(files.lead + np.asarray(holds.frames, dtype=int), 0, len(held) - 1)] = True
     return PairView(dict(pair_metrics), distance_m=scored.robot_distance_m, held=held)
