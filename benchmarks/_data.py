@@ -64,3 +64,18 @@ def cell(m: dict, key: str, fmt: str) -> str:
 def cells(m: dict, *columns: tuple[str, str]) -> str:
     """Table cells of the metrics ``(key, format)`` separated by one space (:func:`cell`)."""
     return " ".join(cell(m, key, fmt) for key, fmt in columns)
+
+
+#: The gated figures of a written motion as table columns ``(metric, format)``: marker RMS,
+#: limit-violation and self-collision frames, ground penetration, ZMP inside.
+GATED_COLUMNS = (("marker_rms_mm", "7.1f"), ("limit_violation_frames", "4d"),
+                 ("self_collision_frames", "4d"), ("ground_penetration_mm", "6.1f"),
+                 ("zmp_inside_fraction", "6.3f"))
+
+
+def gates_failed(m: dict) -> dict:
+    """The retarget's gates a written motion's metric values fail (``imesh retarget`` would
+    not write it): metric -> (value, gate)."""
+    from imesh.evaluate.verify import failed_gates
+
+    return failed_gates({k: {"value": v} for k, v in m.items()})

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _data import cell, cells, data_root, load, score_written
+from _data import GATED_COLUMNS, cell, cells, data_root, gates_failed, load, score_written
 
 CLIPS = ("cmu_05_06_dance_pirouettes_jete.bvh", "cmu_60_10_salsa_partnerA_sl_scaled.bvh",
          "makehuman_game_zombie_walk1.bvh", "cmu_02_01_walk.bvh", "cmu_16_11_walk_veer_left.bvh",
@@ -40,7 +40,6 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
-    from imesh.evaluate.verify import failed_gates
     from imesh.io import load_motion
     from imesh.metrics.flight import flight_report
     from imesh.metrics.soles import sole_tracks
@@ -67,15 +66,13 @@ def main(argv=None) -> int:
                 continue
             total = time.perf_counter() - t0
             written, m = score_written(robot, res, motion, out, stem)
-            gates = failed_gates({k: {"value": v} for k, v in m.items()})
+            gates = gates_failed(m)
             soles = sole_tracks(robot, written.q, written.fps)
             fr = flight_report(robot, written.q, written.fps, soles)
             moving = res.contacts.moving
             piv = (res.contacts.pivoting if res.contacts.pivoting is not None
                    else np.zeros_like(moving)) & moving
-            quality = cells(m, ("marker_rms_mm", "7.1f"), ("limit_violation_frames", "4d"),
-                            ("self_collision_frames", "4d"), ("ground_penetration_mm", "6.1f"),
-                            ("zmp_inside_fraction", "6.3f"))
+            quality = cells(m, *GATED_COLUMNS)
             print(f"{clip:<38} {name:<6} {'yes' if not gates else 'no':>3} "
                   f"{written.n_frames:>6} {quality} {fr.flight_frames:>3} "
                   f"{fr.com_accel_error:>7.2f} {max(fr.landing_speed, default=0.0):>6.2f} "

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _data import cells, data_root, load, score_written
+from _data import GATED_COLUMNS, cells, data_root, gates_failed, load, score_written
 
 CLIP = "cmu_60_10_salsa_partnerA_sl_scaled.bvh"
 
@@ -53,7 +53,6 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
-    from imesh.evaluate.verify import failed_gates
     from imesh.io import load_motion
     from imesh.pipeline.retarget import RetargetConfig, retarget
 
@@ -77,10 +76,8 @@ def main(argv=None) -> int:
         res = retarget(dance, robot, config=config)
         wall, cpu = time.perf_counter() - t0, cpu_seconds() - c0
         written, m = score_written(robot, res, dance, out, f"long_dance_{robot.name}_{workers}")
-        gates = failed_gates({k: {"value": v} for k, v in m.items()})
-        quality = cells(m, ("marker_rms_mm", "7.1f"), ("limit_violation_frames", "4d"),
-                        ("self_collision_frames", "4d"), ("ground_penetration_mm", "6.1f"),
-                        ("zmp_inside_fraction", "6.3f"), ("foot_skid_mm_per_frame", "5.2f"))
+        gates = gates_failed(m)
+        quality = cells(m, *GATED_COLUMNS, ("foot_skid_mm_per_frame", "5.2f"))
         print(f"{workers:>7} {written.n_frames:>6} {wall:>7.1f} {wall / 60:>8.1f} {cpu:>7.1f} "
               f"{'yes' if not gates else 'no':>3} {quality}")
         if gates:
