@@ -129,7 +129,8 @@ def _motion_scene(args) -> dict:
                        title=f"{path.name} ({robot.name})")
 
 
-def pair_scene(manifest_path: str | Path, *, source: bool = False, controller: str | None = None,
+def pair_scene(manifest: str | Path | PairFiles, *, source: bool = False,
+               controller: str | None = None,
                scene_files: Sequence[str] = (), metrics: Sequence[Mapping] | None = None,
                pair_metrics: Mapping | None = None) -> dict:
     """The viewer scene of a pair from the files ``imesh retarget --partner`` wrote: both
@@ -139,7 +140,7 @@ def pair_scene(manifest_path: str | Path, *, source: bool = False, controller: s
     without them, the manifest's figures only).
 
     Args:
-        manifest_path: ``OUT.pair.json``.
+        manifest: ``OUT.pair.json``, or its contents already read (:class:`PairFiles`).
         source: draw both people (the clips, arranged in the pair's world at its shared scale).
         controller: run the DART check of each robot with this controller; None: not run.
         scene_files: props: ``.scene.npz`` files in the robots' world; default: the one beside
@@ -152,7 +153,7 @@ def pair_scene(manifest_path: str | Path, *, source: bool = False, controller: s
             its world: a ``.scene.npz``).
         ImeshError: a file it names is unreadable; ``source`` and a clip is missing.
     """
-    files = read_pair_manifest(manifest_path)
+    files = manifest if isinstance(manifest, PairFiles) else read_pair_manifest(manifest)
     robots = [load_robot(files.robots[k]) for k in KEYS]
     motions = [load_motion_file(files.motions[k], r) for k, r in zip(KEYS, robots, strict=True)]
     metrics = metrics or [files.manifest.get("metrics", {}).get(k, {}) for k in KEYS]
@@ -211,14 +212,14 @@ def write_pair_report_files(path: str | Path, manifest_path: str | Path, *,
 
     Args:
         path: the ``.html`` file.
-        manifest_path: ``OUT.pair.json``.
+        manifest: ``OUT.pair.json``, or its contents already read (:class:`PairFiles`).
         metrics, pair_metrics: as :func:`pair_scene` (default: the manifest's).
     """
     files = read_pair_manifest(manifest_path)
     metrics = metrics or [files.manifest["metrics"][k] for k in KEYS]
     pair_metrics = pair_metrics or files.manifest["pair_metrics"]
     clips = all(Path(files.clips[k]).is_file() for k in KEYS)
-    scene = pair_scene(manifest_path, source=clips, metrics=metrics, pair_metrics=pair_metrics)
+    scene = pair_scene(files, source=clips, metrics=metrics, pair_metrics=pair_metrics)
     robots = [load_robot(files.robots[k]) for k in KEYS]
     return write_pair_report(path, robots, [files.motions[k] for k in KEYS], metrics=metrics,
                              pair_metrics=pair_metrics, scene=scene, keys=KEYS,
