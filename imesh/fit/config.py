@@ -79,6 +79,14 @@ class FitConfig:
         restart_iterations: largest number of solves from the fresh start.
         extrapolate: warm start frame i from the constant-velocity prediction of frames i-2 and
             i-1 (clipped into the box) instead of frame i-1; saves ~1 solve per frame.
+        collision_weight: w of the self-collision penalty ``w (margin - d)`` of every checked
+            capsule pair closer than ``collision_margin_m`` (:mod:`imesh.fit.collision`)
+            [weighted-residual units per metre]: at 10, a millimetre of shortfall costs like 10
+            mm of key-point error. 0: no penalty (the scaled person's arms fitted into the
+            robot's torso and hands through each other, which the whole-body solve then has
+            to undo).
+        collision_margin_m: the signed capsule distance the penalty keeps [m] (the whole-body
+            solve's ``CollisionOptions.margin_m``).
     """
 
     damping: float = 1e-2
@@ -100,12 +108,14 @@ class FitConfig:
     restart_rms_m: float = 0.05
     restart_gain: float = 0.5
     restart_iterations: int = 100
+    collision_weight: float = 10.0
+    collision_margin_m: float = 0.005
 
     def __post_init__(self) -> None:
         positive = ("damping", "iterations", "first_frame_iterations", "tolerance",
                     "restart_gain", "restart_iterations")
         non_negative = ("position_weight", "direction_weight", "smoothing",
-                        "adaptive_smoothing", "posture")
+                        "adaptive_smoothing", "posture", "collision_weight", "collision_margin_m")
         for name in positive + non_negative:
             value = getattr(self, name)
             try:

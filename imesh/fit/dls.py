@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from .boxqp import solve_box_qp
+from .collision import CollisionPenalty
 from .config import FitConfig
 from .kinematics import Kinematics
 from .residual import FrameRows
@@ -34,6 +35,7 @@ _FIRST_FRAME_TOL = 1e-2
 _CHORD_STEP = 1e-3  # [rad or m] largest step after which the Jacobian is reused
 _MAX_CHORDS = 2  # chord steps per Jacobian
 _JOINT_SCALE = 1e-3  # [m/rad] a joint step of 10 mrad counts as a 10 um change
+_NONE = np.zeros(0)  # no collision residual
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,6 +51,7 @@ class FitProblem:
             velocity bound times dt, in the base frame) [m, rad].
         q_posture: (n,) the nominal joints clipped into the position limits [rad], the
             reference of the posture term.
+        collision: the self-collision penalty (:mod:`imesh.fit.collision`), or None.
     """
 
     robot: Any
@@ -57,6 +60,7 @@ class FitProblem:
     base_step: np.ndarray
     base_reach: np.ndarray
     q_posture: np.ndarray
+    collision: CollisionPenalty | None = None
 
     @classmethod
     def build(cls, robot: Any, kin: Kinematics, config: FitConfig, lower: np.ndarray,
@@ -69,8 +73,11 @@ class FitProblem:
         base_step = np.array([config.base_step_m] * 3 + [config.base_step_rad] * 3)
         base_reach = np.array([config.base_speed_m_s] * 3 + [config.base_rate_rad_s] * 3) / fps
         q_posture = np.clip(np.asarray(robot.q_nominal, dtype=np.float64)[7:], lower, upper)
+        collision = (CollisionPenalty.build(robot, config.collision_weight,
+                                            config.collision_margin_m)
+                     if hasattr(robot, "capsule_model") else None)
         return cls(robot=robot, kin=kin, config=config, base_step=base_step,
-                   base_reach=base_reach, q_posture=q_posture)
+                   base_reach=base_reach, q_posture=q_posture, collision=collision)
 
     def base_bounds(self, q: np.ndarray, q_prev: np.ndarray | None
                     ) -> tuple[np.ndarray, np.ndarray]:
@@ -111,11 +118,24 @@ class FrameProblem:
     q_prev: np.ndarray | None
 
 
+def target_cost(problem: FitProblem, rows: FrameRows, q: np.ndarray, points: np.ndarray,
+                axes: np.ndarray) -> float:
+    """``|W e|^2`` of the frame's targets at ``q`` (nq,) (its key points (K, 3) and direction
+    axes (D, 3) given), with the self-collision penalty's residuals."""
+    res = rows.residual(points, axes)
+    cost = float(res @ res)
+    if problem.collision is not None:
+        res_c = problem.collision.residual(q)[0]
+        cost += float(res_c @ res_c)
+    return cost
+
+
 def solve_frame(problem: FitProblem, frame: FrameProblem, q: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Levenberg-Marquardt iterations of the box-bounded DLS step (eq. 7) for one frame.
 
-    Minimizes ``E(q) = |W e(q)|^2 + mu^2 |q_j - q_ref|^2`` (joints only; see FitConfig)
+    Minimizes ``E(q) = |W e(q)|^2 + mu^2 |q_j - q_ref|^2`` (joints only; see FitConfig),
+    plus the self-collision penalty's residuals in ``W e`` (:mod:`imesh.fit.collision`)
     by steps ``dq = argmin |W (J dq - e)|^2 + mu^2 |q_j + dq_j - q_ref|^2 + lambda^2 |dq|^2``
     inside the increment box. ``lambda^2 = f (damping^2 + |W e|^2)``: the residual term stands in
     for the second-order part of the Hessian that Gauss-Newton ignores (it grows with the
@@ -148,14 +168,17 @@ def solve_frame(problem: FitProblem, frame: FrameProblem, q: np.ndarray
     damp2 = config.damping ** 2
     mu2 = 0.0 if frame.first else frame.mu * frame.mu
     factor = 1.0
+    pen = problem.collision
     points, axes = kin.points_and_axes(q)
     res = rows.residual(points, axes)
+    res_c, state = pen.residual(q) if pen is not None else (_NONE, None)
     dev = q[7:] - q_ref
-    fit_cost = float(res @ res)
+    fit_cost = float(res @ res) + float(res_c @ res_c)
     cost = fit_cost + mu2 * float(dev @ dev)
     it = 0
     chords = 0
     a_rows = None
+    c_rows = np.zeros((0, nv))
     active = None
     while it < frame.max_it and cost > 0.0:
         fresh = a_rows is None
@@ -163,11 +186,13 @@ def solve_frame(problem: FitProblem, frame: FrameProblem, q: np.ndarray
             chords = 0
             jp, jw = kin.jacobians(q)
             a_rows = rows.jacobian(jp, jw, axes, nv)
-            h0 = a_rows.T @ a_rows
+            if pen is not None and state is not None:
+                c_rows = pen.rows(q, state)
+            h0 = a_rows.T @ a_rows + c_rows.T @ c_rows
             if mu2:
                 h0[6:, 6:].flat[:: nv - 5] += mu2
             diag0 = h0.diagonal().copy()
-        g = a_rows.T @ res
+        g = a_rows.T @ res + c_rows.T @ res_c
         if mu2:
             g[6:] -= mu2 * dev
         base_lo, base_hi = problem.base_bounds(q, frame.q_prev)
@@ -183,6 +208,7 @@ def solve_frame(problem: FitProblem, frame: FrameProblem, q: np.ndarray
             # [rad], smoothing) by more than tol: steps along unobservable joint combinations
             # (driven by rounding noise when lambda is small) do not count
             change = max(float(np.max(np.abs(a_rows @ dq))),
+                         float(np.max(np.abs(c_rows @ dq), initial=0.0)),
                          _JOINT_SCALE * float(np.max(np.abs(dq[6:]))))
             if change < tol:
                 return q, points, axes, it
@@ -190,19 +216,25 @@ def solve_frame(problem: FitProblem, frame: FrameProblem, q: np.ndarray
             q_new[7:] = np.clip(q_new[7:], lo, hi)
             p_new, a_new = kin.points_and_axes(q_new)
             r_new = rows.residual(p_new, a_new)
+            rc_new, state_new = pen.residual(q_new) if pen is not None else (_NONE, None)
             dev_new = q_new[7:] - q_ref
-            fit_new = float(r_new @ r_new)
+            fit_new = float(r_new @ r_new) + float(rc_new @ rc_new)
             c_new = fit_new + mu2 * float(dev_new @ dev_new)
             if c_new <= cost:
                 lin = res - a_rows @ dq
+                lin_c = res_c - c_rows @ dq
                 dev_lin = dev + dq[6:]
-                predicted = cost - float(lin @ lin) - mu2 * float(dev_lin @ dev_lin)
+                predicted = (cost - float(lin @ lin) - float(lin_c @ lin_c)
+                             - mu2 * float(dev_lin @ dev_lin))
                 gain = np.sqrt(cost) - np.sqrt(c_new)
                 # reuse the Jacobian only after a small step that did what the linear model
                 # predicted: the chord step then converges nearly as fast as a fresh one
+                # (and not while capsule pairs are penalized: their set may change)
                 reuse = (step < _CHORD_STEP and chords < _MAX_CHORDS
-                         and (cost - c_new) >= 0.5 * predicted)
+                         and (cost - c_new) >= 0.5 * predicted
+                         and not len(res_c) and not len(rc_new))
                 q, points, axes, res, fit_cost = q_new, p_new, a_new, r_new, fit_new
+                res_c, state = rc_new, state_new
                 dev, cost = dev_new, c_new
                 if gain < _STALL * tol:
                     return q, points, axes, it

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import FitConfig
-from .dls import FitProblem, FrameProblem, solve_frame
+from .dls import FitProblem, FrameProblem, solve_frame, target_cost
 from .limits import IncrementBox
 from .residual import FrameTargets
 
@@ -92,7 +92,9 @@ def _restart(problem: FitProblem, frame: FrameProblem, q_warm: np.ndarray, fresh
     The fresh start is solved without the smoothing term (it would hold the joints to the
     previous frame's basin) and without the base's velocity box, for
     ``FitConfig.restart_iterations`` solves; it wins when its key-point and direction cost
-    ``|W e|^2`` is below ``FitConfig.restart_gain`` times the warm one's. The winner is then
+    ``|W e|^2`` (with the self-collision penalty's residuals: a start whose arms pass through
+    the torso does not win by its key points) is below ``FitConfig.restart_gain`` times the
+    warm one's. The winner is then
     polished with the frame's own problem (smoothing and base box included) and kept unless
     the polish gave the gain back.
 
@@ -106,14 +108,11 @@ def _restart(problem: FitProblem, frame: FrameProblem, q_warm: np.ndarray, fresh
     free = FrameProblem(lo=frame.lo, hi=frame.hi, rows=rows, q_ref=start[7:], mu=0.0,
                         max_it=config.restart_iterations, first=True, q_prev=None)
     q_new, points, axes, it = solve_frame(problem, free, start)
-    res_warm = rows.residual(*kin.points_and_axes(q_warm))
-    res_new = rows.residual(points, axes)
-    bound = config.restart_gain * float(res_warm @ res_warm)
-    if not float(res_new @ res_new) < bound:
+    bound = config.restart_gain * target_cost(problem, rows, q_warm, *kin.points_and_axes(q_warm))
+    if not target_cost(problem, rows, q_new, points, axes) < bound:
         return None
     q_pol, p_pol, a_pol, it_pol = solve_frame(problem, frame, q_new)
-    res_pol = rows.residual(p_pol, a_pol)
-    if float(res_pol @ res_pol) < bound:
+    if target_cost(problem, rows, q_pol, p_pol, a_pol) < bound:
         return q_pol, p_pol, a_pol, it + it_pol
     return q_new, points, axes, it + it_pol
 

@@ -1,0 +1,74 @@
+"""Self-collision in the per-frame fit: a penalty that keeps the robot's capsules apart.
+
+The whole-body solve keeps the capsules apart with rows linearized at its iterate
+(:mod:`imesh.solve.collision`), so it keeps the *topology* of the fit it starts from: where the
+fit lets one hand pass through the other (the scaled person's hands cross where the robot's,
+larger, cannot), the solve's rows at the crossing frame point along the sweep, and moving the
+frame back or ahead of its neighbours breaks the acceleration limits; the hands stay through
+each other. Fitted frame by frame from a warm start, a penalty instead stops the hand at the
+other's surface in the frame the two meet and lets it continue from there, so the fit arrives
+at the solve with every frame apart.
+
+Each checked capsule pair (:meth:`imesh.robot.Robot.capsule_model`) closer than ``margin``
+adds a residual ``w (margin - d(q))`` to the frame's least squares (eq. 7 of Nakaoka &
+Komura 2012 with these rows appended to ``W e``; ``w`` = ``FitConfig.collision_weight``), its
+row ``w dd/dq`` the signed distance's gradient (:func:`imesh.robot.capsules.model.sample_rows`).
+The penalty is C1 (zero with zero slope at the margin), so the damped Gauss-Newton iteration
+of :func:`imesh.fit.dls.solve_frame` converges on it as on the key points.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..robot.capsules.model import CapsuleModel, sample_rows
+
+
+@dataclass(frozen=True, eq=False)
+class CollisionPenalty:
+    """The capsule pairs the fit keeps apart.
+
+    Attributes:
+        robot: the ``imesh.robot.Robot``.
+        model: its capsules and checked pairs.
+        frame_ids: the robot's frame index of each of ``model.frames``.
+        weight: w [weighted-residual units per metre of shortfall].
+        margin: [m] the signed distance below which a pair is penalized.
+    """
+
+    robot: Any
+    model: CapsuleModel
+    frame_ids: list[int]
+    weight: float
+    margin: float
+
+    @classmethod
+    def build(cls, robot, weight: float, margin: float) -> CollisionPenalty | None:
+        """The robot's penalty, or None (weight 0, or a robot without checked pairs)."""
+        if weight <= 0.0:
+            return None
+        model = robot.capsule_model()
+        if not len(model.pairs):
+            return None
+        return cls(robot=robot, model=model,
+                   frame_ids=[robot.frame_id(f) for f in model.frames], weight=weight,
+                   margin=margin)
+
+    def residual(self, q: np.ndarray) -> tuple[np.ndarray, tuple]:
+        """(R,) residuals ``w (margin - d)`` of the pairs closer than the margin at ``q``
+        (nq,), and what :meth:`rows` needs to differentiate them at the same q."""
+        placements = self.robot.frame_placements(q, self.frame_ids)[None]
+        dist = self.model.distances(placements, cutoff=self.margin)
+        tt, pp = np.nonzero(dist.distance < self.margin)
+        return self.weight * (self.margin - dist.distance[tt, pp]), (placements, tt, pp, dist)
+
+    def rows(self, q: np.ndarray, state: tuple) -> np.ndarray:
+        """(R, nv) rows ``w dd/dv`` of :meth:`residual`'s pairs (``state`` from it, same q)."""
+        placements, tt, pp, dist = state
+        if not len(tt):
+            return np.zeros((0, self.robot.nv))
+        jacobians = self.robot.frame_jacobians(q, self.frame_ids)[None]
+        return self.weight * sample_rows(self.model, placements, jacobians, tt, pp, dist)
