@@ -422,6 +422,15 @@ def test_a_turned_out_supporting_foot_keeps_its_sole_up(mocap):
         assert rise.min() > 0.05, side  # 0.1 m along the sole's normal; -0.1 m before
 
 
+def _level_sole(robot, n_frames: int) -> np.ndarray:
+    """(T, 4, 4) the left sole frame's pose, level and still at the origin."""
+    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
+                                                                                   "right")])
+    still = np.repeat(np.eye(4)[None], n_frames, axis=0)
+    still[:, :3, :3] = level[0]
+    return still
+
+
 def test_a_restep_does_not_land_for_a_frame_before_the_lift_off(robot):
     """A left sole that starts to move 5 cm (the toe-off a fit makes of a heel rising) three
     frames before its support run ends, with the right foot down: the re-step would land for
@@ -432,10 +441,7 @@ def test_a_restep_does_not_land_for_a_frame_before_the_lift_off(robot):
     from imesh.solve.footprints import split_pivots
 
     T = 40
-    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
-                                                                                   "right")])
-    still = np.repeat(np.eye(4)[None], T, axis=0)
-    still[:, :3, :3] = level[0]
+    still = _level_sole(robot, T)
     both = np.ones((T, 2), dtype=bool)
     both[30:, 0] = False  # the left foot lifts at frame 30
 
@@ -450,6 +456,42 @@ def test_a_restep_does_not_land_for_a_frame_before_the_lift_off(robot):
     out = split_pivots(robot, moving_from(12), both, FPS)
     left = runs(out[:, 0])
     assert len(left) == 2 and left[1][1] == 30 and left[1][1] - left[1][0] >= 3
+
+
+def test_two_resteps_in_a_row_are_one_swing_not_a_one_frame_landing(robot):
+    """A left sole that moves 5 cm at frame 10 and 5 cm more 5-9 frames later, the right
+    foot down: two re-steps whose swings (0.3 s each) would leave the foot down for 1-2 frames
+    between them (the salsa's turning foot, where the plan pulled the swing sole 100 mm to
+    that frame's footprint and back and the other sole 11 mm into the floor) are one swing;
+    two moves far apart stay two re-steps with a landing between; a foot that lands and
+    moves two frames later stays in the air."""
+    from imesh.contacts.phases import runs
+    from imesh.solve.footprints import MIN_RESTEP_S, split_pivots
+
+    T = 40
+    still = _level_sole(robot, T)
+    both = np.ones((T, 2), dtype=bool)
+
+    def moves(*frames: int) -> dict:
+        left = still.copy()
+        for t0 in frames:
+            left[t0:, 0, 3] += 0.05  # 5 cm each: beyond move_tol_m (4 cm)
+        return {"left": left, "right": still.copy()}
+
+    shortest = int(round(MIN_RESTEP_S * FPS))
+    for first, second in ((10, 15), (10, 17), (10, 19)):
+        out = split_pivots(robot, moves(first, second), both, FPS)
+        assert min(b - a for a, b in runs(out[:, 0])) >= shortest, (first, second)
+        assert out[:, 1].all()
+    out = split_pivots(robot, moves(8, 28), both, FPS)
+    left = runs(out[:, 0])
+    assert len(left) == 3 and min(b - a for a, b in left) >= shortest
+    # a foot that lands at frame 10 and moves 2 frames later: the swing goes on through
+    landing = both.copy()
+    landing[:10, 0] = False
+    out = split_pivots(robot, moves(12), landing, FPS)
+    left = runs(out[:, 0])
+    assert min(b - a for a, b in left) >= shortest and not out[:12, 0].any()
 
 
 def test_inferred_support_holds_the_sole_where_it_last_stood():

@@ -62,8 +62,8 @@ def _rz(yaw: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-#: A re-step of :func:`split_pivots` lands for at least this long [s]; a shorter landing
-#: before the support run's own lift-off is merged into the swing.
+#: A re-step of :func:`split_pivots` lands for at least this long [s], and lifts off at least
+#: this long after the foot landed; a shorter landing is merged into the swing.
 MIN_RESTEP_S = 0.1
 
 
@@ -120,7 +120,9 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
 
     Returns:
         (T, 2) bool support with the re-steps cut out (a re-step that would land less than
-        ``MIN_RESTEP_S`` before the run ends lifts the foot to the run's end instead).
+        ``MIN_RESTEP_S`` before the run ends lifts the foot to the run's end instead; one that
+        would lift off less than that after the foot landed, from a swing or a re-step, keeps
+        the foot up from there).
     """
     out = np.array(support, dtype=bool)
     gap = max(2, int(round(gap_s * fps)))
@@ -133,6 +135,7 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
         for start, stop in runs(support[:, k]):
             a = start
             t = start + 1
+            landed = start if start else None  # where the foot last landed
             while t < stop:
                 moved = np.linalg.norm(centre[t, :2] - centre[a, :2])
                 if abs(yaw[t] - yaw[a]) > yaw_tol_rad or moved > move_tol_m:
@@ -142,9 +145,15 @@ def split_pivots(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray, 
                         # is a tap, not a step (HRP-4C's walk: the sole put down for one frame
                         # at the clip's toe-off): the foot lifts at the cut instead
                         hi = stop
+                    if landed is not None and lo - landed < min_run:
+                        # ... and so is one between two re-steps or between a landing and
+                        # a re-step (the salsa's turning foot: down for one frame, where the
+                        # plan pulled the swing sole 100 mm to that frame's footprint and
+                        # back): one longer swing instead
+                        lo = landed
                     if hi - lo >= 2 and out[lo:hi, 1 - k].all():
                         out[lo:hi, k] = False
-                        a, t = hi, hi + 1
+                        a, t, landed = hi, hi + 1, hi
                         continue
                     far = np.linalg.norm(centre[t:stop, :2] - centre[a, :2], axis=1).max()
                     if pivots is not None and (np.abs(yaw[t:stop] - yaw[a]).max() > pivot_rad
