@@ -239,9 +239,32 @@ def test_windows_hold_soles_limits_and_zmp_across_their_borders(mocap, tmp_path)
     _border_checks(robot, written, [keep for _, _, keep in layout[:-1]])
 
 
+def test_the_join_starts_on_a_crossfade_within_the_acceleration_it_needs():
+    """Two chains that end 0.9 rad apart at the waist (as the 60 s dance's did) and half a
+    turn apart in the base's quaternion sign: the crossfade starts at the first, ends at the
+    second, keeps unit quaternions, and its second differences stay within the smoothstep's
+    6 D / n^2 (a step between them is D itself)."""
+    from imesh.solve.windows import crossfade
+
+    n, nq = 60, 10
+    a = np.zeros((n, nq))
+    a[:, 6] = 1.0  # identity (x, y, z, w)
+    b = a.copy()
+    b[:, 6] = -1.0  # the same rotation, the other sign
+    b[:, 8] = -0.88
+    b[:, 0] = 0.1
+    q = crossfade(a, b)
+    assert np.allclose(np.linalg.norm(q[:, 3:7], axis=1), 1.0)
+    assert np.allclose(q[:, 3:7], [0.0, 0.0, 0.0, 1.0])  # never through the other sign
+    assert abs(q[0, 8]) < 0.01 * 0.88 and abs(q[-1, 8] + 0.88) < 0.01 * 0.88
+    d2 = np.abs(np.diff(q[:, 8], 2))
+    assert d2.max() <= 6 * 0.88 / n ** 2
+    assert np.all(np.diff(q[:, 8]) <= 0.0) and np.all(np.diff(q[:, 0]) >= 0.0)
+
+
 def test_two_chains_and_their_join_window_hold_both_ends_and_every_border(
         mocap, tmp_path, monkeypatch):
-    """``workers=2`` on the walk in windows of 80 frames: the first half in this process, the
+    """``workers=2`` on the walk in windows of 90 frames: the first half in this process, the
     second in a spawned one from the initializer, then a join window across the middle. The
     join's first and last 4 frames stay at the chains' solutions (the written motion's, to
     1e-9); soles, limits, self-collisions and the ZMP hold across both of its borders; the
@@ -259,11 +282,12 @@ def test_two_chains_and_their_join_window_hold_both_ends_and_every_border(
         return sol
 
     monkeypatch.setattr(windows, "solve_whole_body", recorded)
-    config = RetargetConfig(windows=WindowOptions(frames=80, overlap_frames=16, workers=2))
+    config = RetargetConfig(windows=WindowOptions(frames=90, overlap_frames=16, workers=2))
     res = retarget(motion, robot, config=config)
     T = res.motion.n_frames
-    stop1, start2, j0, j1 = windows.join_layout(T, 80, 16)
-    assert (stop1, start2, j1 - j0) == (T // 2, T // 2, 80)
+    stop1, start2, j0, j1 = windows.join_layout(T, 90, 16)
+    # the chains overlap by 16 frames about the middle: the join starts on their crossfade
+    assert (stop1, start2, j1 - j0) == (T // 2 + 8, T // 2 - 8, 40)
     assert res.wholebody.seconds["workers"] == 2 and res.wholebody.seconds["windows"] == 3
     # this process solved chain 1 (one window) and the join; chain 2 ran in the other one
     (plan1, _), (join_plan, join) = solves

@@ -19,8 +19,8 @@ Both cores (``workers=2``): the first half of the clip is solved as such a chain
 this process while a spawned process solves the second half's chain, which starts from the
 initializer with a free first frame. One join window across the middle (:func:`join_layout`)
 then holds its first ``fixed_frames`` at the first chain's solution and its last at the
-second's (``Plan.fixed_end_frames``), starting from both chains' solutions; what it solves
-replaces the chains' free ends.
+second's (``Plan.fixed_end_frames``), starting from both chains' solutions (crossfaded where
+the chains overlap, about the middle); what it solves replaces the chains' free ends.
 """
 
 from __future__ import annotations
@@ -208,21 +208,26 @@ def _robot_source(robot) -> tuple[str, str | None]:
 
 def _chain_in_worker(robot_source: tuple[str, str | None], plan: Plan, footprints: list,
                      targets, config: WholeBodyConfig, window_frames: int,
-                     overlap_frames: int) -> _Chain:
-    """:func:`_solve_chain` in a worker process, the robot loaded there."""
+                     overlap_frames: int, log_level: int = logging.WARNING) -> _Chain:
+    """:func:`_solve_chain` in a worker process, the robot loaded there; its log records go to
+    the worker's stderr (the caller's) at the caller's level of ``imesh``."""
+    if not logging.getLogger().handlers:  # a spawned process starts without the caller's
+        logging.basicConfig(format="%(levelname)s %(name)s: %(message)s")
+    logging.getLogger("imesh").setLevel(log_level)
     toml, urdf = robot_source
     return _solve_chain(load_robot(toml, urdf=urdf), plan, footprints, targets, config,
-                        window_frames, overlap_frames)
+                        window_frames, overlap_frames, name="chain 2 ")
 
 
 def join_layout(n_frames: int, window_frames: int, overlap_frames: int,
                 fixed_frames: int = FIXED_FRAMES) -> tuple[int, int, int, int]:
     """Where two chains of windows and the window joining them lie: (chain 1's stop, chain
     2's start, join start, join stop). Chain 1 solves [0, stop1), chain 2 [start2, n); the
-    join window [j0, j1) (``min(window, 4 (overlap + fixed))`` frames about the middle) holds
+    join window [j0, j1) (``min(window, 2 (overlap + fixed))`` frames about the middle) holds
     its first ``fixed_frames`` at chain 1's solution and its last at chain 2's, both at least
-    ``overlap_frames`` away from the chains' free ends; the chains meet at the middle, so the
-    join starts from their solutions everywhere.
+    ``overlap_frames`` away from the chains' free ends; the chains overlap by about
+    ``overlap_frames`` about the middle, where the join starts from a :func:`crossfade` of
+    the two.
 
     Raises:
         OptionError: a clip too short for two chains (not longer than one window).
@@ -231,11 +236,28 @@ def join_layout(n_frames: int, window_frames: int, overlap_frames: int,
         raise OptionError("workers", 2, f"1 for a solve of at most window_frames "
                           f"({window_frames}) frames: it is one window")
     step_cost = overlap_frames + fixed_frames
-    join = min(window_frames, 4 * step_cost)
+    join = min(window_frames, 2 * step_cost)
     middle = n_frames // 2
     j0 = middle - join // 2
     j1 = j0 + join
-    return max(middle, j0 + step_cost), min(middle, j1 - step_cost), j0, j1
+    half = overlap_frames // 2
+    return max(middle + half, j0 + step_cost), min(middle - half, j1 - step_cost), j0, j1
+
+
+def crossfade(q_a: np.ndarray, q_b: np.ndarray) -> np.ndarray:
+    """(n, nq) configurations going from ``q_a`` to ``q_b`` over their n common frames: the
+    weight of ``q_b`` rises as a smoothstep ``3 x^2 - 2 x^3`` (zero slope at both ends), the
+    base position and the joints blended linearly, the base quaternion (x, y, z, w) normalized
+    after a linear blend on the side of ``q_a``'s hemisphere."""
+    n = len(q_a)
+    x = (np.arange(n) + 0.5) / n
+    s = (x * x * (3.0 - 2.0 * x))[:, None]
+    q_b = q_b.copy()
+    flip = np.sum(q_a[:, 3:7] * q_b[:, 3:7], axis=1) < 0.0
+    q_b[flip, 3:7] *= -1.0
+    q = (1.0 - s) * q_a + s * q_b
+    q[:, 3:7] /= np.linalg.norm(q[:, 3:7], axis=1, keepdims=True)
+    return q
 
 
 def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBodyConfig,
@@ -280,14 +302,20 @@ def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBo
         with ProcessPoolExecutor(max_workers=1,
                                  mp_context=multiprocessing.get_context("spawn")) as pool:
             future = pool.submit(_chain_in_worker, _robot_source(robot), plan2, footprints,
-                                 targets, config, window_frames, overlap_frames)
+                                 targets, config, window_frames, overlap_frames,
+                                 log.getEffectiveLevel())
             chain1 = _solve_chain(robot, plan1, footprints, targets, config, window_frames,
                                   overlap_frames, tick1, name="chain 1 ")
             chain2 = future.result()
         q = np.concatenate([chain1.q[:j0 + FIXED_FRAMES],
                             plan.q_init[j0 + FIXED_FRAMES:j1 - FIXED_FRAMES],
                             chain2.q[j1 - FIXED_FRAMES - start2:]])
-        q_start = np.concatenate([chain1.q[j0:stop1], chain2.q[stop1 - start2:j1 - start2]])
+        # the chains overlap on [start2, stop1), each with its free end there: the join
+        # starts on a crossfade from one to the other (starting on a step between them, 0.9
+        # rad at the waist on the 60 s dance, left 9.6 times G1's acceleration limit there)
+        q_start = np.concatenate([chain1.q[j0:start2],
+                                  crossfade(chain1.q[start2:stop1], chain2.q[:stop1 - start2]),
+                                  chain2.q[stop1 - start2:j1 - start2]])
         sub = plan_window(plan, j0, j1, fixed_frames=FIXED_FRAMES, rest_ends=(False, False),
                           q_start=q_start, fixed_end_frames=FIXED_FRAMES)
 
