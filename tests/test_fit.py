@@ -509,3 +509,58 @@ def test_the_fit_keeps_the_capsules_apart():
     elbow = [k.marker for k in keypoints].index("elbow_l")
     assert np.argmax(err) == elbow and err[elbow] > 0.03
     assert np.delete(err, elbow).max() <= 0.02
+
+
+def test_the_fit_keeps_the_capsules_off_moving_obstacles():
+    """G1 standing still while a partner's capsule (radius 4 cm, vertical) comes at its left
+    hand from the side and ends 2 cm inside the hand's capsule: without obstacles the fit
+    stays where its markers are (20.3 mm deep); with them every frame keeps the hand's capsule
+    at least 3.5 mm from the obstacle's (4.4 measured: the 5 mm margin, less what the key
+    points' pull takes back), the left hand giving way most (21 mm) and the feet within 1 mm
+    of their markers. Obstacles over another number of frames are refused before the fit."""
+    from imesh.fit import FitError
+    from imesh.robot.capsules.obstacles import Obstacles, capsule_obstacle_distances
+
+    robot = get_robot("g1")
+    keypoints, directions = robot_targets(robot)
+    fps, T = 30.0, 31
+    qs = np.repeat(np.asarray(robot.q_nominal, dtype=float)[None], T, axis=0)
+    markers, dirs = fk_markers(robot, qs, fps, keypoints, directions)
+    model = robot.capsule_model()
+
+    def segments(q):
+        return model.world_segments(robot.frame_placements(q, model.frames)[None])[0]
+
+    seg0 = segments(qs[0])
+    kp = {k.marker: k for k in keypoints}["hand_l"]
+    hand = robot.frame_positions(qs[0], [robot.frame_id(kp.frame)],
+                                 np.asarray([kp.offset], dtype=float))[0]
+    c = int(np.argmin(np.linalg.norm(seg0.mean(axis=1) - hand, axis=1)))  # the hand's capsule
+    radius = 0.04
+    side = np.array([0.0, 1.0, 0.0])  # G1's left is +y
+    reach = model.radius[c] + radius - 0.02  # 2 cm deep at the end
+    s = 0.5 - 0.5 * np.cos(np.pi * np.arange(T) / (T - 1))
+    centre = seg0[c].mean(axis=0) + side * (reach + 0.3 * (1.0 - s))[:, None]
+    ends = np.stack([centre - [0.0, 0.0, 0.1], centre + [0.0, 0.0, 0.1]], axis=1)
+    obstacles = Obstacles(segments_m=ends[:, None], radius_m=np.array([radius]))
+
+    def closest(q_traj):
+        seg = np.stack([segments(q) for q in q_traj])
+        tt, _, _, d, _, _ = capsule_obstacle_distances(seg, model.radius, obstacles, 1.0)
+        low = np.full(len(q_traj), np.inf)
+        np.minimum.at(low, tt, d)
+        return low
+
+    free = fit_motion(robot, markers, keypoints=keypoints, directions=dirs)
+    assert closest(free.motion.q)[-1] < -0.015
+    kept = fit_motion(robot, markers, keypoints=keypoints, directions=dirs,
+                      obstacles=obstacles)
+    assert closest(kept.motion.q).min() >= 0.0035
+    names = [k.marker for k in keypoints]
+    feet = [names.index(m) for m in ("ankle_l", "ankle_r", "toe_l", "toe_r")]
+    assert kept.keypoint_error_m[:, feet].max() <= 0.001
+    assert names[int(np.argmax(kept.keypoint_error_m[-1]))] == "hand_l"
+    assert kept.keypoint_error_m[-1, names.index("hand_l")] > 0.01
+    with pytest.raises(FitError, match="obstacles over 30 frames for a motion of 31"):
+        fit_motion(robot, markers, keypoints=keypoints, directions=dirs,
+                   obstacles=obstacles.frames(0, 30))

@@ -18,7 +18,8 @@ from imesh.partners.holds import HAND_MARKERS
 from imesh.partners.mesh import morph_together
 from imesh.partners.world import shared_world
 from imesh.pipeline.retarget import RetargetConfig, prepare, working_markers
-from imesh.solve.obstacles import Obstacles, linearize_obstacles
+from imesh.robot.capsules.obstacles import Obstacles
+from imesh.solve.obstacles import linearize_obstacles
 
 SALSA_A = "cmu_60_10_salsa_partnerA_sl_scaled.bvh"
 SALSA_B = "cmu_61_10_salsa_partnerB_sl_scaled.bvh"

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..robot.capsules.obstacles import Obstacles
 from .boxqp import solve_box_qp
 from .collision import CollisionPenalty
 from .config import FitConfig
@@ -51,7 +52,8 @@ class FitProblem:
             velocity bound times dt, in the base frame) [m, rad].
         q_posture: (n,) the nominal joints clipped into the position limits [rad], the
             reference of the posture term.
-        collision: the self-collision penalty (:mod:`imesh.fit.collision`), or None.
+        collision: the self-collision penalty (:mod:`imesh.fit.collision`; with a partner's
+            capsules as obstacles), or None.
     """
 
     robot: Any
@@ -64,8 +66,10 @@ class FitProblem:
 
     @classmethod
     def build(cls, robot: Any, kin: Kinematics, config: FitConfig, lower: np.ndarray,
-              upper: np.ndarray, fps: float) -> FitProblem:
-        """From the settings, the (n,) position limits [rad] and the frame rate [Hz]."""
+              upper: np.ndarray, fps: float, obstacles: Obstacles | None = None
+              ) -> FitProblem:
+        """From the settings, the (n,) position limits [rad], the frame rate [Hz] and the
+        obstacles over the fitted frames (or None)."""
         # Trust region of the free-flyer per LM step: joints are boxed by their limits, the base
         # is not, and one poorly damped step could turn it by 90 degrees into another basin
         # (seen on the CMU walk: the base yaw jumped 40 degrees in one frame and never came
@@ -74,7 +78,7 @@ class FitProblem:
         base_reach = np.array([config.base_speed_m_s] * 3 + [config.base_rate_rad_s] * 3) / fps
         q_posture = np.clip(np.asarray(robot.q_nominal, dtype=np.float64)[7:], lower, upper)
         collision = (CollisionPenalty.build(robot, config.collision_weight,
-                                            config.collision_margin_m)
+                                            config.collision_margin_m, obstacles)
                      if hasattr(robot, "capsule_model") else None)
         return cls(robot=robot, kin=kin, config=config, base_step=base_step,
                    base_reach=base_reach, q_posture=q_posture, collision=collision)
@@ -106,6 +110,7 @@ class FrameProblem:
         first: frame 0 (no smoothing term, a tighter tolerance).
         q_prev: (nq,) the previous frame's configuration when the free-flyer gets a velocity
             box around it like the joints (None: no box).
+        index: the frame's index in the fit (the obstacles' frame), or None.
     """
 
     lo: np.ndarray
@@ -116,16 +121,17 @@ class FrameProblem:
     max_it: int
     first: bool
     q_prev: np.ndarray | None
+    index: int | None = None
 
 
-def target_cost(problem: FitProblem, rows: FrameRows, q: np.ndarray, points: np.ndarray,
+def target_cost(problem: FitProblem, frame: FrameProblem, q: np.ndarray, points: np.ndarray,
                 axes: np.ndarray) -> float:
     """``|W e|^2`` of the frame's targets at ``q`` (nq,) (its key points (K, 3) and direction
     axes (D, 3) given), with the self-collision penalty's residuals."""
-    res = rows.residual(points, axes)
+    res = frame.rows.residual(points, axes)
     cost = float(res @ res)
     if problem.collision is not None:
-        res_c = problem.collision.residual(q)[0]
+        res_c = problem.collision.residual(q, frame.index)[0]
         cost += float(res_c @ res_c)
     return cost
 
@@ -171,7 +177,7 @@ def solve_frame(problem: FitProblem, frame: FrameProblem, q: np.ndarray
     pen = problem.collision
     points, axes = kin.points_and_axes(q)
     res = rows.residual(points, axes)
-    res_c, state = pen.residual(q) if pen is not None else (_NONE, None)
+    res_c, state = pen.residual(q, frame.index) if pen is not None else (_NONE, None)
     dev = q[7:] - q_ref
     fit_cost = float(res @ res) + float(res_c @ res_c)
     cost = fit_cost + mu2 * float(dev @ dev)
@@ -216,7 +222,8 @@ def solve_frame(problem: FitProblem, frame: FrameProblem, q: np.ndarray
             q_new[7:] = np.clip(q_new[7:], lo, hi)
             p_new, a_new = kin.points_and_axes(q_new)
             r_new = rows.residual(p_new, a_new)
-            rc_new, state_new = pen.residual(q_new) if pen is not None else (_NONE, None)
+            rc_new, state_new = (pen.residual(q_new, frame.index) if pen is not None
+                                 else (_NONE, None))
             dev_new = q_new[7:] - q_ref
             fit_new = float(r_new @ r_new) + float(rc_new @ rc_new)
             c_new = fit_new + mu2 * float(dev_new @ dev_new)

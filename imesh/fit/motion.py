@@ -23,6 +23,7 @@ import numpy as np
 from ..core.limits import JointLimits
 from ..core.motion import MarkerMotion
 from ..core.robot_motion import RobotMotion
+from ..robot.capsules.obstacles import Obstacles
 from .config import FitConfig
 from .dls import FitProblem
 from .errors import FitError
@@ -86,7 +87,8 @@ def _limited(kin: Kinematics, frames: FrameTargets, free: Track, joints: np.ndar
 
 def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = None,
                directions: Iterable | None = None, config: FitConfig | None = None,
-               q_init: np.ndarray | RobotMotion | None = None) -> FitResult:
+               q_init: np.ndarray | RobotMotion | None = None,
+               obstacles: Obstacles | None = None) -> FitResult:
     """Fit robot configurations to adapted marker trajectories, frame by frame.
 
     Args:
@@ -102,6 +104,9 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
         q_init: initial guess: (nq,) for frame 0 (replaces the geometric guess), or (T, nq) /
             a RobotMotion giving every frame's starting point (e.g. a previous fit to refine;
             joints are clipped into each frame's box).
+        obstacles: capsules moving over the T frames that the robot's capsules keep
+            ``config.collision_margin_m`` from, as from each other (a partner robot's,
+            :func:`imesh.robot.capsules.obstacles.robot_obstacles`); None: none.
 
     Returns:
         FitResult with the RobotMotion (same fps as ``markers``) and per-frame errors, bound
@@ -111,9 +116,13 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
         MissingMarkerError: a key point or direction names a marker the motion lacks.
         UnknownFrameError: ... or a frame the robot lacks (both list valid names).
         FitError: inconsistent or empty limits, a nominal / initial pose outside the joint
-            limits (names the joint, its limits and the value), a bad q_init or config.
+            limits (names the joint, its limits and the value), a bad q_init or config,
+            obstacles over another number of frames.
     """
     config = config or FitConfig()
+    if obstacles is not None and obstacles.n_frames != markers.n_frames:
+        raise FitError(f"obstacles over {obstacles.n_frames} frames for a motion of "
+                       f"{markers.n_frames}: give them over the fitted frames")
     targets = compile_targets(robot, markers.names, keypoints, directions,
                               source=markers.source or "motion")
     limits = joint_limits(robot, config.limits)
@@ -123,7 +132,8 @@ def fit_motion(robot, markers: MarkerMotion, *, keypoints: Iterable | None = Non
     q0 = _first_configuration(robot, kin, targets, markers, init, limits)
 
     frames = FrameTargets.build(markers, targets, config)
-    problem = FitProblem.build(robot, kin, config, limits.lower, limits.upper, markers.fps)
+    problem = FitProblem.build(robot, kin, config, limits.lower, limits.upper, markers.fps,
+                               obstacles)
     limited = bool(np.any(np.isfinite(limits.v_max)) or np.any(np.isfinite(limits.a_max)))
     options = config.limits
     t_start = time.perf_counter()

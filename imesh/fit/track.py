@@ -106,13 +106,15 @@ def _restart(problem: FitProblem, frame: FrameProblem, q_warm: np.ndarray, fresh
     start = fresh.copy()
     start[7:] = np.clip(start[7:], frame.lo, frame.hi)
     free = FrameProblem(lo=frame.lo, hi=frame.hi, rows=rows, q_ref=start[7:], mu=0.0,
-                        max_it=config.restart_iterations, first=True, q_prev=None)
+                        max_it=config.restart_iterations, first=True, q_prev=None,
+                        index=frame.index)
     q_new, points, axes, it = solve_frame(problem, free, start)
-    bound = config.restart_gain * target_cost(problem, rows, q_warm, *kin.points_and_axes(q_warm))
-    if not target_cost(problem, rows, q_new, points, axes) < bound:
+    bound = config.restart_gain * target_cost(problem, frame, q_warm,
+                                              *kin.points_and_axes(q_warm))
+    if not target_cost(problem, frame, q_new, points, axes) < bound:
         return None
     q_pol, p_pol, a_pol, it_pol = solve_frame(problem, frame, q_new)
-    if target_cost(problem, rows, q_pol, p_pol, a_pol) < bound:
+    if target_cost(problem, frame, q_pol, p_pol, a_pol) < bound:
         return q_pol, p_pol, a_pol, it + it_pol
     return q_new, points, axes, it + it_pol
 
@@ -165,7 +167,7 @@ def track(problem: FitProblem, frames: FrameTargets, limits: IncrementBox, q0: n
         frame = FrameProblem(
             lo=box.lo, hi=box.hi, rows=rows, q_ref=q_ref, mu=mu,
             max_it=config.first_frame_iterations if t == 0 else config.iterations,
-            first=t == 0, q_prev=q_out[t - 1] if t >= 1 and base_box else None)
+            first=t == 0, q_prev=q_out[t - 1] if t >= 1 and base_box else None, index=t)
         q, points, axes, it = solve_frame(problem, frame, q)
         kp_err[t], dir_err[t] = frames.errors(t, points, axes)
         if (fresh is not None and t >= 1 and rows.ok_p.any() and np.isfinite(fresh[t]).all()

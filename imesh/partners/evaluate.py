@@ -24,7 +24,7 @@ from ..core.motion import MarkerMotion
 from ..evaluate.scoreboard import evaluate_motion
 from ..metrics.markers import CLOSE_PAIR_FRACTION, close_pair_error, keypoint_motion
 from ..morph.adapt import PERSON_PREFIXES
-from ..solve.obstacles import capsule_obstacle_distances, robot_obstacles
+from ..robot.capsules.obstacles import capsule_obstacle_distances, robot_obstacles
 from .holds import held_pairs
 
 #: A robot-robot penetration deeper than this [m] counts the frame (as self-collision).

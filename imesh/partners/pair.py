@@ -8,8 +8,9 @@ Stages (each robot keeps the single-person pipeline of :mod:`imesh.pipeline.reta
 2. one spacetime morph of both people (:mod:`.mesh`);
 3. robot a's initial fit and whole-body solve on its part of the morph, as alone;
 4. robot b's, with robot a's capsules over a's solved motion as moving obstacles
-   (:mod:`imesh.solve.obstacles`, rows sharing the self-collision slack) and its holding hands
-   aimed at a's (:mod:`.holds`).
+   (:mod:`imesh.robot.capsules.obstacles`: a penalty in its initial fit, rows sharing the
+   self-collision slack in its whole-body solve) and its holding hands aimed at a's
+   (:mod:`.holds`).
 
 Why in sequence and not one SQP over both robots: the whole-body QP of one robot is banded per
 frame (49 unknowns a frame, half-bandwidth 230 on the G1 walk, DESIGN.md) and its cost grows
@@ -42,7 +43,7 @@ from ..pipeline.retarget import (
     solve_prepared,
     working_markers,
 )
-from ..solve.obstacles import robot_obstacles
+from ..robot.capsules.obstacles import Obstacles, robot_obstacles
 from .holds import HAND_MARKERS, Holds, detect_holds, held_pairs, hold_targets
 from .mesh import morph_together
 from .world import SharedWorld, shared_world
@@ -178,11 +179,14 @@ def retarget_pair(motion_a: MarkerMotion, motion_b: MarkerMotion, robot_a, robot
                                 config.hold_weight)
     res_a = solve_prepared(prep_a, motion_a, robot_a, rc, morph=morph_a, plan_hook=hook_a)
     seconds["a"] = time.perf_counter() - t1
-    hook = None
+    hook = obstacles = None
     if config.together:
-        hook = _partner_hook(robot_a, robot_b, res_a, holds, config)
+        hook = _partner_hook(robot_a, res_a, holds, config)
+        if config.avoid:
+            obstacles = _partner_obstacles(robot_a, robot_b, res_a, holds, config)
     t1 = time.perf_counter()
-    res_b = solve_prepared(prep_b, motion_b, robot_b, rc, morph=morph_b, plan_hook=hook)
+    res_b = solve_prepared(prep_b, motion_b, robot_b, rc, morph=morph_b, plan_hook=hook,
+                           obstacles=obstacles)
     seconds["b"] = time.perf_counter() - t1
     seconds["total"] = time.perf_counter() - t0
     return PairResult(a=res_a, b=res_b, robot_a=robot_a, robot_b=robot_b, human_a=human_a,
@@ -190,9 +194,21 @@ def retarget_pair(motion_a: MarkerMotion, motion_b: MarkerMotion, robot_a, robot
                       seconds=seconds)
 
 
-def _partner_hook(robot_a, robot_b, res_a: RetargetResult, holds: Holds, config: PairConfig):
-    """The plan edit of robot b: robot a's capsules as obstacles, its hands as b's hold
-    targets."""
+def _partner_obstacles(robot_a, robot_b, res_a: RetargetResult, holds: Holds,
+                       config: PairConfig) -> Obstacles:
+    """Robot a's capsules over its solved motion (output frames), the held hands' pairs
+    ignored around each hold."""
+    q_a = res_a.motion.q
+    obstacles = robot_obstacles(robot_a, q_a)
+    if len(holds):
+        obstacles = dataclasses.replace(obstacles, ignored=held_pairs(
+            robot_a, robot_b, holds, len(q_a), res_a.lead_frames[0],
+            int(round(config.release_s * res_a.motion.fps))))
+    return obstacles
+
+
+def _partner_hook(robot_a, res_a: RetargetResult, holds: Holds, config: PairConfig):
+    """The plan edit of robot b: robot a's hands as its hold targets."""
     q_a = res_a.motion.q
     hands_a = keypoint_motion(robot_a, q_a, res_a.motion.fps, names=HAND_MARKERS)
 
@@ -200,13 +216,6 @@ def _partner_hook(robot_a, robot_b, res_a: RetargetResult, holds: Holds, config:
         if len(plan.q_init) != len(q_a):
             raise PartnerError(f"partner robots' motions differ in frames ({len(q_a)} and "
                                f"{len(plan.q_init)}): both need the same lead-in and lead-out")
-        if config.avoid:
-            obstacles = robot_obstacles(robot_a, q_a)
-            if len(holds):
-                obstacles = dataclasses.replace(obstacles, ignored=held_pairs(
-                    robot_a, robot_b, holds, len(q_a), ctx.lead_frames,
-                    int(round(config.release_s * res_a.motion.fps))))
-            plan = dataclasses.replace(plan, obstacles=obstacles)
         if len(holds) and config.hold_weight > 0:
             t = holds.frames + ctx.lead_frames
             shifts = (hands_a.positions_m[t, [hands_a.index(m) for m in holds.marker_a]]

@@ -54,6 +54,7 @@ from ..human.filtering import lowpass
 from ..morph.adapt import prepare_markers
 from ..morph.problem import MorphConfig, MorphWeights, build_morph_problem
 from ..morph.solver import MorphResult, MorphStepReport, solve_morph, window_layout
+from ..robot.capsules.obstacles import Obstacles
 from ..robot.markers_config import Direction
 from ..scene.surfaces import scene_planes, surface_heights
 from ..solve import (
@@ -483,7 +484,8 @@ def retarget(motion: MarkerMotion, robot, *, config: RetargetConfig | None = Non
 def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: RetargetConfig, *,
                    progress: ProgressCallback | None = None, scene=None,
                    seconds: dict | None = None, t0: float | None = None,
-                   morph: MorphResult | None = None, plan_hook=None) -> RetargetResult:
+                   morph: MorphResult | None = None, plan_hook=None,
+                   obstacles: Obstacles | None = None) -> RetargetResult:
     """The stages from the morph on (:func:`retarget` after :func:`prepare`).
 
     Args:
@@ -493,7 +495,10 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
         morph: the person's markers already morphed (their part of a mesh shared with a
             partner, :mod:`imesh.partners`); None: morphed here alone.
         plan_hook: ``plan_hook(plan, PlanContext) -> Plan`` edits the whole-body plan before
-            the solve (a partner's obstacles and hand holds); None: none.
+            the solve (a partner's hand holds); None: none.
+        obstacles: capsules moving over the output frames (the lead-in and lead-out
+            included; a partner robot's, :mod:`imesh.partners`) that the initial fit and the
+            whole-body solve keep the robot's capsules from; None: none.
     """
     seconds = dict(seconds or {})
     t0 = time.perf_counter() if t0 is None else t0
@@ -517,6 +522,10 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
                f"step {report.step}, window {report.window + 1}")
 
     fit_config = config.fit if config.fit is not None else FitConfig()
+    n_lead = int(round(config.lead_s * source.fps)) if config.balance == "wholebody" else 0
+    # the fit's frames are the clip's: the output's without the lead-in and lead-out
+    fit_obstacles = (None if obstacles is None
+                     else obstacles.frames(n_lead, n_lead + n_work))
     blend = (support_blend(flat, config.support.ramp.duration_s) if config.support is not None
              else None)
     # Priorities (W_e of eq. 7) as in the paper's order of fitting: the waist from the pelvis
@@ -545,7 +554,7 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
                                                       pelvis_weight=config.pelvis_weight)
         fit = fit_motion(robot, fit_markers, keypoints=keypoints,
                          directions=arrangement.directions + extra_dirs, config=fit_config,
-                         q_init=q_init)
+                         q_init=q_init, obstacles=fit_obstacles)
         seconds["morph"] = seconds.get("morph", 0.0) + t2 - t1
         seconds["fit"] = seconds.get("fit", 0.0) + time.perf_counter() - t2
         notify(progress, "fit", 1, 1, n_work)
@@ -591,7 +600,6 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
         seconds["balance"] = time.perf_counter() - t3
     elif config.balance == "wholebody":
         t3 = time.perf_counter()
-        n_lead = int(round(config.lead_s * source.fps))
         q_init = smooth_initializer(robot, q_out, source.fps, config.wholebody.initial_lowpass_hz)
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")
@@ -618,6 +626,8 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
                                            effectors=(None if effectors is None
                                                       else effectors.padded(n_lead, n_lead)),
                                            inferred=inferred)
+        if obstacles is not None:
+            plan = dataclasses.replace(plan, obstacles=obstacles)
         if plan_hook is not None:
             plan = plan_hook(plan, PlanContext(names=fit_markers.names, targets=targets,
                                                lead_frames=n_lead))

@@ -13,8 +13,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..robot.capsules.obstacles import Obstacles
 from .collision import CollisionLinearization
-from .obstacles import ObstacleLinearization, Obstacles
+from .obstacles import ObstacleLinearization
 from .props import PropLinearization
 from .torque import TorqueLinearization
 from .touches import ContactPoints

@@ -29,6 +29,7 @@ from ..mesh.interaction import build_interaction_mesh
 from ..metrics.derivatives import motion_derivatives
 from ..metrics.props import ProxyPoints
 from ..metrics.zmp import desired_zmp, multibody_zmp
+from ..robot.capsules.obstacles import Obstacles
 from .collision import collision_violation, linearize_collisions
 from .config import WholeBodyConfig
 from .contacts import sole_errors
@@ -45,7 +46,7 @@ from .footprints import (
 )
 from .holds import held_frames
 from .merit import merit
-from .obstacles import Obstacles, linearize_obstacles
+from .obstacles import linearize_obstacles
 from .plan import GRAVITY, Linearization, Plan
 from .problem import build_qp
 from .props import linearize_props, shared_violation

@@ -27,5 +27,7 @@ Modules, one concept each:
 - :mod:`.pairs`: the ignore rule and ``collision_pairs.toml``;
 - :mod:`.cache`: fitted capsules on disk;
 - :mod:`.mesh_check`: distances of the URDF's own geometry between the same bodies (coal);
+- :mod:`.obstacles`: capsules moving with the frames (a partner robot's) and their distances
+  to a robot's capsules;
 - :mod:`.robot`: a robot's capsule model (fit, cache, ignore list) and its description.
 """
