@@ -240,26 +240,28 @@ def test_windows_hold_soles_limits_and_zmp_across_their_borders(mocap, tmp_path)
 
 
 def test_the_join_starts_on_a_crossfade_within_the_acceleration_it_needs():
-    """Two chains that end 0.9 rad apart at the waist (as the 60 s dance's did) and half a
-    turn apart in the base's quaternion sign: the crossfade starts at the first, ends at the
-    second, keeps unit quaternions, and its second differences stay within the smoothstep's
-    6 D / n^2 (a step between them is D itself)."""
+    """Two chains that end 0.88 rad apart at a joint (as the 60 s dance's did at the waist)
+    and with the base's quaternion of opposite signs (the same rotation): the crossfade starts
+    at the first, ends at the second, keeps unit quaternions, and its second differences stay
+    within the smoothstep's 6 D / n^2 (a step between them is D itself)."""
     from imesh.solve.windows import crossfade
 
-    n, nq = 60, 10
-    a = np.zeros((n, nq))
-    a[:, 6] = 1.0  # identity (x, y, z, w)
+    robot = load_test_robot("g1")
+    n = 60
+    joint = 7 + list(robot.joint_names).index("left_shoulder_pitch_joint")
+    a = np.repeat(np.asarray(robot.q_nominal, dtype=float)[None], n, axis=0)
+    a[:, 3:7] = [0.0, 0.0, 0.0, 1.0]  # identity (x, y, z, w)
     b = a.copy()
     b[:, 6] = -1.0  # the same rotation, the other sign
-    b[:, 8] = -0.88
-    b[:, 0] = 0.1
-    q = crossfade(a, b)
+    b[:, joint] -= 0.88
+    b[:, 0] += 0.1
+    q = crossfade(robot, a, b)
     assert np.allclose(np.linalg.norm(q[:, 3:7], axis=1), 1.0)
     assert np.allclose(q[:, 3:7], [0.0, 0.0, 0.0, 1.0])  # never through the other sign
-    assert abs(q[0, 8]) < 0.01 * 0.88 and abs(q[-1, 8] + 0.88) < 0.01 * 0.88
-    d2 = np.abs(np.diff(q[:, 8], 2))
-    assert d2.max() <= 6 * 0.88 / n ** 2
-    assert np.all(np.diff(q[:, 8]) <= 0.0) and np.all(np.diff(q[:, 0]) >= 0.0)
+    d = q[:, joint] - a[:, joint]
+    assert abs(d[0]) < 0.01 * 0.88 and abs(d[-1] + 0.88) < 0.01 * 0.88
+    assert np.abs(np.diff(d, 2)).max() <= 6 * 0.88 / n ** 2
+    assert np.all(np.diff(d) <= 0.0) and np.all(np.diff(q[:, 0]) >= 0.0)
 
 
 def test_two_chains_and_their_join_window_hold_both_ends_and_every_border(

@@ -49,13 +49,13 @@ def linearize_obstacles(model: CapsuleModel, placements: np.ndarray, jacobians: 
         jacobians: (T, F, 6, nv) their world-aligned Jacobians.
         obstacles: the obstacles over the same T frames.
     """
-    T, nv = placements.shape[0], jacobians.shape[-1]
+    T = placements.shape[0]
     tt, cc, oo, dist, n, point = capsule_obstacle_distances(
         model.world_segments(placements), model.radius, obstacles, activation)
     low = np.full(T, np.inf)
     np.minimum.at(low, tt, dist)
     act = dist < activation
     tt, cc, oo, dist, n, point = tt[act], cc[act], oo[act], dist[act], n[act], point[act]
-    rows = obstacle_rows(model, placements, jacobians, tt, cc, n, point)
     return ObstacleLinearization(frames=tt, capsules=cc, obstacles=oo, distance=dist,
-                                 rows=rows.reshape(-1, nv), min_distance=low)
+                                 rows=obstacle_rows(model, placements, jacobians, tt, cc, n,
+                                                    point), min_distance=low)

@@ -244,20 +244,16 @@ def join_layout(n_frames: int, window_frames: int, overlap_frames: int,
     return max(middle + half, j0 + step_cost), min(middle - half, j1 - step_cost), j0, j1
 
 
-def crossfade(q_a: np.ndarray, q_b: np.ndarray) -> np.ndarray:
-    """(n, nq) configurations going from ``q_a`` to ``q_b`` over their n common frames: the
-    weight of ``q_b`` rises as a smoothstep ``3 x^2 - 2 x^3`` (zero slope at both ends), the
-    base position and the joints blended linearly, the base quaternion (x, y, z, w) normalized
-    after a linear blend on the side of ``q_a``'s hemisphere."""
+def crossfade(robot, q_a: np.ndarray, q_b: np.ndarray) -> np.ndarray:
+    """(n, nq) configurations going from ``q_a`` to ``q_b`` over their n common frames:
+    ``q_a,t (+) s_t (q_b,t (-) q_a,t)`` (the robot's ``integrate`` and ``difference``, so the
+    base turns along the geodesic whatever the quaternions' signs), the weight ``s`` rising
+    as a smoothstep ``3 x^2 - 2 x^3`` (zero slope at both ends)."""
     n = len(q_a)
     x = (np.arange(n) + 0.5) / n
-    s = (x * x * (3.0 - 2.0 * x))[:, None]
-    q_b = q_b.copy()
-    flip = np.sum(q_a[:, 3:7] * q_b[:, 3:7], axis=1) < 0.0
-    q_b[flip, 3:7] *= -1.0
-    q = (1.0 - s) * q_a + s * q_b
-    q[:, 3:7] /= np.linalg.norm(q[:, 3:7], axis=1, keepdims=True)
-    return q
+    s = x * x * (3.0 - 2.0 * x)
+    return np.array([robot.integrate(a, w * robot.difference(a, b))
+                     for a, b, w in zip(q_a, q_b, s, strict=True)])
 
 
 def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBodyConfig,
@@ -314,7 +310,8 @@ def solve_windowed(robot, plan: Plan, footprints: list, targets, config: WholeBo
         # starts on a crossfade from one to the other (starting on a step between them, 0.9
         # rad at the waist on the 60 s dance, left 9.6 times G1's acceleration limit there)
         q_start = np.concatenate([chain1.q[j0:start2],
-                                  crossfade(chain1.q[start2:stop1], chain2.q[:stop1 - start2]),
+                                  crossfade(robot, chain1.q[start2:stop1],
+                                            chain2.q[:stop1 - start2]),
                                   chain2.q[stop1 - start2:j1 - start2]])
         sub = plan_window(plan, j0, j1, fixed_frames=FIXED_FRAMES, rest_ends=(False, False),
                           q_start=q_start, fixed_end_frames=FIXED_FRAMES)

@@ -48,6 +48,7 @@ class Obstacles:
         return Obstacles(segments_m=self.segments_m[start:stop], radius_m=self.radius_m,
                          ignored=None if self.ignored is None else self.ignored[start:stop])
 
+
 def capsule_obstacle_distances(seg_world: np.ndarray, radius: np.ndarray,
                                obstacles: Obstacles, cutoff: float
                                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
