@@ -97,6 +97,11 @@ class SolverError(ImeshError):
         super().__init__(message)
 
 
+class QpInfeasibleError(SolverError):
+    """A QP solver certified that no point meets the QP's constraints: another solver will not
+    find one either (the whole-body solve relaxes its speed rows instead)."""
+
+
 class OptionError(ImeshError):
     """A user option (CLI flag, config value) is invalid; the message lists valid values."""
 

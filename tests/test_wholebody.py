@@ -11,7 +11,7 @@ from conftest import load_test_robot
 from imesh.balance import BalanceConfig, ConvergenceConfig
 from imesh.contacts.phases import SIDES
 from imesh.core.limits import LimitOptions
-from imesh.errors import OptionError, SolverError
+from imesh.errors import OptionError, QpInfeasibleError, SolverError
 from imesh.fit.limits import joint_limits
 from imesh.fit.targets import compile_targets
 from imesh.morph.problem import MorphConfig
@@ -179,6 +179,28 @@ def test_qp_stalled_at_the_iteration_limit_is_solved_again(robot, monkeypatch):
     assert np.abs(direct.x - full.x).max() < 1e-5
 
 
+@pytest.mark.parametrize("solver", ["piqp", "clarabel"])
+def test_a_qp_certified_infeasible_is_refused_without_another_solver(solver):
+    """Three unknowns in [-1, 1] whose sum must reach 5 (at most 3): certified infeasible
+    (PIQP: by two runs of different scalings) and refused as such, so the SQP relaxes its rows
+    instead of handing the QP to Clarabel; the sum of 2 is met at x = 2/3 each, the minimum of
+    |x|^2 / 2 + sum(x) on that row."""
+    import scipy.sparse as sp
+
+    from imesh.solve.qp import QpProblem
+
+    def problem(least_sum):
+        return QpProblem(P=sp.identity(3, format="csc"), c=np.ones(3), A=sp.csc_matrix((0, 3)),
+                         b=np.zeros(0), G=sp.csc_matrix(np.ones((1, 3))),
+                         l=np.array([least_sum]), u=np.array([np.inf]),
+                         x_l=-np.ones(3), x_u=np.ones(3))
+
+    with pytest.raises(QpInfeasibleError):
+        solve_qp(problem(5.0), solver)
+    sol = solve_qp(problem(2.0), solver, 1e-9)
+    assert np.abs(sol.x - 2.0 / 3.0).max() < 1e-6
+
+
 def test_an_infeasible_qp_switches_to_elastic_speed_rows(robot):
     """An initializer swinging the arms at 1.5 times the margin-reduced speed limit for longer
     than a step may undo (the CMU 07_05 walk's elbow on JVRC-1): with hard speed rows the first
@@ -226,6 +248,32 @@ def test_standing_stays_standing(robot):
         corners = np.array([robot.sole_corners(qt, side) for qt in sol.q])
         assert np.abs(corners - corners[0]).max() < 1e-9
         assert np.abs(corners[..., 2]).max() < 1e-6
+
+
+def test_a_flight_plan_goes_past_the_plain_budget_only_while_its_merit_falls_fast(robot):
+    """Four frames of a sway planned as flight: a plan with unknown contacts. Past
+    ``iterations`` (2) it goes on towards ``contact_iterations`` (8) only while each iteration
+    lowers the merit by at least ``contact_gain``. With 0 it goes on to its 3rd iteration and
+    stops there on its own rule (soles on their footprints, the feet lifted, the ZMP settled);
+    with 0.999 it stops at the 2nd (the merit fell by about 98 % there), on the same iterate as
+    the longer run's 2nd, before the soles met their footprints."""
+    q = _sway(robot, T=30)
+    support = np.ones((30, 2), dtype=bool)
+    support[13:17] = False
+    runs = {}
+    for gain in (0.0, 0.999):
+        config = WholeBodyConfig(sqp=SqpOptions(iterations=2, contact_iterations=8,
+                                                contact_gain=gain))
+        plan, footprints, targets = _plan(robot, q, support=support, config=config)
+        assert plan.flight[13:17].all()
+        runs[gain] = solve_whole_body(robot, plan, footprints, targets, config)
+    short, long = runs[0.999], runs[0.0]
+    assert len(short.history) - 1 == 2 and not short.converged
+    assert len(long.history) - 1 > 2 and long.converged
+    assert long.history[-1].sole_error_m < 1e-5 < short.history[-1].sole_error_m
+    # the same iterates up to the stop
+    assert short.history[-1].keypoint_rms_m == pytest.approx(long.history[2].keypoint_rms_m,
+                                                             rel=1e-9)
 
 
 def test_balanced_sway_is_left_unchanged(robot):

@@ -260,6 +260,12 @@ class SqpOptions:
             couple's hold (G1 + G1, no avoidance) ended with 4 frames over robot b's
             acceleration limits, and the zombie walk gained ZMP inside 0.969 -> 1.000 on G1
             for 2x the time.
+        contact_gain: past ``iterations``, a plan with flight frames goes on only while each
+            iteration lowers the merit by at least this fraction: the 60 s dance's windows
+            holding two 2-frame flights, 3-5 % per iteration from the 20th to the 40th, stop at
+            20 like its windows without flight (docs/clips-flight.md). Plans with prop
+            contacts keep ``contact_iterations`` (a climb's window: 20-25 % at the 20th; not
+            measured further).
         step_tolerance: stop when no coordinate of the update exceeds this [m or rad] ...
         merit_tolerance: ... or when the constraints hold (soles within 1 mm, ZMP and swing
             feet within 1 mm of their bounds) and an iteration lowered the merit by less than
@@ -295,6 +301,7 @@ class SqpOptions:
 
     iterations: int = 20
     contact_iterations: int = 40
+    contact_gain: float = 0.1
     step_tolerance: float = 1e-4
     merit_tolerance: float = 3e-2
     settled_step: float = 1e-2
@@ -311,6 +318,8 @@ class SqpOptions:
                        positive=True)
         require_finite(self, ("trust_region", "base_trust", "settled_step", "keypoint_change"),
                        positive=False)
+        if not 0.0 <= self.contact_gain < 1.0:
+            raise OptionError("contact_gain", self.contact_gain, "a fraction in [0, 1)")
         if not 0.0 <= self.margin_use <= 1.0:
             raise OptionError("margin_use", self.margin_use, "a fraction in [0, 1]")
         if self.solver not in SOLVERS:

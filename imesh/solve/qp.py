@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..core.lazy import optional
-from ..errors import OptionError, SolverError
+from ..errors import OptionError, QpInfeasibleError, SolverError
 
 log = logging.getLogger(__name__)
 
@@ -85,8 +85,12 @@ class QpSolution:
 PIQP_MAX_ITER = 80
 #: Iteration limit of the retry without preconditioning. On the HRP-4C wash's fourth QP the
 #: scaled problem stalled with a dual residual of 0.06-0.13 through 250 iterations (56 s)
-#: where the unscaled one converges in 31 (docs/collision.md).
-PIQP_RETRY_MAX_ITER = 250
+#: where the unscaled one converges in 31 (docs/collision.md); the unscaled runs that
+#: converged took 21-31 iterations, one of the 60 s dance's that did not ran 250 (55 s).
+PIQP_RETRY_MAX_ITER = 100
+#: Iteration limit of the last attempt (:data:`PIQP_LAST_PRECONDITIONER_ITER`): it converged
+#: in 75-161 iterations where the first two had not.
+PIQP_LAST_MAX_ITER = 250
 #: Ruiz equilibration passes of a first attempt (PIQP's default is 10). With 10 the G1 wave's
 #: first QP stalled (80 iterations, then 25 in the retry without scaling) and the walk's second
 #: took 45; with 3 they take 24 and 28, and the walk's and wave's 34 QPs 800 interior-point
@@ -101,46 +105,79 @@ PIQP_KKT_SOLVER = "sparse_ldlt_eq_cond"
 #: KKT back end of the retry without preconditioning: unscaled, ``sparse_ldlt_eq_cond`` stalled
 #: (250 iterations) on a QP ``sparse_ldlt`` solves in 21 (tests/test_wholebody.py).
 PIQP_RETRY_KKT_SOLVER = "sparse_ldlt"
+#: Ruiz passes of the last attempt, scaled again with the plain LDL^T, when the unscaled retry
+#: fails too. The first QP of the 60 s dance's second chain (25,550 unknowns) stalls scaled with
+#: ``sparse_ldlt_eq_cond`` (dual residual 0.53 after 80 iterations, still unconverged after
+#: 250), is declared dual infeasible unscaled (6 iterations), and converges with 5 passes and
+#: ``sparse_ldlt`` in 75 (25 cpu s, the objective of Clarabel's solution to 8 digits, which
+#: took 108 cpu s; docs/clips-flight.md).
+PIQP_LAST_PRECONDITIONER_ITER = 5
+
+
+@dataclass(frozen=True)
+class _Attempt:
+    """One PIQP run's settings: Ruiz passes, iteration limit, KKT back end, duality-gap test."""
+
+    preconditioner_iter: int
+    max_iter: int
+    kkt_solver: str
+    gap_check: bool
+    unscaled: bool
+
+
+def _piqp_attempts(gap_check: bool, unscaled: bool) -> list[_Attempt]:
+    """The runs tried in turn until one converges: scaled, unscaled, scaled with the plain
+    LDL^T; from the second when the caller asks for ``unscaled``."""
+    first = _Attempt(PIQP_PRECONDITIONER_ITER, PIQP_MAX_ITER, PIQP_KKT_SOLVER, gap_check, False)
+    # unscaled, the duality gap can stay open where the residuals have met the tolerance
+    # (iCub's QPs: 250 iterations without it closing, 27 to the residuals)
+    retry = _Attempt(0, PIQP_RETRY_MAX_ITER, PIQP_RETRY_KKT_SOLVER, False, True)
+    last = _Attempt(PIQP_LAST_PRECONDITIONER_ITER, PIQP_LAST_MAX_ITER, PIQP_RETRY_KKT_SOLVER,
+                    gap_check, False)
+    return [retry, last] if unscaled else [first, retry, last]
 
 
 def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool = False):
     piqp = optional("piqp", "pip install piqp", "the whole-body QP (solver piqp)")
-    def attempt(preconditioner_iter: int | None, max_iter: int, kkt: str, gap_check: bool):
+
+    def run(a: _Attempt):
         solver = piqp.SparseSolver()
         solver.settings.eps_abs = tol
         solver.settings.eps_rel = 0.0
         solver.settings.verbose = False
-        solver.settings.check_duality_gap = gap_check
+        solver.settings.check_duality_gap = a.gap_check
         solver.settings.eps_duality_gap_abs = tol  # PIQP's default (1e-8) is not ``tol``'s
-        solver.settings.max_iter = max_iter
-        solver.settings.kkt_solver = getattr(piqp.KKTSolver, kkt)
-        if preconditioner_iter is not None:
-            solver.settings.preconditioner_iter = preconditioner_iter
+        solver.settings.max_iter = a.max_iter
+        solver.settings.kkt_solver = getattr(piqp.KKTSolver, a.kkt_solver)
+        solver.settings.preconditioner_iter = a.preconditioner_iter
         big = 1e30  # PIQP takes infinite bounds as +-inf; keep them finite for the KKT check
         solver.setup(p.P, p.c, p.A, p.b, p.G, np.maximum(p.l, -big), np.minimum(p.u, big),
                      p.x_l, p.x_u)
         return solver.solve(), solver.result
 
-    iterations = 0
-    if not unscaled:
-        status, r = attempt(PIQP_PRECONDITIONER_ITER, PIQP_MAX_ITER, PIQP_KKT_SOLVER,
-                            gap_check)
-        iterations = int(r.info.iter)
-        unscaled = status == piqp.PIQP_MAX_ITER_REACHED
-        if unscaled:
-            log.info("PIQP: no convergence in %d iterations (dual residual %.3g); solving "
-                     "again without preconditioning", iterations, r.info.dual_res)
-    if unscaled:
-        # unscaled, the duality gap can stay open where the residuals have met the
-        # tolerance (iCub's QPs: 250 iterations without it closing, 27 to the residuals)
-        status, r = attempt(0, PIQP_RETRY_MAX_ITER, PIQP_RETRY_KKT_SOLVER, False)
+    iterations, infeasible = 0, 0
+    for a in _piqp_attempts(gap_check, unscaled):
+        status, r = run(a)
         iterations += int(r.info.iter)
+        unscaled = a.unscaled
+        if status == piqp.PIQP_SOLVED:
+            break
+        # two runs with different scalings finding the same certificate of primal
+        # infeasibility: no solver will find a point (Clarabel took 69 cpu s to say so on a
+        # window of the 60 s dance, whose trust region was 12 mm short of a velocity row)
+        infeasible += status == piqp.PIQP_PRIMAL_INFEASIBLE
+        if infeasible == 2:
+            break
+        log.info("PIQP (%d Ruiz passes, %s): %s after %d iterations (dual residual %.3g); "
+                 "trying the next settings", a.preconditioner_iter, a.kkt_solver, status,
+                 int(r.info.iter), r.info.dual_res)
     x = np.asarray(r.x)
     # PIQP's multipliers: y (equalities), z_l/z_u (G rows), z_bl/z_bu (bounds)
     stat = p.P @ x + p.c + p.A.T @ np.asarray(r.y) \
         + p.G.T @ (np.asarray(r.z_u) - np.asarray(r.z_l)) \
         + (np.asarray(r.z_bu) - np.asarray(r.z_bl))
-    return x, str(status), iterations, float(np.abs(stat).max(initial=0.0)), unscaled
+    return (x, str(status), iterations, float(np.abs(stat).max(initial=0.0)), unscaled,
+            infeasible == 2)
 
 
 def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool = False):
@@ -161,7 +198,8 @@ def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True, unscaled: 
     solver = clarabel.DefaultSolver(sp.triu(p.P, format="csc"), p.c, A, np.concatenate(rhs),
                                     cones, settings)
     sol = solver.solve()
-    return np.asarray(sol.x), str(sol.status), int(sol.iterations), float("nan"), False
+    return (np.asarray(sol.x), str(sol.status), int(sol.iterations), float("nan"), False,
+            str(sol.status) == "PrimalInfeasible")
 
 
 def _solve_osqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool = False):
@@ -174,7 +212,8 @@ def _solve_osqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool
     solver.setup(sp.triu(p.P, format="csc"), p.c, A, lo, hi, eps_abs=tol, eps_rel=0.0,
                  max_iter=20000, polishing=True, verbose=False)
     r = solver.solve()
-    return np.asarray(r.x), str(r.info.status), int(r.info.iter), float("nan"), False
+    return (np.asarray(r.x), str(r.info.status), int(r.info.iter), float("nan"), False,
+            str(r.info.status) == "primal infeasible")
 
 
 def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7,
@@ -186,10 +225,14 @@ def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7,
     250 iterations where the residuals met ``tol`` after 23, at the same objective to 7
     digits (docs/speed.md). ``unscaled=True`` skips PIQP's first attempt and solves as its
     retry does (no preconditioning, :data:`PIQP_RETRY_KKT_SOLVER`): the SQP asks for it once
-    a QP of its solve needed the retry.
+    a QP of its solve needed the retry. PIQP's runs in turn: scaled, unscaled, scaled again
+    with :data:`PIQP_LAST_PRECONDITIONER_ITER` passes and the plain LDL^T; it stops at the
+    first that converges, or once two of them certify primal infeasibility.
 
     Raises:
         OptionError: unknown solver.
+        QpInfeasibleError: the solver certified that no point meets the constraints (PIQP: two
+            runs with different scalings).
         SolverError: the solver failed or returned a non-finite point (the message carries the
             status and the residuals).
     """
@@ -197,8 +240,11 @@ def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7,
     if run is None:
         raise OptionError("QP solver", solver, SOLVERS)
     t0 = time.perf_counter()
-    x, status, iterations, kkt, unscaled = run(problem, tol, gap_check, unscaled)
+    x, status, iterations, kkt, unscaled, infeasible = run(problem, tol, gap_check, unscaled)
     seconds = time.perf_counter() - t0
+    if infeasible:
+        raise QpInfeasibleError(f"QP solver {solver}: {status} after {iterations} iterations "
+                                f"({seconds:.1f} s)")
     if not np.all(np.isfinite(x)):
         raise SolverError(f"QP solver {solver} returned a non-finite point (status {status})")
     res = problem.residuals(x)
