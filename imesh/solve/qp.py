@@ -128,18 +128,21 @@ class _Attempt:
     max_iter: int
     kkt_solver: str
     gap_check: bool
-    unscaled: bool
+
+    @property
+    def unscaled(self) -> bool:
+        return self.preconditioner_iter == 0
 
 
 def _piqp_attempts(gap_check: bool, unscaled: bool) -> list[_Attempt]:
     """The runs tried in turn until one converges: scaled, unscaled, scaled with the plain
     LDL^T; from the second when the caller asks for ``unscaled``."""
-    first = _Attempt(PIQP_PRECONDITIONER_ITER, PIQP_MAX_ITER, PIQP_KKT_SOLVER, gap_check, False)
+    first = _Attempt(PIQP_PRECONDITIONER_ITER, PIQP_MAX_ITER, PIQP_KKT_SOLVER, gap_check)
     # unscaled, the duality gap can stay open where the residuals have met the tolerance
     # (iCub's QPs: 250 iterations without it closing, 27 to the residuals)
-    retry = _Attempt(0, PIQP_RETRY_MAX_ITER, PIQP_RETRY_KKT_SOLVER, False, True)
+    retry = _Attempt(0, PIQP_RETRY_MAX_ITER, PIQP_RETRY_KKT_SOLVER, False)
     last = _Attempt(PIQP_LAST_PRECONDITIONER_ITER, PIQP_LAST_MAX_ITER, PIQP_RETRY_KKT_SOLVER,
-                    gap_check, False)
+                    gap_check)
     return [retry, last] if unscaled else [first, retry, last]
 
 
