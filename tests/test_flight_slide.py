@@ -196,6 +196,41 @@ def test_known_slide_is_retargeted(robot, standing, tmp_path):
     assert skid.mean_mm_per_frame <= 0.5
 
 
+def test_known_slide_slides_in_the_dart_check(robot, standing, tmp_path):
+    """The written slide tracked in DART by the whole-body controller: the floor under the
+    planned slide is as slippery as the plan assumed (``GroundConfig.slide_friction``), the
+    controller takes its friction as Coulomb's kinetic force, so the left sole slides with
+    the plan (measured: 238 of 241 mm on JVRC-1, key points at most 26 mm off) while the
+    standing sole does not move. A controller that held every support sole still (the one
+    before) left it where it stood, the key points 242 mm behind."""
+    pytest.importorskip("dartpy")
+    from imesh.metrics.soles import sole_tracks
+    from imesh.physics import GroundConfig, PhysicsConfig, simulate_motion
+
+    _, written, _, _ = _retarget_and_score(robot, slide_clip(standing), tmp_path)
+    moving = np.flatnonzero(written.contact_modes[:, 0] >= 2)
+    a, b = moving[0] - 3, moving[-1] + 3
+
+    def travel(config):
+        result = simulate_motion(robot, written, config=config)
+        assert not result.fell, result.fall_reason
+        sim = sole_tracks(robot, result.q, result.fps).centers
+        ref = sole_tracks(robot, result.q_reference, result.fps).centers
+        right = np.linalg.norm(sim["right"][:, :2] - sim["right"][0, :2], axis=1).max()
+        return (np.linalg.norm(sim["left"][b, :2] - sim["left"][a, :2]),
+                np.linalg.norm(ref["left"][b, :2] - ref["left"][a, :2]), right, result)
+
+    slid, planned, right, result = travel(PhysicsConfig())
+    assert planned > 0.15
+    assert abs(slid - planned) <= 0.05 * planned
+    assert right < 1e-3 and result.slip_mm < 1.0
+    assert result.keypoint_max_mm < 50.0
+    # as rough under the slide as elsewhere: the controller unloads the sole and pushes it
+    # along with Coulomb's force against it (measured 229 mm)
+    slid, _, right, result = travel(PhysicsConfig(ground=GroundConfig(slide_friction=1.0)))
+    assert slid >= 0.9 * planned and right < 1e-3 and result.keypoint_max_mm < 50.0
+
+
 def test_known_hop_is_retargeted(robot, standing, tmp_path):
     """The hop retargeted on JVRC-1 with default settings (no --allow-flight) and scored on the
     written file: no limit violation, no ground penetration beyond 2 mm; the robot flies

@@ -142,6 +142,40 @@ def test_wbc_holds_an_off_centre_com_where_the_reference_has_it(jvrc1):
     assert result.keypoint_worst_s == pytest.approx(f / result.fps)
 
 
+def test_a_sliding_sole_carries_coulombs_kinetic_force(jvrc1):
+    """A sole the plan slides, moving over the ground at 0.2 m/s: the controller's wrench on
+    it is on the friction cone's boundary against the slide, ``f_t = -mu fz u`` (the force
+    DART's Coulomb contact applies), to the QP's tolerance; the standing sole's within the
+    cone it assumes (0.7 mu of 1.0); a sole the plan holds still gets no such rows."""
+    from imesh.physics.reference import build_reference
+    from imesh.physics.track import ReferenceTrack
+    from imesh.physics.wbc import WholeBodyController
+
+    robot = jvrc1
+    motion = _standing(robot, 1.0)
+    modes = np.ones((motion.n_frames, 2), dtype=np.int8)
+    modes[:, 0] = 2  # the left sole slides
+    ref = build_reference(robot, motion.q, motion.fps, contact_modes=modes)
+    assert ref.moving[:, 0].all() and not ref.moving[:, 1].any()
+    mu = 0.1
+    controller = WholeBodyController(robot, ReferenceTrack(robot, ref), WbcConfig(), 1.0,
+                                     slide_friction=mu)
+    v = np.zeros(robot.nv)
+    v[0] = 0.2  # the base, and both soles with it, moving forward
+    step = controller.step(0.5, ref.q[15], v)
+    assert step.contacts.all() and step.sliding.tolist() == [True, False]
+    f_left, f_right = step.wrenches[0, :3], step.wrenches[1, :3]
+    u = controller.robot.dynamics(ref.q[15], v, controller.frames,
+                                  controller.centres).twists[0, :3]
+    u = u[:2] / np.linalg.norm(u[:2])
+    assert f_left[2] > 10.0
+    np.testing.assert_allclose(f_left[:2], -mu * f_left[2] * u, atol=1e-6 * f_left[2])
+    assert np.linalg.norm(f_right[:2]) <= 0.7 * 1.0 * f_right[2] + 1e-6
+    held = controller.step(0.5, ref.q[15], np.zeros(robot.nv))
+    assert held.sliding.tolist() == [False, False]
+    assert np.linalg.norm(held.wrenches[0, :2]) <= 0.7 * mu * held.wrenches[0, 2] + 1e-6
+
+
 def test_wbc_falls_when_the_motion_cannot_be_performed(jvrc1):
     """The check can fail: a reference with both feet 0.3 m in the air for 1 s (no support:
     nothing can hold the robot up there) is judged a fall."""

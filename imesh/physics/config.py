@@ -136,6 +136,10 @@ class WbcConfig:
             stood the rolling sole on that corner alone, which holds no moment about the
             vertical, and its heel swung 7 mm sideways before the lift-off (JVRC-1 veer). The
             rolling sole's wrench cone is that of this front strip (a line contact).
+        slip_speed_m_s: a sole the plan slides or pivots is sliding once its centre moves
+            faster than this over the ground [m/s]; the controller then takes the ground's
+            friction on it as Coulomb's kinetic force, against the motion
+            (:mod:`imesh.physics.wbc`).
         landing_depth_m: a sole the plan has in support while it is still in the air (a late
             landing) is driven to this far below its reference [m]. On the 12 runs of
             docs/wholebody.md, from 0 to 0.02, the runs slipping more than 5 mm fall from 4 to
@@ -156,6 +160,7 @@ class WbcConfig:
     toe_cop_fraction: float = 0.8
     landing_depth_m: float = 0.02
     toe_lateral: float = 0.3
+    slip_speed_m_s: float = 0.02
 
     def __post_init__(self) -> None:
         require_finite(self, ("rate_hz", "friction_fraction", "torque_fraction",
@@ -166,8 +171,8 @@ class WbcConfig:
             raise OptionError("toe_lateral", self.toe_lateral, "a fraction in (0, 1]")
         if not 0.0 <= self.toe_cop_fraction < 1.0:
             raise OptionError("toe_cop_fraction", self.toe_cop_fraction, "a fraction in [0, 1)")
-        require_finite(self, ("min_normal_force_n", "contact_height_m", "landing_depth_m"),
-                       positive=False)
+        require_finite(self, ("min_normal_force_n", "contact_height_m", "landing_depth_m",
+                              "slip_speed_m_s"), positive=False)
         if not 0.0 <= self.cop_margin < 1.0:
             raise OptionError("cop_margin", self.cop_margin, "a fraction in [0, 1)")
         if self.torque_fraction > 1.0:
@@ -275,6 +280,14 @@ class GroundConfig:
 
     Attributes:
         friction: Coulomb friction coefficient of the ground and the robot.
+        slide_friction: Coulomb friction coefficient under a sole while the plan slides or
+            pivots it (its ``contact_modes``), static and kinetic: a floor as slippery as the
+            whole-body solve assumed there (``ForceOptions.kinetic_friction``: at most 0.3).
+            On a floor of ``friction`` (1.0) a sliding sole is braked by its whole normal
+            force, which no plan of a slide asks for, and a held one does not slide at all.
+            Measured on the two clips with slides (G1, docs/checking.md): at 0, 0.1, 0.3 and
+            1.0 salsa A was lost at 6.00, 6.30, 6.10 and 5.93 s, the zombie walk (0, 0.1,
+            0.3) at 1.33, 1.67 and 1.40 s.
         sole_thickness_m: thickness of the sole boxes that replace the foot proxies [m].
         start_clearance_m: the first frame is placed this high above the ground before settling
             [m].
@@ -285,6 +298,7 @@ class GroundConfig:
     """
 
     friction: float = 1.0
+    slide_friction: float = 0.1
     sole_thickness_m: float = 0.02
     start_clearance_m: float = 0.001
     collision_detector: str = "ode"
@@ -295,7 +309,8 @@ class GroundConfig:
             raise OptionError("collision detector", self.collision_detector,
                               COLLISION_DETECTORS)
         require_finite(self, ("sole_thickness_m",), positive=True)
-        require_finite(self, ("friction", "start_clearance_m"), positive=False)
+        require_finite(self, ("friction", "slide_friction", "start_clearance_m"),
+                       positive=False)
         require_count(self, ("contact_sample_every",))
 
 

@@ -153,7 +153,8 @@ class WbcTracker:
         self.controller = WholeBodyController(sim.robot, self.track, config.control.wbc,
                                               config.ground.friction,
                                               joint_damping=sim.joint_damping,
-                                              time_step_s=config.timing.dt)
+                                              time_step_s=config.timing.dt,
+                                              slide_friction=config.ground.slide_friction)
         dt = config.timing.dt
         self.every = max(1, int(round(1.0 / (config.control.wbc.rate_hz * dt))))
         self.dt = dt

@@ -33,6 +33,8 @@ class Reference:
         fps: frame rate [1/s].
         support: (T, 2) bool [left, right] feet in support (planned, or detected from the
             soles).
+        moving: (T, 2) bool the support frames in which the plan slides or pivots the foot
+            (``RobotMotion.contact_modes``; all False without them).
         soles: sole tracks of ``q``.
         zmp_m: (T, 2) float [m] planned multibody ZMP of ``q``.
         ground_offset_m: [m] added to the base height so that the lowest point of the first
@@ -45,6 +47,7 @@ class Reference:
     a: np.ndarray
     fps: float
     support: np.ndarray
+    moving: np.ndarray
     soles: SoleTracks
     zmp_m: np.ndarray
     ground_offset_m: float
@@ -96,10 +99,10 @@ def build_reference(robot, q: np.ndarray, fps: float, *, clearance_m: float = 0.
                      1e3 * offset)
     v, a = motion_derivatives(q, fps)
     soles = sole_tracks(robot, q, fps)
-    support = motion_support(soles, contact_modes, support_config).support
+    contacts = motion_support(soles, contact_modes, support_config)
     zmp = zmp_trajectory(robot, q, v, a)
-    return Reference(q=q, v=v, a=a, fps=fps, support=support, soles=soles, zmp_m=zmp,
-                     ground_offset_m=float(offset))
+    return Reference(q=q, v=v, a=a, fps=fps, support=contacts.support, moving=contacts.moving,
+                     soles=soles, zmp_m=zmp, ground_offset_m=float(offset))
 
 
 def joint_splines(q: np.ndarray, fps: float) -> CubicSpline | None:

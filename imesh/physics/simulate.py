@@ -199,7 +199,8 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
     - ``cop_margin_mm``: smallest distance of a loaded sole's centre of pressure to the edge of
       its rectangle (negative outside) [mm];
     - ``slip_mm``: largest horizontal displacement of a sole corner on the ground within one
-      planned support phase while it stays on the ground (:func:`sole_slip`), over the
+      planned support phase that does not slide or pivot, while it stays on the ground
+      (:func:`sole_slip`), over the
       survived frames [mm].
     """
     n = np.maximum(samples, 1)[:, None, None]
@@ -236,7 +237,7 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
         use = loaded & np.isfinite(edge)
         if use.any():
             margin = float(1e3 * edge[use].min())
-        slip, k, f = sole_slip(corners, ref.support & ok[:, None])
+        slip, k, f = sole_slip(corners, ref.support & ~ref.moving & ok[:, None])
         if k >= 0:
             slip_side, slip_s = SIDES[k], float(f / ref.fps)
     return {"zmp": zmp, "force": force, "sole_forces": forces, "sole_cop": sole_cop,
@@ -324,6 +325,9 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     lost = _LostReference(robot, ref, config.fall.lost_m) if nb else None
     t0 = time.perf_counter()
 
+    # the floor under a sole the plan slides or pivots is as slippery as the plan assumed
+    friction = np.where(ref.moving, config.ground.slide_friction, config.ground.friction)
+    sole_friction = np.full(2, config.ground.friction)
     total = settle + track + 1
     next_frame = 0  # the next motion frame to record
     for k in range(total):
@@ -342,6 +346,11 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
             reason = (f"simulation diverged (base speed {abs(vel[:6]).max():.0f}) at "
                       f"t = {i * dt:.2f} s")
             break
+        if nb and tracking:
+            mu = friction[frame_of_step[i]]
+            for side in np.flatnonzero(mu != sole_friction):
+                sim.set_sole_friction(SIDES[side], mu[side])
+                sole_friction[side] = mu[side]
         tau, ratio = controller(k, i, tracking, pos, vel)
         if ratio != ratio:  # NaN: a non-finite state propagates into every torque
             fell, reason, fall_step = True, "simulation diverged (non-finite torque)", i

@@ -37,6 +37,7 @@ class TrackPoint:
             ``momentum_rate`` (3,) its rate [N m] (pinocchio's, from the evaluator's central
             differences: the ``Ldot`` of the planned multibody ZMP).
         support: (2,) bool [left, right] planned support.
+        moving: (2,) bool [left, right] planned slide or pivot (a support that moves).
         frame: the nearest motion frame.
     """
 
@@ -58,6 +59,7 @@ class TrackPoint:
     momentum: np.ndarray
     momentum_rate: np.ndarray
     support: np.ndarray
+    moving: np.ndarray
     frame: int
 
 
@@ -207,4 +209,4 @@ class ReferenceTrack:
             sole_rotations=np.array([o(tc) for o in self._sole_rot]),
             sole_omega=omega[3:].reshape(2, 3), sole_alpha=alpha[3:].reshape(2, 3),
             momentum=momentum, momentum_rate=momentum_rate, support=self.ref.support[f],
-            frame=f)
+            moving=self.ref.moving[f], frame=f)

@@ -66,6 +66,15 @@ a PD aimed at the ground slows down as it nears it, and the reference drops its 
 one frame, so the sole hovered a frame or two above the ground while the plan loaded it), and
 a sole that leaves its support early is tracked as a swing sole too. When no
 planned sole is down (the landing is late), the soles that are down stay in contact.
+
+A contact sole the plan slides or pivots (``TrackPoint.moving``) keeps only its normal
+acceleration, roll and pitch as contact rows (flat on the ground); its tangential acceleration
+and yaw follow the reference as a task (weighted as a swing sole). Sliding (its centre faster
+than ``WbcConfig.slip_speed_m_s`` over the ground) its friction is Coulomb's kinetic force
+against the measured slide ``u``: ``f_t = -mu_s f_n u``, two equality rows on its wrench, with
+``mu_s`` the floor's friction under slides (``GroundConfig.slide_friction``) and the cone of
+the whole ``mu_s``; slower, static friction holds it within the cone of
+``friction_fraction mu_s``.
 """
 
 from __future__ import annotations
@@ -84,6 +93,7 @@ from .track import ReferenceTrack, TrackPoint
 log = logging.getLogger(__name__)
 
 GRAVITY = 9.81
+SIDE_IDX = range(len(SIDES))
 
 
 def _rotation_error(R_ref: np.ndarray, R: np.ndarray) -> np.ndarray:
@@ -112,12 +122,15 @@ class ControlStep:
             sole centres; 0 off contact) [N, Nm].
         relaxed: the QP with its contact rows as constraints was infeasible within the torque
             limits and was solved with them as the heaviest task (the step is counted).
+        sliding: (2,) bool [left, right] contact soles whose friction was Coulomb's kinetic
+            force against their slide (planned slides and pivots that move).
     """
 
     tau: np.ndarray
     contacts: np.ndarray
     wrenches: np.ndarray
     relaxed: bool
+    sliding: np.ndarray
 
 
 class WholeBodyController:
@@ -133,10 +146,13 @@ class WholeBodyController:
             from the URDF), added to the joint rows of the equation of motion; None: 0.
         time_step_s: the simulator's time step [s], over which it integrates the damping
             implicitly (below); None: the damping as an explicit force only.
+        slide_friction: the friction coefficient under a sole the plan slides or pivots
+            (``GroundConfig.slide_friction``); None: ``friction``.
     """
 
     def __init__(self, robot, track: ReferenceTrack, config: WbcConfig, friction: float,
-                 joint_damping: np.ndarray | None = None, time_step_s: float | None = None):
+                 joint_damping: np.ndarray | None = None, time_step_s: float | None = None,
+                 slide_friction: float | None = None):
         from .qp import dense_qp  # noqa: PLC0415  (the solver's import is lazy)
 
         self._solve = dense_qp
@@ -156,6 +172,14 @@ class WholeBodyController:
                       for s in SIDES]
         self.half_extents = np.array([robot.soles[s].half_extents for s in SIDES])
         self.toe_cones = [self._toe_cone(X, Y, mu) for X, Y in self.half_extents]
+        # a moving sole: held (static) within the assumed fraction of the slide's friction,
+        # sliding on the cone of the whole of it (its tangential force is then fixed, below)
+        self.mu_slide = friction if slide_friction is None else float(slide_friction)
+        self.held_cones = [sole_wrench_cone(keep * X, keep * Y,
+                                            config.friction_fraction * self.mu_slide)
+                           for X, Y in self.half_extents]
+        self.slide_cones = [sole_wrench_cone(keep * X, keep * Y, self.mu_slide)
+                            for X, Y in self.half_extents]
         self.tau_max = robot.effort_max * config.torque_fraction
         self.q_lower, self.q_upper = robot.q_lower, robot.q_upper
         self.v_max = robot.v_max
@@ -255,6 +279,48 @@ class WholeBodyController:
                               -fixed @ dyn.drifts[s, 3:] - g.contact_kd * (fixed @ w)])
         return rows, rhs
 
+    def slip_direction(self, dyn, s: int) -> np.ndarray | None:
+        """(3,) unit world direction in which a sole slides over the ground (its centre's
+        velocity in the contact plane), or None while it moves slower than
+        ``slip_speed_m_s`` (static friction holds it; it starts to slide when the leg pushes
+        it harder than the cone allows, as in the simulator). Taking the reference's
+        direction before the sole moves put the force on the cone's boundary while the sole
+        stood still, and the CoM lost the plan sooner (salsa A on G1 with ``slide_friction``
+        0.3: at 5.60 s instead of 6.30)."""
+        n = dyn.poses[s, :3, :3] @ self.contact_R[s][:, 2]
+        vel = dyn.twists[s, :3]
+        tangential = vel - (vel @ n) * n
+        speed = float(np.linalg.norm(tangential))
+        return tangential / speed if speed > self.config.slip_speed_m_s else None
+
+    def _slide_rows(self, dyn, point: TrackPoint, s: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """A sole the plan slides or pivots: (3, nv) rows and (3,) right-hand side that keep
+        it on the ground and flat (normal acceleration, roll and pitch, with the flat PD of the
+        contact rows), and (3, nv) rows and (3,) targets of the task that moves it over the
+        ground with its reference (tangential acceleration and yaw, PD on the reference's pose
+        with its acceleration as feed-forward)."""
+        g = self.config.gains
+        Rc = dyn.poses[s, :3, :3] @ self.contact_R[s]
+        t1, t2, n = Rc[:, 0], Rc[:, 1], Rc[:, 2]
+        J_lin, J_ang = dyn.jacobians[s, :3], dyn.jacobians[s, 3:]
+        d_lin, d_ang = dyn.drifts[s, :3], dyn.drifts[s, 3:]
+        v_lin, w = dyn.twists[s, :3], dyn.twists[s, 3:]
+        flat = self._flat_error(dyn.poses[s], s)
+        held = np.stack([n, t1, t2])  # normal (linear), roll, pitch (angular)
+        rows = np.vstack([n @ J_lin, held[1:] @ J_ang])
+        acc = -g.contact_kd * np.concatenate([v_lin, w]) + g.contact_kp * flat
+        rhs = np.r_[n @ (acc[:3] - d_lin), held[1:] @ (acc[3:] - d_ang)]
+        pose = dyn.poses[s]
+        lin = (point.sole_acc[s] + g.sole_kp * (point.sole_positions[s] - pose[:3, 3])
+               + g.sole_kd * (point.sole_vel[s] - v_lin))
+        ang = (point.sole_alpha[s]
+               + g.sole_kp * _rotation_error(point.sole_rotations[s], pose[:3, :3])
+               + g.sole_kd * (point.sole_omega[s] - w))
+        task_rows = np.vstack([np.stack([t1, t2]) @ J_lin, n @ J_ang])
+        task_rhs = np.r_[np.stack([t1, t2]) @ (lin - d_lin), n @ (ang - d_ang)]
+        return rows, rhs, task_rows, task_rhs
+
     def step(self, t: float, q: np.ndarray, v: np.ndarray) -> ControlStep:
         """Torques for the state (q, v) at reference time ``t``.
 
@@ -267,7 +333,10 @@ class WholeBodyController:
         ref = self.track.at(t)
         dyn = self.robot.dynamics(q, v, self.frames, self.centres)
         contact = self.contacts(ref, self.sole_heights(dyn.poses))
-        rolling = self.rolling(t) & contact
+        moving = ref.moving & contact
+        rolling = self.rolling(t) & contact & ~moving
+        slip = [self.slip_direction(dyn, s) if moving[s] else None for s in SIDE_IDX]
+        sliding = np.array([d is not None for d in slip])
         active = np.flatnonzero(contact)
         k = len(active)
         n = nv + 6 * k
@@ -325,6 +394,13 @@ class WholeBodyController:
             task(dyn.jacobians[s], np.concatenate([lin, ang]) - dyn.drifts[s],
                  cfg.weights.swing)
 
+        # moving soles: over the ground with their reference (the flat rows are constraints)
+        slide_rows = {}
+        for s in np.flatnonzero(moving):
+            rows, rhs, task_rows, task_rhs = self._slide_rows(dyn, ref, int(s))
+            slide_rows[s] = rows, rhs
+            task(task_rows, task_rhs, cfg.weights.swing)
+
         # joints (posture, an identity Jacobian on the joint columns)
         qdd = (ref.qdd_joints + g.joint_kp * (ref.q_joints - q[7:])
                + g.joint_kd * (ref.qd_joints - v[6:]))
@@ -346,6 +422,8 @@ class WholeBodyController:
             Jt[:, 6 * j:6 * j + 6] = dyn.jacobians[s].T
             if rolling[s]:
                 rows, rhs = self._toe_rows(dyn, int(s))
+            elif moving[s]:
+                rows, rhs = slide_rows[s]
             else:
                 rows = dyn.jacobians[s]
                 rhs = (-dyn.drifts[s] - cfg.gains.contact_kd * dyn.twists[s]
@@ -355,6 +433,21 @@ class WholeBodyController:
         E = np.hstack([np.vstack(E_rows), np.zeros((sum(len(r) for r in E_rows), n - nv))])
         e = np.concatenate(e_rows)
         E[:6, nv:] = -Jt[:6]
+        # a sliding sole's friction is Coulomb's kinetic force, against its slide ``u``:
+        # ``f_t = -mu fz u`` (none across it), the wrench cone's boundary
+        kinetic = []
+        n_rows = len(E)  # dynamics and contact motion rows; the kinetic rows follow
+        for j, s in enumerate(active):
+            u = slip[s]
+            if u is not None:
+                normal = dyn.poses[s, :3, :3] @ self.contact_R[s][:, 2]
+                rows = np.zeros((2, n))
+                rows[0, nv + 6 * j:nv + 6 * j + 3] = np.cross(normal, u)
+                rows[1, nv + 6 * j:nv + 6 * j + 3] = u + self.mu_slide * normal
+                kinetic.append(rows)
+        if kinetic:
+            E = np.vstack([E, *kinetic])
+            e = np.concatenate([e, np.zeros(2 * len(kinetic))])
 
         # --- inequalities: wrench cones, torque limits ----------------------------------------
         G_rows, l_rows, u_rows = [], [], []
@@ -366,6 +459,8 @@ class WholeBodyController:
             C = self.cones[s] @ block
             if rolling[s]:  # the heel is up: a line contact on the toe edge
                 C = self.toe_cones[s] @ block
+            elif moving[s]:  # on the slide's floor: sliding, or held by static friction
+                C = (self.slide_cones[s] if sliding[s] else self.held_cones[s]) @ block
             upper = np.zeros(len(C))
             upper[-1] = -cfg.min_normal_force_n
             G = np.zeros((len(C), n))
@@ -402,12 +497,15 @@ class WholeBodyController:
             # torque limits stay. (Dropping the limits and clamping the torques afterwards
             # realizes other accelerations than the QP's: G1 spun off the ground at 4 rad/s.)
             self.relaxed_steps += 1
-            Ec, ec = E[6:], e[6:]
+            # (the kinetic friction rows are the ground's physics: they stay)
+            Ec, ec = E[6:n_rows], e[6:n_rows]
+            Ek = np.vstack([E[:6], E[n_rows:]])
+            ek = np.concatenate([e[:6], e[n_rows:]])
             Hs = H + cfg.weights.contact * (Ec.T @ Ec)
             cs = c - cfg.weights.contact * (Ec.T @ ec)
-            sol = self._solve(Hs, cs, E[:6], e[:6], G, lo, up)
+            sol = self._solve(Hs, cs, Ek, ek, G, lo, up)
             if sol is None:  # not even the dynamics within the limits: without them
-                sol = self._solve(Hs, cs, E[:6], e[:6], G[:-nj], lo[:-nj], up[:-nj])
+                sol = self._solve(Hs, cs, Ek, ek, G[:-nj], lo[:-nj], up[:-nj])
         x = sol if sol is not None else np.zeros(n)
         a, w = x[:nv], x[nv:]
         # within the limits by the QP's constraints, to its tolerance (1e-6): the clip removes
@@ -416,4 +514,5 @@ class WholeBodyController:
         wrenches = np.zeros((2, 6))
         for j, s in enumerate(active):
             wrenches[s] = w[6 * j:6 * j + 6]
-        return ControlStep(tau=tau, contacts=contact, wrenches=wrenches, relaxed=relaxed)
+        return ControlStep(tau=tau, contacts=contact, wrenches=wrenches, relaxed=relaxed,
+                           sliding=sliding)

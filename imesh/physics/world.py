@@ -260,6 +260,7 @@ class DartRobot:
             node.setRelativeTransform(_isometry(dart, shape.placement))
             _add_collision(node, cfg.ground.friction)
         th = cfg.ground.sole_thickness_m
+        self._sole_nodes = {}
         for side, sole in robot.soles.items():
             body = self.skeleton.getBodyNode(sole.frame)
             if body is None:
@@ -277,6 +278,13 @@ class DartRobot:
             node.setRelativeTransform(_isometry(dart, pose))
             node.setName(f"{side}_sole")
             _add_collision(node, cfg.ground.friction)
+            self._sole_nodes[side] = node
+
+    def set_sole_friction(self, side: str, friction: float) -> None:
+        """Set the Coulomb friction coefficient of one sole box (``"left"`` or ``"right"``)
+        from the next step on. DART takes the smaller coefficient of the two shapes in a
+        contact, so below the ground's it is the contact's."""
+        self._sole_nodes[side].getDynamicsAspect().setFrictionCoeff(float(friction))
 
     def _make_ground(self):
         dart = self.dart
