@@ -286,7 +286,7 @@ class GroundConfig:
             On a floor of ``friction`` (1.0) a sliding sole is braked by its whole normal
             force, which no plan of a slide asks for, and a held one does not slide at all.
             Measured on the two clips with slides (G1, docs/checking.md): at 0, 0.1, 0.3 and
-            1.0 salsa A was lost at 6.00, 6.30, 6.10 and 5.93 s, the zombie walk (0, 0.1,
+            1.0 salsa A was lost at 6.13, 6.43, 6.30 and 5.67 s, the zombie walk (0, 0.1,
             0.3) at 1.33, 1.67 and 1.40 s.
         sole_thickness_m: thickness of the sole boxes that replace the foot proxies [m].
         start_clearance_m: the first frame is placed this high above the ground before settling

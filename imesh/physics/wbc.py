@@ -285,8 +285,8 @@ class WholeBodyController:
         ``slip_speed_m_s`` (static friction holds it; it starts to slide when the leg pushes
         it harder than the cone allows, as in the simulator). Taking the reference's
         direction before the sole moves put the force on the cone's boundary while the sole
-        stood still, and the CoM lost the plan sooner (salsa A on G1 with ``slide_friction``
-        0.3: at 5.60 s instead of 6.30)."""
+        stood still, and the CoM lost the plan sooner (salsa A on G1 read at 60 fps exactly,
+        ``slide_friction`` 0.3: at 5.60 s instead of 6.30)."""
         n = dyn.poses[s, :3, :3] @ self.contact_R[s][:, 2]
         vel = dyn.twists[s, :3]
         tangential = vel - (vel @ n) * n
