@@ -48,6 +48,8 @@ def score_written(robot, result, source, out: Path, stem: str, physics: bool = F
     m["slide_mm_per_frame"] = report["foot_skid_mm_per_frame"].get("slide_mm_per_frame")
     # the single-support soles' yaw friction share, a detail of the friction ratio
     m["yaw_ratio"] = report["friction_ratio_max"].get("yaw_ratio")
+    if physics:  # why the DART check lost it, a detail of physics_fell
+        m["physics_fall_reason"] = report["physics_fell"].get("fall_reason", "")
     a, b = result.lead_frames
     m["close_pair_error"] = metric_values(evaluate_motion(
         robot, written.frames(a, written.n_frames - b), source=source,

@@ -1,7 +1,7 @@
 """Every clip gets through (issue 31): runs, hops, leaps, pivots and slides, one row per clip and
 robot, measured on the written output.
 
-    python benchmarks/every_clip.py [--robots g1 jvrc1] [--clips ...] [--out DIR]
+    python benchmarks/every_clip.py [--robots g1 jvrc1] [--clips ...] [--out DIR] [--physics]
 
 For every clip x robot: ``imesh.retarget`` with default settings (no ``--allow-flight``), the
 motion written, read back and scored by ``imesh.evaluate.evaluate_motion`` (what ``imesh
@@ -13,7 +13,10 @@ evaluate OUT.npz --adapted MARKERS.npz`` prints), the gates of ``imesh retarget`
 - ``land v`` / ``land F``: the largest landing speed [m/s] and normal force [body weights];
 - ``skid``: foot skid [mm per 1/30 s] over the support frames that are not planned slides;
   ``slide``: the same measure over the slides (how fast the planned slides go);
-- what the detector found in the clip: flight phases, slide and pivot frames.
+- what the detector found in the clip: flight phases, slide and pivot frames;
+- with ``--physics``, the DART check of the written motion (``imesh evaluate OUT.npz
+  --physics``: the closed-loop controller, the planned slides on a floor of
+  ``GroundConfig.slide_friction``) on a line below the row: how long it stood, and why it fell.
 """
 
 from __future__ import annotations
@@ -37,6 +40,8 @@ def main(argv=None) -> int:
     ap.add_argument("--robots", nargs="+", default=["g1", "jvrc1"])
     ap.add_argument("--clips", nargs="+", default=list(CLIPS))
     ap.add_argument("--out", default="out/every_clip", help="folder of the written motions")
+    ap.add_argument("--physics", action="store_true",
+                    help="also run the DART check on every written motion")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 
@@ -65,7 +70,7 @@ def main(argv=None) -> int:
                 sys.stdout.flush()
                 continue
             total = time.perf_counter() - t0
-            written, m = score_written(robot, res, motion, out, stem)
+            written, m = score_written(robot, res, motion, out, stem, physics=args.physics)
             gates = gates_failed(m)
             soles = sole_tracks(robot, written.q, written.fps)
             fr = flight_report(robot, written.q, written.fps, soles)
@@ -83,6 +88,10 @@ def main(argv=None) -> int:
                   f"{int((moving & ~piv).sum()):>3}/{int(piv.sum()):<3} {total:>7.1f}")
             if gates:
                 print(f"    gates failed: {gates}")
+            if args.physics:
+                fell = m.get("physics_fell")
+                print(f"    DART: {'fell' if fell else 'stood'} {m['physics_survived_s']:.2f} s"
+                      + (f" ({m['physics_fall_reason']})" if fell else ""))
             sys.stdout.flush()
     return 0
 
