@@ -176,6 +176,38 @@ def test_a_sliding_sole_carries_coulombs_kinetic_force(jvrc1):
     assert np.linalg.norm(held.wrenches[0, :2]) <= 0.7 * mu * held.wrenches[0, 2] + 1e-6
 
 
+def test_a_sole_on_its_toe_edge_has_the_grounds_friction_cone(jvrc1):
+    """A sole rolled 30 deg onto its toe edge stands on the ground, whose normal is the world's
+    z: a force at the toe strip's centre is in its cone up to the assumed friction (0.7 of the
+    floor's 1.0) of its normal force, measured in the world, not in the tilted sole's frame
+    (where a forward push of 0.9 of the vertical force was inside, and the toes slipped)."""
+    from scipy.spatial.transform import Rotation
+
+    from imesh.physics.reference import build_reference
+    from imesh.physics.track import ReferenceTrack
+    from imesh.physics.wbc import WholeBodyController
+
+    robot = jvrc1
+    motion = _standing(robot, 0.5)
+    controller = WholeBodyController(
+        robot, ReferenceTrack(robot, build_reference(robot, motion.q, motion.fps)),
+        WbcConfig(), 1.0)
+    s = 0
+    # heel up: the sole's x axis points 30 deg down (pitch about the sole's y)
+    Rc = Rotation.from_euler("y", 30, degrees=True).as_matrix() @ controller.contact_R[s]
+    d = Rc[:, 0] * controller.strip_offsets[s]  # sole centre -> strip centre
+    C = controller._toe_cone(s, Rc)
+
+    def wrench(fx):  # a force at the strip's centre, written at the sole centre
+        f = np.array([fx, 0.0, 100.0])
+        return np.r_[f, np.cross(d, f)]
+
+    assert (C @ wrench(0.0)).max() < 0.0
+    assert (C @ wrench(0.69 * 100.0)).max() <= 1e-9
+    assert (C @ wrench(0.75 * 100.0)).max() > 0.0
+    assert (C @ wrench(-0.75 * 100.0)).max() > 0.0
+
+
 def test_wbc_falls_when_the_motion_cannot_be_performed(jvrc1):
     """The check can fail: a reference with both feet 0.3 m in the air for 1 s (no support:
     nothing can hold the robot up there) is judged a fall."""

@@ -50,7 +50,8 @@ support, rolls over its toe edge: its contact rows become the toe edge's linear 
 free, so the heel rises as its leg's posture bends the knee with the reference's. Standing on
 its toe edge the sole is a line contact: its wrench stays in the cone of the front strip ``x >=
 a X`` of the sole (``a = WbcConfig.toe_cop_fraction``), ``WbcConfig.toe_lateral`` of the half
-width wide (both toe corners carry it: a centre of pressure near one corner stood the sole on
+width wide, in the ground's frame (z up: the friction the floor holds), about the strip's
+centre (both toe corners carry it: a centre of pressure near one corner stood the sole on
 that corner alone in DART, which holds no moment about the vertical, and the heel swung 7 mm
 sideways). A human foot rolls over its toes while the other foot takes the weight; a sole held
 flat to the last frame made the QP unload it early (1-6 N in the last 40 ms on the G1 walk) and
@@ -171,7 +172,10 @@ class WholeBodyController:
                                        keep * robot.soles[s].half_extents[1], mu)
                       for s in SIDES]
         self.half_extents = np.array([robot.soles[s].half_extents for s in SIDES])
-        self.toe_cones = [self._toe_cone(X, Y, mu) for X, Y in self.half_extents]
+        front = config.toe_cop_fraction
+        self.strip_cones = [sole_wrench_cone(0.5 * (1.0 - front) * X, config.toe_lateral * Y, mu)
+                            for X, Y in self.half_extents]
+        self.strip_offsets = 0.5 * (1.0 + front) * self.half_extents[:, 0]
         # a moving sole: held (static) within the assumed fraction of the slide's friction,
         # sliding on the cone of the whole of it (its tangential force is then fixed, below)
         self.mu_slide = friction if slide_friction is None else float(slide_friction)
@@ -245,19 +249,26 @@ class WholeBodyController:
             return np.zeros(2, dtype=bool)
         return np.logical_not(ahead.all(axis=0))
 
-    def _toe_cone(self, half_x: float, half_y: float, mu: float) -> np.ndarray:
-        """(16, 6) the wrench cone of a sole standing on its toe edge, for the wrench at the
-        sole centre (sole frame): that of the front strip ``x >= a X`` (``a =
-        toe_cop_fraction``), ``toe_lateral`` of the half width wide, about the strip's centre
-        ``r``: ``w_strip = (f, m - r x f)``."""
-        front = self.config.toe_cop_fraction
-        strip = sole_wrench_cone(0.5 * (1.0 - front) * half_x,
-                                 self.config.toe_lateral * half_y, mu)
-        r = 0.5 * (1.0 + front) * half_x
-        shift = np.eye(6)
-        shift[4, 2] = r   # my_strip = my + r fz
-        shift[5, 1] = -r  # mz_strip = mz - r fy
-        return strip @ shift
+    def _toe_cone(self, s: int, Rc: np.ndarray) -> np.ndarray:
+        """(16, 6) the wrench cone of sole ``s`` standing on its toe edge, for its wrench at the
+        sole centre in world axes (``Rc``: its contact frame in the world): the cone of the
+        front strip ``x >= a X`` (``a = toe_cop_fraction``), ``toe_lateral`` of the half width
+        wide, about the strip's centre ``d`` ahead of the sole centre (``m_strip = m - d x
+        f``), in the ground's frame (z up, x the sole's heading). The strip stands on the
+        ground, whose normal is the world's z, not the tilted sole's: the tilted frame's
+        pyramid let the toe push sideways at up to 1.06 of its normal force where the floor
+        holds 1.0 (salsa A on G1 at a lift-off), and the toes slipped at the push-offs of the
+        walks (G1 walk 3.6 mm, veer 4.7; 1.6 and 1.8 in the ground's frame)."""
+        up = np.array([0.0, 0.0, 1.0])
+        x = Rc[:, 0] - Rc[2, 0] * up
+        x /= np.linalg.norm(x)
+        L = np.column_stack([x, np.cross(up, x), up])
+        d = Rc[:, 0] * self.strip_offsets[s]
+        transform = np.zeros((6, 6))
+        transform[:3, :3] = transform[3:, 3:] = L.T
+        transform[3:, :3] = -L.T @ np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]],
+                                               [-d[1], d[0], 0.0]])
+        return self.strip_cones[s] @ transform
 
     def _toe_rows(self, dyn, s: int) -> tuple[np.ndarray, np.ndarray]:
         """(5, nv) rows and (5,) right-hand side of a sole rolling over its toe edge: the
@@ -458,7 +469,7 @@ class WholeBodyController:
             block[3:, 3:] = Rc.T
             C = self.cones[s] @ block
             if rolling[s]:  # the heel is up: a line contact on the toe edge
-                C = self.toe_cones[s] @ block
+                C = self._toe_cone(int(s), Rc)
             elif moving[s]:  # on the slide's floor: sliding, or held by static friction
                 C = (self.slide_cones[s] if sliding[s] else self.held_cones[s]) @ block
             upper = np.zeros(len(C))
