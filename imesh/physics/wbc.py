@@ -215,12 +215,37 @@ class WholeBodyController:
         planned = point.support & down
         return planned if planned.any() else down
 
-    def sole_heights(self, poses: np.ndarray) -> np.ndarray:
+    def contact_frames(self, poses: np.ndarray) -> np.ndarray:
+        """(2, 3, 3) [left, right] contact frames in the world (z the sole normal) from the
+        sole centres' poses (2, 4, 4)."""
+        return poses[:, :3, :3] @ self.contact_R
+
+    def sole_heights(self, poses: np.ndarray, frames: np.ndarray) -> np.ndarray:
         """(2,) float [left, right] lowest sole corner above the ground [m], from the sole
-        centres' poses (2, 4, 4)."""
-        R = poses[:, :3, :3] @ self.contact_R  # contact frames in the world
+        centres' poses (2, 4, 4) and their :meth:`contact_frames` ``R``."""
+        R = frames
         return (poses[:, 2, 3] - np.abs(R[:, 2, 0]) * self.half_extents[:, 0]
                 - np.abs(R[:, 2, 1]) * self.half_extents[:, 1])
+
+    def _contact_rhs(self, dyn, s: int) -> np.ndarray:
+        """(6,) right-hand side of sole ``s``'s contact rows ``J a = b``: its twist damped and
+        its pose driven back flat on the ground (:meth:`_flat_error`), less the drift."""
+        g = self.config.gains
+        return (-dyn.drifts[s] - g.contact_kd * dyn.twists[s]
+                + g.contact_kp * self._flat_error(dyn.poses[s], s))
+
+    def _sole_pd(self, dyn, point: TrackPoint, s: int, target_m: np.ndarray) -> np.ndarray:
+        """(6,) acceleration [linear; angular] that takes sole ``s`` to ``target_m`` (its
+        centre) and its reference orientation: PD on the pose and twist, the reference's
+        acceleration as feed-forward (world axes)."""
+        g = self.config.gains
+        pose, twist = dyn.poses[s], dyn.twists[s]
+        lin = (point.sole_acc[s] + g.sole_kp * (target_m - pose[:3, 3])
+               + g.sole_kd * (point.sole_vel[s] - twist[:3]))
+        ang = (point.sole_alpha[s]
+               + g.sole_kp * _rotation_error(point.sole_rotations[s], pose[:3, :3])
+               + g.sole_kd * (point.sole_omega[s] - twist[3:]))
+        return np.concatenate([lin, ang])
 
     def _flat_error(self, pose: np.ndarray, s: int) -> np.ndarray:
         """(6,) how far a contact sole is from lying flat on the ground: its centre's height
@@ -290,47 +315,34 @@ class WholeBodyController:
                               -fixed @ dyn.drifts[s, 3:] - g.contact_kd * (fixed @ w)])
         return rows, rhs
 
-    def slip_direction(self, dyn, s: int) -> np.ndarray | None:
+    def slip_direction(self, dyn, s: int, frame: np.ndarray) -> np.ndarray | None:
         """(3,) unit world direction in which a sole slides over the ground (its centre's
         velocity in the contact plane), or None while it moves slower than
         ``slip_speed_m_s`` (static friction holds it; it starts to slide when the leg pushes
         it harder than the cone allows, as in the simulator). Taking the reference's
         direction before the sole moves put the force on the cone's boundary while the sole
         stood still, and the CoM lost the plan sooner (salsa A on G1 read at 60 fps exactly,
-        ``slide_friction`` 0.3: at 5.60 s instead of 6.30)."""
-        n = dyn.poses[s, :3, :3] @ self.contact_R[s][:, 2]
+        ``slide_friction`` 0.3: at 5.60 s instead of 6.30). ``frame``: its contact frame."""
+        n = frame[:, 2]
         vel = dyn.twists[s, :3]
         tangential = vel - (vel @ n) * n
         speed = float(np.linalg.norm(tangential))
         return tangential / speed if speed > self.config.slip_speed_m_s else None
 
-    def _slide_rows(self, dyn, point: TrackPoint, s: int
+    def _slide_rows(self, dyn, point: TrackPoint, s: int, frame: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """A sole the plan slides or pivots: (3, nv) rows and (3,) right-hand side that keep
-        it on the ground and flat (normal acceleration, roll and pitch, with the flat PD of the
-        contact rows), and (3, nv) rows and (3,) targets of the task that moves it over the
-        ground with its reference (tangential acceleration and yaw, PD on the reference's pose
-        with its acceleration as feed-forward)."""
-        g = self.config.gains
-        Rc = dyn.poses[s, :3, :3] @ self.contact_R[s]
-        t1, t2, n = Rc[:, 0], Rc[:, 1], Rc[:, 2]
-        J_lin, J_ang = dyn.jacobians[s, :3], dyn.jacobians[s, 3:]
-        d_lin, d_ang = dyn.drifts[s, :3], dyn.drifts[s, 3:]
-        v_lin, w = dyn.twists[s, :3], dyn.twists[s, 3:]
-        flat = self._flat_error(dyn.poses[s], s)
-        held = np.stack([n, t1, t2])  # normal (linear), roll, pitch (angular)
-        rows = np.vstack([n @ J_lin, held[1:] @ J_ang])
-        acc = -g.contact_kd * np.concatenate([v_lin, w]) + g.contact_kp * flat
-        rhs = np.r_[n @ (acc[:3] - d_lin), held[1:] @ (acc[3:] - d_ang)]
-        pose = dyn.poses[s]
-        lin = (point.sole_acc[s] + g.sole_kp * (point.sole_positions[s] - pose[:3, 3])
-               + g.sole_kd * (point.sole_vel[s] - v_lin))
-        ang = (point.sole_alpha[s]
-               + g.sole_kp * _rotation_error(point.sole_rotations[s], pose[:3, :3])
-               + g.sole_kd * (point.sole_omega[s] - w))
-        task_rows = np.vstack([np.stack([t1, t2]) @ J_lin, n @ J_ang])
-        task_rhs = np.r_[np.stack([t1, t2]) @ (lin - d_lin), n @ (ang - d_ang)]
-        return rows, rhs, task_rows, task_rhs
+        it on the ground and flat (the contact rows' normal acceleration, roll and pitch), and
+        (3, nv) rows and (3,) targets of the task that moves it over the ground with its
+        reference (tangential acceleration and yaw, :meth:`_sole_pd`). ``frame``: its contact
+        frame (3, 3) in the world."""
+        t1, t2, n = frame.T
+        held, moved = np.zeros((2, 3, 6))
+        held[0, :3], held[1, 3:], held[2, 3:] = n, t1, t2  # normal (linear), roll, pitch
+        moved[0, :3], moved[1, :3], moved[2, 3:] = t1, t2, n  # tangential (linear), yaw
+        J = dyn.jacobians[s]
+        task = self._sole_pd(dyn, point, s, point.sole_positions[s]) - dyn.drifts[s]
+        return held @ J, held @ self._contact_rhs(dyn, s), moved @ J, moved @ task
 
     def step(self, t: float, q: np.ndarray, v: np.ndarray) -> ControlStep:
         """Torques for the state (q, v) at reference time ``t``.
@@ -343,10 +355,12 @@ class WholeBodyController:
         nv, nj = self.nv, self.n_joints
         ref = self.track.at(t)
         dyn = self.robot.dynamics(q, v, self.frames, self.centres)
-        contact = self.contacts(ref, self.sole_heights(dyn.poses))
+        frames = self.contact_frames(dyn.poses)
+        contact = self.contacts(ref, self.sole_heights(dyn.poses, frames))
         moving = ref.moving & contact
         rolling = self.rolling(t) & contact & ~moving
-        slip = [self.slip_direction(dyn, s) if moving[s] else None for s in SIDE_IDX]
+        slip = [self.slip_direction(dyn, s, frames[s]) if moving[s] else None
+                for s in SIDE_IDX]
         sliding = np.array([d is not None for d in slip])
         active = np.flatnonzero(contact)
         k = len(active)
@@ -392,23 +406,17 @@ class WholeBodyController:
 
         # swing soles
         for s in np.flatnonzero(~contact):
-            pose = dyn.poses[s]
             target = ref.sole_positions[s].copy()
             if ref.support[s]:  # a late landing: aimed at the ground, the PD would approach
                 # it ever more slowly and hover at the contact height
                 target[2] -= cfg.landing_depth_m
-            lin = (ref.sole_acc[s] + g.sole_kp * (target - pose[:3, 3])
-                   + g.sole_kd * (ref.sole_vel[s] - dyn.twists[s, :3]))
-            ang = (ref.sole_alpha[s]
-                   + g.sole_kp * _rotation_error(ref.sole_rotations[s], pose[:3, :3])
-                   + g.sole_kd * (ref.sole_omega[s] - dyn.twists[s, 3:]))
-            task(dyn.jacobians[s], np.concatenate([lin, ang]) - dyn.drifts[s],
+            task(dyn.jacobians[s], self._sole_pd(dyn, ref, int(s), target) - dyn.drifts[s],
                  cfg.weights.swing)
 
         # moving soles: over the ground with their reference (the flat rows are constraints)
         slide_rows = {}
         for s in np.flatnonzero(moving):
-            rows, rhs, task_rows, task_rhs = self._slide_rows(dyn, ref, int(s))
+            rows, rhs, task_rows, task_rhs = self._slide_rows(dyn, ref, int(s), frames[s])
             slide_rows[s] = rows, rhs
             task(task_rows, task_rhs, cfg.weights.swing)
 
@@ -436,9 +444,7 @@ class WholeBodyController:
             elif moving[s]:
                 rows, rhs = slide_rows[s]
             else:
-                rows = dyn.jacobians[s]
-                rhs = (-dyn.drifts[s] - cfg.gains.contact_kd * dyn.twists[s]
-                       + cfg.gains.contact_kp * self._flat_error(dyn.poses[s], int(s)))
+                rows, rhs = dyn.jacobians[s], self._contact_rhs(dyn, int(s))
             E_rows.append(rows)
             e_rows.append(rhs)
         E = np.hstack([np.vstack(E_rows), np.zeros((sum(len(r) for r in E_rows), n - nv))])
@@ -451,7 +457,7 @@ class WholeBodyController:
         for j, s in enumerate(active):
             u = slip[s]
             if u is not None:
-                normal = dyn.poses[s, :3, :3] @ self.contact_R[s][:, 2]
+                normal = frames[s][:, 2]
                 rows = np.zeros((2, n))
                 rows[0, nv + 6 * j:nv + 6 * j + 3] = np.cross(normal, u)
                 rows[1, nv + 6 * j:nv + 6 * j + 3] = u + self.mu_slide * normal
@@ -463,7 +469,7 @@ class WholeBodyController:
         # --- inequalities: wrench cones, torque limits ----------------------------------------
         G_rows, l_rows, u_rows = [], [], []
         for j, s in enumerate(active):
-            Rc = dyn.poses[s, :3, :3] @ self.contact_R[s]
+            Rc = frames[s]
             block = np.zeros((6, 6))
             block[:3, :3] = Rc.T
             block[3:, 3:] = Rc.T
