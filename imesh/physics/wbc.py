@@ -87,6 +87,7 @@ import numpy as np
 
 from ..balance.cwc import sole_wrench_cone
 from ..contacts.phases import SIDES
+from ..robot.configuration import skew
 from .config import WbcConfig
 from .so3 import log_so3, quat_xyzw_to_matrix
 from .track import ReferenceTrack, TrackPoint
@@ -222,10 +223,9 @@ class WholeBodyController:
 
     def sole_heights(self, poses: np.ndarray, frames: np.ndarray) -> np.ndarray:
         """(2,) float [left, right] lowest sole corner above the ground [m], from the sole
-        centres' poses (2, 4, 4) and their :meth:`contact_frames` ``R``."""
-        R = frames
-        return (poses[:, 2, 3] - np.abs(R[:, 2, 0]) * self.half_extents[:, 0]
-                - np.abs(R[:, 2, 1]) * self.half_extents[:, 1])
+        centres' poses (2, 4, 4) and their :meth:`contact_frames`."""
+        return (poses[:, 2, 3] - np.abs(frames[:, 2, 0]) * self.half_extents[:, 0]
+                - np.abs(frames[:, 2, 1]) * self.half_extents[:, 1])
 
     def _contact_rhs(self, dyn, s: int) -> np.ndarray:
         """(6,) right-hand side of sole ``s``'s contact rows ``J a = b``: its twist damped and
@@ -291,8 +291,7 @@ class WholeBodyController:
         d = Rc[:, 0] * self.strip_offsets[s]
         transform = np.zeros((6, 6))
         transform[:3, :3] = transform[3:, 3:] = L.T
-        transform[3:, :3] = -L.T @ np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]],
-                                               [-d[1], d[0], 0.0]])
+        transform[3:, :3] = -L.T @ skew(d)
         return self.strip_cones[s] @ transform
 
     def _toe_rows(self, dyn, s: int) -> tuple[np.ndarray, np.ndarray]:
