@@ -247,8 +247,20 @@ def _marker_metrics(robot, motion: RobotMotion, source, adapted, resample: bool
         kp_n, markers_n = kp_ref.frames(0, n).subset(common), aligned.frames(0, n)
         value = marker_rms_mm(kp_n, markers_n)
         by_name = marker_rms_by_name_mm(kp_n, markers_n)
+        split = {}
+        if kp_ref is kp_all and motion.provenance is not None and n == motion.n_frames:
+            # the clip's own frames and the lead-in/out apart: the lead's targets are the
+            # clip's first and last frames held still, not the performer's
+            a, b = motion.provenance.clip_frames(n)
+            lead = np.r_[0:a, b:n]
+            split = {"clip_frames_mm": round(marker_rms_mm(kp_n.frames(a, b),
+                                                           markers_n.frames(a, b)), 1)}
+            if len(lead):
+                split["lead_frames_mm"] = round(marker_rms_mm(
+                    kp_n.with_positions(kp_n.positions_m[lead]),
+                    markers_n.with_positions(markers_n.positions_m[lead])), 1)
         out["marker_rms_mm"] = _metric("marker_rms_mm", value, reference=ref_kind,
-                                       markers=len(common), frames=n,
+                                       markers=len(common), frames=n, **split,
                                        by_marker_mm={k: round(v, 1) for k, v in by_name.items()},
                                        note=note.rstrip("; ") or None)
     if src is None:
