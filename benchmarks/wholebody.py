@@ -2,7 +2,7 @@
 
     python benchmarks/wholebody.py [--robots jvrc1 g1 hrp4c] [--clips ...] [--physics]
                                    [--out DIR] [--solver piqp] [--plots DIR]
-                                   [--zmp-margin 0.4] [--by-marker]
+                                   [--zmp-margin 0.4] [--zmp-weight 10] [--by-marker]
 
 For every clip x robot: ``imesh.retarget`` with default settings, the motion and the adapted
 markers written to ``--out``, then the written file read back and scored by
@@ -12,7 +12,8 @@ the source clip, on the clip's frames without the lead-in/out), sole deviation/t
 penetration, limit violations, ZMP inside/error, DART, the reference's torque and friction
 ratios and its single-support soles' yaw friction share (``yaw``: the friction ratio's
 ``yaw_ratio``), and the time of each stage.
-``--zmp-margin`` plans with another ``ZmpOptions.margin`` than the default; ``--by-marker`` adds
+``--zmp-margin`` and ``--zmp-weight`` plan with another ``ZmpOptions.margin`` or ``.weight``
+than the default; ``--by-marker`` adds
 a line per run with the key points' RMS at the trunk (chest, neck, head, shoulders) and the
 worst three others.
 """
@@ -54,6 +55,8 @@ def main(argv=None) -> int:
     ap.add_argument("--plots", help="write the balance figure of each run here (PNG)")
     ap.add_argument("--zmp-margin", type=float, default=None,
                     help="ZmpOptions.margin of the plan (default: the library's)")
+    ap.add_argument("--zmp-weight", type=float, default=None,
+                    help="ZmpOptions.weight of the plan (default: the library's)")
     ap.add_argument("--torque-margin", type=float, default=None,
                     help="LimitMargins.torque of the plan (default: the library's)")
     ap.add_argument("--by-marker", action="store_true",
@@ -74,6 +77,9 @@ def main(argv=None) -> int:
     if args.zmp_margin is not None:
         wholebody = dataclasses.replace(wholebody, zmp=dataclasses.replace(
             wholebody.zmp, margin=args.zmp_margin))
+    if args.zmp_weight is not None:
+        wholebody = dataclasses.replace(wholebody, zmp=dataclasses.replace(
+            wholebody.zmp, weight=args.zmp_weight))
     if args.torque_margin is not None:
         wholebody = dataclasses.replace(wholebody, margins=dataclasses.replace(
             wholebody.margins, torque=args.torque_margin))

@@ -212,11 +212,12 @@ def _assert_quality(m) -> None:
     assert m["zmp_inside_fraction"] == 1.0
     assert m["sole_deviation_mm"] <= 1.0 and m["foot_skid_mm_per_frame"] <= 0.1
     # with the ZMP in the inner 30 % of the soles and the soles flat through the double
-    # supports: markers 47.9 mm in windows, 47.8 in one (52.2 and 51.9 with the ZMP's full
-    # weight in all of double support); the ZMP error is measured from the desired ZMP, the
-    # centre of a double support with the feet 0.49 m apart where the lead-in accelerates the
-    # CoM, and the lower weight there lets it go (82.7 mm; 62 with the full weight)
-    assert m["marker_rms_mm"] <= 50.0 and m["zmp_error_mm"] <= 90.0
+    # supports: markers 38.0 mm in windows, 37.9 in one (47.9 and 47.8 before the morph's bend
+    # planes); the ZMP error is measured from the desired ZMP, the centre of a double support
+    # with the feet 0.49 m apart where the lead-in accelerates the CoM, and the lower weight
+    # there lets it go (90.0 mm, 89.8 in one; 82.7 before the bend planes, 62 with the full
+    # weight in all of double support)
+    assert m["marker_rms_mm"] <= 45.0 and m["zmp_error_mm"] <= 95.0
 
 
 def test_windows_hold_soles_limits_and_zmp_across_their_borders(mocap, tmp_path):

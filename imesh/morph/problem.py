@@ -3,11 +3,12 @@
 A morph moves the markers of all frames from the source motion towards target bone lengths and
 positional constraints over ``steps`` morph steps (Nakaoka & Komura 2012, sec. III, eq. 6):
 
-    min_V'  sum_i  E_L(V'_i) + w_A E_A + E_C    s.t.  H_i V'_i = h_i
+    min_V'  sum_i  E_L(V'_i) + w_A E_A + E_C + w_D E_D + w_P E_P    s.t.  H_i V'_i = h_i
 
 with E_L the Laplacian deformation energy (eq. 2), E_A the acceleration energy, E_C the soft
-positional constraints (eq. 5), and the hard constraints H_i V'_i = h_i made of linearized bone
-lengths (eq. 3) and positional constraints (eq. 4).
+positional constraints (eq. 5), E_D the close pairs' distances, E_P the bend planes
+(:mod:`imesh.morph.planes`; not in the paper), and the hard constraints H_i V'_i = h_i made of
+linearized bone lengths (eq. 3) and positional constraints (eq. 4).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from ..core.motion import MarkerMotion
 from ..errors import ConstraintError, InvalidMotionError, OptionError
 from ..mesh.bones import bone_lengths, check_target_lengths
 from ..mesh.interaction import WEIGHTINGS
+from .planes import NO_PLANES, BendPlanes, bend_angles, bend_weights
 
 
 @dataclass(frozen=True)
@@ -42,6 +44,9 @@ class MorphWeights(NonNegative):
             linearized like the bones, with s the median target/source length ratio. Hands
             that touch keep touching; 0 turns it off (pure Laplacian energy of eq. 2).
         contact_fraction: closeness threshold relative to the body height.
+        plane: w_P, weight of the bend planes (:mod:`imesh.morph.planes`): a chain's middle
+            marker (the pelvis about the hip axis, a knee about its hip-ankle line) keeps the
+            direction it has in the source; 0 turns them off.
         weighting: Laplacian weights, "inverse_distance" or "uniform".
     """
 
@@ -50,6 +55,7 @@ class MorphWeights(NonNegative):
     soft: float = 1.0
     contact: float = 30.0
     contact_fraction: float = 0.15
+    plane: float = 30.0
     weighting: str = "inverse_distance"
 
     def __post_init__(self) -> None:
@@ -137,6 +143,10 @@ class MorphProblem:
         soft_weights: (T, M) weights of the soft targets.
         height_m: body height of the source (median vertical extent) [m].
         config: MorphConfig.
+        planes: the bend planes held (:mod:`imesh.morph.planes`).
+        plane_angles_rad: (T, H) their source angles [rad].
+        plane_weights: (T, H) their weight scales in [0, 1] (0 where the source chain is
+            straight).
     """
 
     source: np.ndarray
@@ -150,6 +160,9 @@ class MorphProblem:
     soft_weights: np.ndarray
     height_m: float
     config: MorphConfig
+    planes: BendPlanes = NO_PLANES
+    plane_angles_rad: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    plane_weights: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     @property
     def n_frames(self) -> int:
@@ -167,6 +180,8 @@ class MorphProblem:
             source_lengths_m=self.source_lengths_m[sl], target_lengths_m=self.target_lengths_m[sl],
             hard_positions_m=self.hard_positions_m[sl], soft_positions_m=self.soft_positions_m[sl],
             soft_weights=self.soft_weights[sl], height_m=self.height_m, config=self.config,
+            planes=self.planes, plane_angles_rad=self.plane_angles_rad[sl],
+            plane_weights=self.plane_weights[sl],
         )
 
 
@@ -187,7 +202,8 @@ def build_morph_problem(motion: MarkerMotion, *, pairs: np.ndarray | None = None
                         hard_positions_m: np.ndarray | None = None,
                         soft_positions_m: np.ndarray | None = None,
                         soft_weights: np.ndarray | float | None = None,
-                        config: MorphConfig | None = None) -> MorphProblem:
+                        config: MorphConfig | None = None,
+                        planes: BendPlanes | None = None) -> MorphProblem:
     """Assemble and validate a morph problem.
 
     Args:
@@ -200,6 +216,8 @@ def build_morph_problem(motion: MarkerMotion, *, pairs: np.ndarray | None = None
         soft_positions_m: (T, M, 3) final soft targets [m], NaN for free coordinates.
         soft_weights: (T, M) or scalar weight of the soft targets (default config.weights.soft).
         config: MorphConfig (defaults if None).
+        planes: bend planes whose source directions the morph keeps (``MorphWeights.plane``;
+            :func:`imesh.morph.planes.standard_planes` of the arranged markers); None: none.
 
     Raises:
         InvalidMotionError: the motion has gaps or no bones.
@@ -234,7 +252,13 @@ def build_morph_problem(motion: MarkerMotion, *, pairs: np.ndarray | None = None
     w = np.broadcast_to(np.asarray(soft_weights, dtype=float), shape[:2]).copy()
     if not (np.isfinite(w).all() and (w >= 0).all()):
         raise ConstraintError("soft_weights must be finite and >= 0")
+    planes = NO_PLANES if planes is None or config.weights.plane == 0 else planes
+    if len(planes) and (planes.markers.max() >= motion.n_markers
+                        or planes.references.max() >= motion.n_markers):
+        raise ConstraintError(f"bend planes must name markers in [0, {motion.n_markers})")
     return MorphProblem(source=src, fps=motion.fps, names=motion.names, bones=pairs,
                         source_lengths_m=src_len, target_lengths_m=target, hard_positions_m=hard,
                         soft_positions_m=soft, soft_weights=w, height_m=motion.height_m,
-                        config=config)
+                        config=config, planes=planes,
+                        plane_angles_rad=bend_angles(src, planes),
+                        plane_weights=bend_weights(src, planes))

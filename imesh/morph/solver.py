@@ -31,6 +31,7 @@ from threadpoolctl import threadpool_limits
 from ..mesh.bones import bone_directions, bone_lengths
 from ..mesh.interaction import build_interaction_mesh
 from .kkt import BandedKKT
+from .planes import plane_normals
 from .problem import MorphProblem
 from .projection import project_lengths
 
@@ -148,10 +149,12 @@ class _Window:
         marker_cols = (fr[:, None, None] * m + b[None, :, :])  # (F, B, 2)
         bone_cols = marker_cols[..., None] * 3 + np.arange(3)  # (F, B, 2, 3)
         self._build_contacts(problem)
+        self._build_planes(problem)
         # Constraint rows couple 2 markers of one frame: inside the 6M band of the Hessian.
         kd = 6 * m if n >= 3 else 3 * m - 1
         self.kkt = BandedKKT(hessian, kd, bone_cols.reshape(-1, 2, 3), self.pos_cols,
-                             cfg.lagrangian.penalty, soft_cols=self.contact_cols)
+                             cfg.lagrangian.penalty,
+                             soft_cols=np.concatenate([self.contact_cols, self.plane_cols]))
         self.seconds_mesh = t1 - t0
         self.seconds_assemble = time.perf_counter() - t1
 
@@ -164,6 +167,7 @@ class _Window:
         self.contact_frames = np.zeros(0, dtype=np.int64)
         self.contact_pairs = np.zeros((0, 2), dtype=np.int64)
         self.contact_cols = np.zeros((0, 2, 3), dtype=np.int64)
+        self.contact_d0 = self.contact_w = np.zeros(0)
         if cfg.weights.contact <= 0:
             return
         i, j = np.triu_indices(m, k=1)
@@ -183,10 +187,29 @@ class _Window:
         marker_cols = fr[:, None] * m + self.contact_pairs  # (R, 2)
         self.contact_cols = marker_cols[..., None] * 3 + np.arange(3)
 
-    def contact_terms(self, current: np.ndarray, alpha: float
-                      ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
-        """(directions (R_s, 3), weights (R_s,), target distances (R_s,)) at fraction alpha."""
-        if not len(self.contact_frames):
+    def _build_planes(self, problem: MorphProblem) -> None:
+        """Soft pair rows of the bend planes (:mod:`.planes`): per frame and chain, (middle,
+        end a) then (middle, end b), each with half the chain's weight."""
+        planes = problem.planes
+        n, m = problem.n_frames, problem.n_markers
+        self.plane_cols = np.zeros((0, 2, 3), dtype=np.int64)
+        self.plane_w = np.zeros(0)
+        if not len(planes):
+            return
+        mid = planes.markers[:, 1]
+        pairs = np.stack([np.stack([mid, planes.markers[:, 0]], 1),
+                          np.stack([mid, planes.markers[:, 2]], 1)])  # (2, H, 2)
+        marker_cols = (np.arange(n)[None, :, None, None] * m + pairs[:, None])  # (2, T, H, 2)
+        self.plane_cols = (marker_cols[..., None] * 3 + np.arange(3)).reshape(-1, 2, 3)
+        w = 0.5 * problem.config.weights.plane * problem.plane_weights  # (T, H)
+        self.plane_w = np.concatenate([w.reshape(-1), w.reshape(-1)])
+
+    def soft_terms(self, current: np.ndarray, alpha: float
+                   ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """(directions (R_s, 3), weights (R_s,), gaps (R_s,)) of the soft pair rows at
+        fraction alpha: the close pairs' distances (gap: target - current distance), then the
+        bend planes (gap: -n . v, which puts the middle marker in its plane)."""
+        if not len(self.contact_frames) and not len(self.plane_cols):
             return None, None, None
         pos = current.reshape(self.problem.source.shape)
         d = pos[self.contact_frames, self.contact_pairs[:, 0]] - pos[
@@ -194,7 +217,14 @@ class _Window:
         length = np.linalg.norm(d, axis=1)
         u = d / np.maximum(length, 1e-12)[:, None]
         target = self.contact_d0 * (1.0 - alpha + alpha * self.shape_scale)
-        return u, self.contact_w, target - length
+        if not len(self.plane_cols):
+            return u, self.contact_w, target - length
+        p = self.problem
+        normal, gap = plane_normals(pos, p.planes, p.plane_angles_rad)
+        normal, gap = normal.reshape(-1, 3), gap.reshape(-1)
+        return (np.concatenate([u, normal, normal]),
+                np.concatenate([self.contact_w, self.plane_w]),
+                np.concatenate([target - length, gap, gap]))
 
     def targets(self, alpha: float, seam: np.ndarray | None) -> np.ndarray:
         """c (R,): bone lengths then positional targets at fraction alpha."""
@@ -261,7 +291,7 @@ def _run_window(problem: MorphProblem, index: int, seams: list | None, keep_fram
         if seams is not None:
             seam = seams[min(step, len(seams)) - 1]
         t0 = time.perf_counter()
-        u_soft, w_soft, gap_soft = win.contact_terms(x, alpha)
+        u_soft, w_soft, gap_soft = win.soft_terms(x, alpha)
         win.kkt.factor(win.directions(x), u_soft, w_soft)
         a = win.kkt.constraint_matrix
         rhs = win.residual_gradient(x, alpha)

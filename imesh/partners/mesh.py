@@ -19,6 +19,7 @@ import dataclasses
 import numpy as np
 
 from ..morph.adapt import PERSON_PREFIXES
+from ..morph.planes import BendPlanes, standard_planes
 from ..morph.problem import MorphConfig, build_morph_problem
 from ..morph.solver import MorphResult, solve_morph
 from ..pipeline.retarget import Prepared
@@ -59,7 +60,10 @@ def morph_together(a: Prepared, b: Prepared, config: MorphConfig, progress=None
                              axis=-1)
     problem = build_morph_problem(both, pairs=pairs, target_lengths_m=lengths,
                                   hard_positions_m=hard, soft_positions_m=soft,
-                                  soft_weights=soft_w, config=config)
+                                  soft_weights=soft_w, config=config,
+                                  planes=BendPlanes.concat(
+                                      standard_planes(sa.names),
+                                      standard_planes(sb.names).shifted(Ma)))
     joint = solve_morph(problem, progress=progress)
     part_a = dataclasses.replace(joint, positions_m=joint.positions_m[:, :Ma])
     part_b = dataclasses.replace(joint, positions_m=joint.positions_m[:, Ma:])

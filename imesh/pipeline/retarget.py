@@ -52,6 +52,7 @@ from ..fit.targets import CompiledTargets, compile_targets
 from ..human.arrange import Arrangement, arrange_for_robot, carry_on_trunk
 from ..human.filtering import lowpass
 from ..morph.adapt import prepare_markers
+from ..morph.planes import standard_planes
 from ..morph.problem import MorphConfig, MorphWeights, build_morph_problem
 from ..morph.solver import MorphResult, MorphStepReport, solve_morph, window_layout
 from ..robot.capsules.obstacles import Obstacles
@@ -544,7 +545,8 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
             problem = build_morph_problem(source, pairs=arrangement.pairs,
                                           target_lengths_m=arrangement.target_lengths_m,
                                           hard_positions_m=hard, soft_positions_m=soft_m,
-                                          soft_weights=soft_wm, config=config.morph)
+                                          soft_weights=soft_wm, config=config.morph,
+                                          planes=standard_planes(source.names))
             morph = solve_morph(problem, progress=morph_step if progress is not None else None)
         adapted = source.with_positions(carry_on_trunk(morph.positions_m, arrangement),
                                         source=f"adapted:{source.source}")
