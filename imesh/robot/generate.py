@@ -126,7 +126,6 @@ class GeneratedConfig:
         keypoints: marker -> (frame, (3,) offset [m] in the frame).
         keypoints_nominal_m: marker -> (3,) position [m] in the nominal pose (root at the origin).
         directions: orientation key vectors (frame, (3,) unit axis in the frame, from, to).
-        head_weight: fitting weight of the neck and head markers (0.2 when the head is fixed).
         kept: the joints of the limbs (actuated), in the URDF's order.
         fixed: the other joints (fixed at 0).
         nominal: joint -> angle [rad] of the standing pose.
@@ -149,7 +148,6 @@ class GeneratedConfig:
     keypoints: Mapping[str, tuple[str, np.ndarray]]
     keypoints_nominal_m: Mapping[str, np.ndarray]
     directions: tuple[tuple[str, np.ndarray, str, str], ...]
-    head_weight: float
     kept: tuple[str, ...]
     fixed: tuple[str, ...]
     nominal: Mapping[str, float]
@@ -307,8 +305,8 @@ def _arm_points(tree: UrdfTree, arm: Limb, leg_len: float, kp: dict,
 
 
 def _trunk_points(tree: UrdfTree, limbs: Mapping[str, Limb], leg_len: float, up: np.ndarray,
-                  kp: dict, defaults: list[str]) -> float:
-    """Pelvis, chest, neck and head key points (into ``kp``); returns the neck/head weight."""
+                  kp: dict, defaults: list[str]) -> None:
+    """Pelvis, chest, neck and head key points (into ``kp``)."""
     m, pin, jid = tree.model, tree.pin, tree.jid
     hip_mid = (kp["hip_l"][1] + kp["hip_r"][1]) / 2
     kp["pelvis"] = (tree.root_link, hip_mid + PELVIS_ABOVE_HIPS * leg_len * up)
@@ -332,7 +330,7 @@ def _trunk_points(tree: UrdfTree, limbs: Mapping[str, Limb], leg_len: float, up:
         hids = [jid[n] for n in head.joints]
         kp["head"] = (tree.link_of(hids[-1]),
                       meeting_point(tree.pos[hids], tree.axis[hids], tree.pos[hids[0]]))
-        return 0.5
+        return
     head_links, head_frame = bodies(torso_joint, "head"), torso_link  # fixed on the torso (G1)
     pts = tree.points_of_frames(head_links, "visual")
     if len(pts) == 0:
@@ -344,7 +342,6 @@ def _trunk_points(tree: UrdfTree, limbs: Mapping[str, Limb], leg_len: float, up:
         defaults.append(f"head: no head geometry; head point {HEAD_ABOVE_NECK:.2f} leg above the "
                         "neck")
     kp["head"] = (head_frame, head_pt)
-    return 0.2
 
 
 # ----------------------------------------------------------------------------------------------
@@ -425,7 +422,7 @@ def generate_robot_config(urdf: str | os.PathLike, name: str | None = None) -> G
     leg_len = float(np.mean(lengths))
     for s in SIDES:
         _arm_points(tree, limbs[f"arm_{s}"], leg_len, kp, defaults)
-    head_weight = _trunk_points(tree, limbs, leg_len, up, kp, defaults)
+    _trunk_points(tree, limbs, leg_len, up, kp, defaults)
 
     kept = [n for limb in limbs.values() for n in limb.joints]
     fixed = tuple(n for n in tree.names[2:] if n not in kept)
@@ -464,7 +461,7 @@ def generate_robot_config(urdf: str | os.PathLike, name: str | None = None) -> G
     return GeneratedConfig(
         name=name, urdf=urdf, limbs=limbs, root_link=tree.root_link, feet=feet, soles=soles,
         keypoints=keypoints, keypoints_nominal_m=world, directions=tuple(directions),
-        head_weight=head_weight, kept=kept_ordered, fixed=fixed, nominal=nominal, limits=limits,
+        kept=kept_ordered, fixed=fixed, nominal=nominal, limits=limits,
         use_visual=tuple(use_visual), defaults=tuple(defaults), leg_length_m=leg_len,
         mass_kg=float(sum(i.mass for i in m.inertias)), segments_nominal_m=segs)
 

@@ -113,8 +113,9 @@ def markers_toml_text(gen: GeneratedConfig, arms: str = "") -> str:
         if mk not in gen.keypoints:
             continue
         frame, off = gen.keypoints[mk]
-        w = gen.head_weight if mk in ("neck", "head") else \
-            0.5 if mk in ("chest", "hand_l", "hand_r") else 1.0
+        # the trunk's points weigh as much as the limbs' (docs/robots.md): at less the balance
+        # plan leans the trunk away from them first
+        w = 0.5 if mk in ("hand_l", "hand_r") else 1.0
         lines.append(f'{mk} = {{ frame = "{frame}", offset = {_fmt(off)}, weight = {w} }}'
                      f"   # {_MARKER_NOTES[mk.split('_')[0]]}")
     lines += ["", "# Orientation key vectors (Nakaoka eq. 8): the robot's own key-point "
@@ -208,12 +209,18 @@ def write_generated(gen: GeneratedConfig, directory: str | os.PathLike) -> list[
     return written
 
 
+#: Bumped when the generated files change for the same URDF, so a configuration cached by an
+#: earlier version is generated again (2: the trunk's key points weigh 1.0).
+GENERATOR_VERSION = 2
+
+
 def generated_dir(urdf: str | os.PathLike) -> Path:
     """Where ``--urdf`` without a configuration keeps its generated files: the user cache
-    (:func:`imesh.core.cache.cache_root`) under ``robots/<stem>-<hash of the URDF>``."""
+    (:func:`imesh.core.cache.cache_root`) under
+    ``robots/<stem>-<hash of the URDF>-g<GENERATOR_VERSION>``."""
     p = Path(urdf).expanduser()
     digest = hashlib.sha256(p.read_bytes()).hexdigest()[:12]
-    return cache_root() / "robots" / f"{p.stem}-{digest}"
+    return cache_root() / "robots" / f"{p.stem}-{digest}-g{GENERATOR_VERSION}"
 
 
 def generate_for_urdf(urdf: str | os.PathLike) -> Path:
