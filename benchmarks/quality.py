@@ -272,14 +272,13 @@ def motion_rows(folder: Path, robots) -> list[dict]:
         if adapted is None:
             report["marker_rms_mm"]["value"] = None  # not against the unaligned source
         clip = data_root() / "mocap" / f"{stem}.bvh"
-        if clip.is_file() and motion.provenance is not None:  # its record of the clip's frames
+        if clip.is_file():  # on the clip's frames: the file's provenance names them
+            part = motion
+            if motion.provenance is None:  # no record: the adapted markers hold the lead still
+                a, b = lead_frames(adapted.positions_m) if adapted is not None else (0, 0)
+                part = motion.frames(a, motion.n_frames - b)
             report["close_pair_error"] = evaluate_motion(
-                robot, motion, source=clip, resample=True)["close_pair_error"]
-        elif clip.is_file():  # on the clip's frames (the adapted markers hold the lead-in/out)
-            a, b = lead_frames(adapted.positions_m) if adapted is not None else (0, 0)
-            report["close_pair_error"] = evaluate_motion(
-                robot, motion.frames(a, motion.n_frames - b), source=clip,
-                resample=True)["close_pair_error"]
+                robot, part, source=clip, resample=True)["close_pair_error"]
         rows.append({"robot": name, "clip": stem, "frames": motion.n_frames,
                      "evaluate_s": seconds, "report": report})
         print(f"{name} {stem}: done", file=sys.stderr)
