@@ -146,6 +146,29 @@ def test_qp_solution_meets_kkt_and_constraints(robot):
 
 
 
+def test_qp_update_keeps_to_each_coordinates_trust_radius(robot):
+    """A radius per frame and coordinate (imesh.solve.trust) bounds the QP's update there: the
+    arms' swing asks for more than 1 mrad of the shoulders in the middle frames, which get 1
+    mrad there (the rest rows move the first and last frames); the other coordinates keep
+    the nominal region."""
+    from imesh.solve.trust import nominal_radii
+
+    q = _sway(robot, T=20)
+    plan, _, targets = _plan(robot, q)
+    lin = linearize(robot, q, _Frames(robot, targets), FPS)
+    config = WholeBodyConfig()
+    radius = np.tile(nominal_radii(config.sqp, robot.nv), (len(q), 1))
+    free = solve_qp(build_qp(lin, plan, q, config, radius=radius), "piqp", 1e-8)
+    cols = [6 + robot.joint_index(n) for n in ("L_SHOULDER_P", "R_SHOULDER_P")]
+    dq_free = free.x.reshape(len(q), -1)[:, :robot.nv]
+    assert np.abs(dq_free[8:12][:, cols]).max() > 2e-3  # the bound binds
+    radius[8:12, cols] = 1e-3
+    sol = solve_qp(build_qp(lin, plan, q, config, radius=radius), "piqp", 1e-8)
+    dq = sol.x.reshape(len(q), -1)[:, :robot.nv]
+    assert np.abs(dq[8:12][:, cols]).max() <= 1e-3 + 1e-7
+    assert (np.abs(dq) <= radius + 1e-7).all()
+
+
 def test_qp_stalled_at_the_iteration_limit_is_solved_again(robot, monkeypatch):
     """A PIQP run stopped at its first iteration limit is solved again without preconditioning
     (the HRP-4C wash's stalled QP, docs/collision.md): the result converges (KKT residual,

@@ -290,7 +290,8 @@ class SqpOptions:
         keypoint_change: the key points have settled when an iteration changed their RMS
             distance to the markers by less than this fraction.
         trust_region: largest change of any base or joint coordinate in one iteration [m or
-            rad], so the linearization stays valid.
+            rad], so the linearization stays valid; each frame's and coordinate's radius
+            adapts below it along the iterations (:mod:`.trust`).
         base_trust: the base translation's region is this fraction of ``trust_region`` [m].
         solver: QP solver, one of :data:`imesh.solve.qp.SOLVERS`.
         qp_tolerance: absolute tolerance of each QP solve (primal and dual residuals and

@@ -16,6 +16,7 @@ import scipy.sparse as sp
 from .config import WholeBodyConfig
 from .operators import Layout, Rows, difference_operator
 from .plan import Linearization, Plan
+from .trust import nominal_radii
 
 
 def motion_rows(out: Rows, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
@@ -82,19 +83,23 @@ def torque_rows(out: Rows, lin: Linearization, config: WholeBodyConfig, lay: Lay
     out.add(rows + slack, -bound - r0, np.full(R, np.inf))
 
 
-def bounds(plan: Plan, q: np.ndarray, config: WholeBodyConfig, lay: Layout
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """(x_l, x_u) (T, nx): joint positions, a trust region on the update, slacks >= 0."""
+def bounds(plan: Plan, q: np.ndarray, config: WholeBodyConfig, lay: Layout,
+           radius: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(x_l, x_u) (T, nx): joint positions, a trust region on the update, slacks >= 0.
+
+    ``radius`` (T, nv): the trust region of each frame and tangent coordinate [m or rad]
+    (:mod:`.trust`); by default :func:`imesh.solve.trust.nominal_radii` in every frame.
+    """
     T, nv, nx = lay.n_frames, lay.nv, lay.nx
+    if radius is None:
+        # the base's translation moves every link: its vertical second difference enters the
+        # ZMP's denominator (g + c_z''), so it gets a tighter region
+        radius = np.broadcast_to(nominal_radii(config.sqp, nv), (T, nv))
     qj = q[:, 7:]
     x_l = np.full((T, nx), -np.inf)
     x_u = np.full((T, nx), np.inf)
-    x_l[:, :nv], x_u[:, :nv] = -config.sqp.trust_region, config.sqp.trust_region
-    # the base's translation moves every link: its vertical second difference enters the ZMP's
-    # denominator (g + c_z''), so it gets a tighter region
-    x_l[:, :3], x_u[:, :3] = -config.sqp.trust_region * config.sqp.base_trust, \
-        config.sqp.trust_region * config.sqp.base_trust
-    x_l[:, 6:nv] = np.maximum(plan.lower - qj, -config.sqp.trust_region)
-    x_u[:, 6:nv] = np.minimum(plan.upper - qj, config.sqp.trust_region)
+    x_l[:, :nv], x_u[:, :nv] = -radius, radius
+    x_l[:, 6:nv] = np.maximum(plan.lower - qj, -radius[:, 6:])
+    x_u[:, 6:nv] = np.minimum(plan.upper - qj, radius[:, 6:])
     x_l[:, lay.offset["zmp_slack"]:lay.offset["collision_slack"] + 1] = 0.0
     return x_l, x_u

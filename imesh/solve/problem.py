@@ -78,7 +78,7 @@ from .zmp import auxiliary_rows, band_cost, band_rows, linearize_zmp, polygon_ro
 
 
 def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyConfig,
-             elastic_speeds: bool = False) -> QpProblem:
+             elastic_speeds: bool = False, radius: np.ndarray | None = None) -> QpProblem:
     """The QP of one SQP iteration at the trajectory ``q`` (T, nq); see the module docstring.
 
     The terms and rows are assembled in a fixed order (the solver's path, and so the written
@@ -86,7 +86,9 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     (CoM and momentum auxiliaries, rest, held frames); inequalities (soles, ground, joint
     velocities and accelerations, torques, ZMP polygon, ZMP band, normal force and friction,
     self-collision); bounds. ``elastic_speeds``: the velocity rows the trajectory violates are
-    elastic (:func:`imesh.solve.limits.motion_rows`; the SQP's elastic mode).
+    elastic (:func:`imesh.solve.limits.motion_rows`; the SQP's elastic mode). ``radius``
+    (T, nv): the trust region of each frame and tangent coordinate (:mod:`.trust`; by default
+    ``SqpOptions.trust_region`` everywhere, the base's translation at ``base_trust`` of it).
 
     Returns:
         QpProblem over x = (x_0, ..., x_{T-1}) with x_t = (dq_t (nv), dc_t (3), dk_t (2), s_t):
@@ -138,7 +140,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
         rows.add(*collision_qp_rows(lin.obstacles, T, lay.nx, lay.offset["collision_slack"],
                                     config.collision.margin_m))
     G = sp.vstack(rows.blocks, format="csc") if rows.blocks else sp.csc_matrix((0, lay.n))
-    x_l, x_u = bounds(plan, q, config, lay)
+    x_l, x_u = bounds(plan, q, config, lay, radius)
     P = ((P + P.T) * 0.5).tocsc()
     low = np.concatenate(rows.lower) if rows.lower else np.zeros(0)
     high = np.concatenate(rows.upper) if rows.upper else np.zeros(0)

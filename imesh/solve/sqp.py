@@ -11,7 +11,6 @@ trajectory, so a result can be checked.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import time
 from collections.abc import Callable
@@ -53,6 +52,7 @@ from .props import linearize_props, shared_violation
 from .qp import solve_qp
 from .torque import linearize_torques
 from .touches import ContactPoints, plan_contact_points, touch_violation
+from .trust import TrustRegion
 from .zmp import band_weights
 
 log = logging.getLogger(__name__)
@@ -677,7 +677,9 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     # violates get a slack and the merit prices them
     elastic = False
     phi = merit(lin, plan, q, config)
-    trust = config.sqp.trust_region
+    # the trust region: a radius per frame and coordinate, as fractions of their nominal
+    # values (imesh.solve.trust)
+    region = TrustRegion.start(config.sqp, len(q), robot.nv)
     # the floor's single-support yaw cones (ForceOptions.yaw_sole_scale) are not contacts the
     # plan has to find: only prop contacts and flight get contact_iterations
     prop_cones = plan.props is not None and plan.cones is not None
@@ -717,9 +719,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
 
     for it in range(n_iter):
         t0 = time.perf_counter()
-        step_config = dataclasses.replace(
-            config, sqp=dataclasses.replace(config.sqp, trust_region=trust))
-        qp = build_qp(lin, plan, q, step_config, elastic_speeds=elastic)
+        qp = build_qp(lin, plan, q, config, elastic_speeds=elastic, radius=region.radius)
         seconds["build"] += time.perf_counter() - t0
         try:
             sol = solve(qp, it)
@@ -733,7 +733,8 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                      exc)
             elastic = True
             phi = merit(lin, plan, q, config, speeds=True)
-            sol = solve(build_qp(lin, plan, q, step_config, elastic_speeds=True), it)
+            sol = solve(build_qp(lin, plan, q, config, elastic_speeds=True,
+                                 radius=region.radius), it)
         seconds["qp"] += sol.seconds
         dq = sol.x.reshape(T, -1)[:, :nv].copy()
         # held frames: their equality rows hold to the QP's tolerance; keep them exact, so
@@ -765,10 +766,10 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         slow = (flight_only and it + 1 >= config.sqp.iterations
                 and phi - min(phi_new, phi) < config.sqp.contact_gain * phi)
         if phi_new >= phi:  # no decrease along the step: a smaller trust region next time
-            trust *= 0.25
+            region = region.shrink()
             log.info("whole-body iteration %d: no merit decrease (%.6g >= %.6g); trust region "
-                     "%.3g", it + 1, phi_new, phi, trust)
-            if trust < config.sqp.step_tolerance:
+                     "%.3g", it + 1, phi_new, phi, region.largest)
+            if region.largest < config.sqp.step_tolerance:
                 converged = True
                 break
             if slow:
@@ -776,8 +777,6 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                          "without a merit decrease", it + 1, config.sqp.iterations)
                 break
             continue
-        if alpha == 1.0:
-            trust = min(2.0 * trust, config.sqp.trust_region)
         gain = phi - phi_new
         q, lin, phi = q_new, lin_new, phi_new
         history.append(_report(lin, plan, q, step, sol.seconds, sol.iterations))
@@ -790,6 +789,7 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                  1e3 * r.keypoint_rms_m, sol.seconds, sol.iterations)
         placed = (r.sole_error_m < 1e-3 and r.lowest_swing_m > config.feet.clearance_m - 1e-3)
         feasible = placed and r.zmp_outside_m < 1e-3
+        region = region.follow(dq, alpha, placed)
         # the key points' change against the previous accepted iterate
         kept = abs(r.keypoint_rms_m - history[-2].keypoint_rms_m) < \
             config.sqp.keypoint_change * history[-2].keypoint_rms_m

@@ -1,0 +1,71 @@
+"""The whole-body SQP's trust region (imesh.solve.trust): the update rules on known steps."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from imesh.solve import SqpOptions
+from imesh.solve.trust import TrustRegion, nominal_radii
+
+
+def _region(scale: np.ndarray) -> TrustRegion:
+    start = TrustRegion.start(SqpOptions(), *scale.shape)
+    return TrustRegion(start.radii, scale, None, start.reversals)
+
+
+def test_nominal_radii_hold_the_base_translation_tighter():
+    radii = nominal_radii(SqpOptions(), 8)
+    np.testing.assert_allclose(radii[:3], 0.3 * 0.2)
+    np.testing.assert_allclose(radii[3:], 0.3)
+    region = TrustRegion.start(SqpOptions(), 4, 8)
+    np.testing.assert_allclose(region.radius, np.tile(radii, (4, 1)))
+    assert region.largest == 0.3
+
+
+def test_a_whole_step_doubles_the_radii_up_to_their_nominal_values():
+    scale = np.array([[0.25, 0.5, 1.0, 0.75, 0.1, 0.3, 0.6, 0.9]])
+    out = _region(scale).follow(np.zeros_like(scale), 1.0, placed=True)
+    np.testing.assert_allclose(out.scale, [[0.5, 1.0, 1.0, 1.0, 0.2, 0.6, 1.0, 1.0]])
+    np.testing.assert_allclose(out.shrink().scale, 0.25 * out.scale)
+
+
+def test_a_step_taken_in_part_bounds_the_radii_to_twice_that_part_once_placed():
+    """The G1 walk's tail (soles on their footprints): 1/8 of a 0.053 rad step taken; the next
+    QP's region is 2/8 of it. Far from the footprints (the G1 veer's first iterations, soles
+    180 mm off) the part taken bounds nothing."""
+    region = _region(np.ones((3, 8)))
+    dq = np.zeros((3, 8))
+    dq[1, 5] = 0.053
+    dq[2, 0] = 0.001  # the base: 1/60 of its radius
+    np.testing.assert_allclose(region.follow(dq, 0.125, placed=True).scale,
+                               2 * 0.125 * 0.053 / 0.3)
+    np.testing.assert_allclose(region.follow(dq, 0.125, placed=False).scale, 1.0)
+    # half a step at the radius leaves the region as it was
+    dq[1, 5] = 0.3
+    np.testing.assert_allclose(region.follow(dq, 0.5, placed=True).scale, 1.0)
+
+
+def test_a_coordinate_bouncing_between_its_radii_halves_alone():
+    """The JVRC-1 veer's knee: +0.3, -0.3, +0.3 rad at the radius on successive iterations
+    (half taken each time). The second reversal halves that coordinate of that frame alone;
+    one reversal (an overshoot corrected), one reversed short of its radius (a joint limit
+    nearer than it) and one at its radius in the same direction keep theirs."""
+    region = _region(np.ones((2, 8)))
+    steps = np.zeros((3, 2, 8))
+    steps[:, 0, 6] = 0.3, -0.3, 0.3  # bounced twice
+    steps[:, 1, 6] = 0.3, -0.2, 0.2  # reversed short of its radius
+    steps[:, 0, 7] = 0.3, 0.3, 0.3  # at its radius, same direction
+    steps[:, 1, 7] = 0.3, 0.3, -0.3  # reversed once
+    after = []
+    for dq in steps:
+        region = region.follow(dq, 0.5, placed=False)
+        after.append(region.scale.copy())
+    np.testing.assert_allclose(after[1], 1.0)
+    expected = np.ones((2, 8))
+    expected[0, 6] = 0.5
+    np.testing.assert_allclose(after[2], expected)
+    # a third reversal at the halved radius halves it again
+    region = region.follow(-0.5 * steps[2], 0.5, placed=False)
+    assert region.scale[0, 6] == pytest.approx(0.25)
+    assert region.reversals[0, 6] == 3
