@@ -189,14 +189,19 @@ def test_qp_stalled_at_the_iteration_limit_is_solved_again(robot, monkeypatch):
     sol = solve_qp(qp, "piqp", 1e-8)
     assert sol.status == str(piqp.PIQP_SOLVED)
     assert sol.iterations > 3  # the capped attempt and the retry
-    assert sol.unscaled and not full.unscaled
+    assert sol.attempt == 1 and full.attempt == 0
     assert sol.kkt_residual < 1e-5
     assert max(sol.residuals.values()) < 1e-7
     assert np.abs(sol.x - full.x).max() < 1e-5
     # what the SQP asks for after such a stall: straight to the unscaled solve, which stops
     # on its residuals (the same point, without the capped attempt's iterations)
-    direct = solve_qp(qp, "piqp", 1e-8, unscaled=True)
-    assert direct.unscaled and direct.iterations == sol.iterations - 3
+    direct = solve_qp(qp, "piqp", 1e-8, first_attempt=1)
+    assert direct.attempt == 1 and direct.iterations == sol.iterations - 3
+    # and once a QP needed the third run, the later ones start there (the same point)
+    last = solve_qp(qp, "piqp", 1e-8, first_attempt=2)
+    assert last.attempt == 2 and np.abs(last.x - full.x).max() < 1e-5
+    with pytest.raises(OptionError, match="first_attempt"):
+        solve_qp(qp, "piqp", 1e-8, first_attempt=3)
     assert direct.kkt_residual < 1e-5
     assert max(direct.residuals.values()) < 1e-7
     assert np.abs(direct.x - full.x).max() < 1e-5

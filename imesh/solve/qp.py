@@ -66,8 +66,8 @@ class QpSolution:
         residuals: largest equality / inequality / bound violation at ``x``.
         kkt_residual: infinity norm of the stationarity residual
             ``P x + c + A^T y + G^T z + z_x`` with the solver's multipliers (NaN if not given).
-        unscaled: PIQP solved it without preconditioning (its retry, or asked for with
-            ``solve_qp(..., unscaled=True)``).
+        attempt: which of PIQP's runs converged (:data:`PIQP_ATTEMPTS`: 0 scaled, 1
+            unscaled, 2 scaled again with the plain LDL^T); 0 for the other solvers.
     """
 
     x: np.ndarray
@@ -76,7 +76,7 @@ class QpSolution:
     seconds: float
     residuals: dict
     kkt_residual: float
-    unscaled: bool = False
+    attempt: int = 0
 
 
 #: PIQP's iteration limit for a first attempt. The whole-body QPs take 23-47 interior-point
@@ -129,24 +129,24 @@ class _Attempt:
     kkt_solver: str
     gap_check: bool
 
-    @property
-    def unscaled(self) -> bool:
-        return self.preconditioner_iter == 0
+
+#: PIQP's runs, tried in turn until one converges: scaled, unscaled, scaled again with the
+#: plain LDL^T (:func:`solve_qp`'s ``first_attempt`` skips the first ones).
+PIQP_ATTEMPTS = ("scaled", "unscaled", "scaled again")
 
 
-def _piqp_attempts(gap_check: bool, unscaled: bool) -> list[_Attempt]:
-    """The runs tried in turn until one converges: scaled, unscaled, scaled with the plain
-    LDL^T; from the second when the caller asks for ``unscaled``."""
+def _piqp_attempts(gap_check: bool) -> list[_Attempt]:
+    """The runs of :data:`PIQP_ATTEMPTS`."""
     first = _Attempt(PIQP_PRECONDITIONER_ITER, PIQP_MAX_ITER, PIQP_KKT_SOLVER, gap_check)
     # unscaled, the duality gap can stay open where the residuals have met the tolerance
     # (iCub's QPs: 250 iterations without it closing, 27 to the residuals)
     retry = _Attempt(0, PIQP_RETRY_MAX_ITER, PIQP_RETRY_KKT_SOLVER, False)
     last = _Attempt(PIQP_LAST_PRECONDITIONER_ITER, PIQP_LAST_MAX_ITER, PIQP_RETRY_KKT_SOLVER,
                     gap_check)
-    return [retry, last] if unscaled else [first, retry, last]
+    return [first, retry, last]
 
 
-def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool = False):
+def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True, first_attempt: int = 0):
     piqp = optional("piqp", "pip install piqp", "the whole-body QP (solver piqp)")
 
     def run(a: _Attempt):
@@ -165,10 +165,11 @@ def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool
         return solver.solve(), solver.result
 
     iterations, infeasible = 0, 0
-    for a in _piqp_attempts(gap_check, unscaled):
+    attempts = _piqp_attempts(gap_check)
+    for attempt in range(first_attempt, len(attempts)):
+        a = attempts[attempt]
         status, r = run(a)
         iterations += int(r.info.iter)
-        unscaled = a.unscaled
         if status == piqp.PIQP_SOLVED:
             break
         # a run stopped on another status whose point meets the constraints to the accepted
@@ -192,11 +193,11 @@ def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool
     stat = p.P @ x + p.c + p.A.T @ np.asarray(r.y) \
         + p.G.T @ (np.asarray(r.z_u) - np.asarray(r.z_l)) \
         + (np.asarray(r.z_bu) - np.asarray(r.z_bl))
-    return (x, str(status), iterations, float(np.abs(stat).max(initial=0.0)), unscaled,
+    return (x, str(status), iterations, float(np.abs(stat).max(initial=0.0)), attempt,
             infeasible == 2)
 
 
-def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool = False):
+def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True, first_attempt: int = 0):
     clarabel = optional("clarabel", "pip install clarabel", "the whole-body QP (solver clarabel)")
     finite_lo, finite_hi = np.isfinite(p.l), np.isfinite(p.u)
     bl, bu = np.isfinite(p.x_l), np.isfinite(p.x_u)
@@ -214,11 +215,11 @@ def _solve_clarabel(p: QpProblem, tol: float, gap_check: bool = True, unscaled: 
     solver = clarabel.DefaultSolver(sp.triu(p.P, format="csc"), p.c, A, np.concatenate(rhs),
                                     cones, settings)
     sol = solver.solve()
-    return (np.asarray(sol.x), str(sol.status), int(sol.iterations), float("nan"), False,
+    return (np.asarray(sol.x), str(sol.status), int(sol.iterations), float("nan"), 0,
             str(sol.status) == "PrimalInfeasible")
 
 
-def _solve_osqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool = False):
+def _solve_osqp(p: QpProblem, tol: float, gap_check: bool = True, first_attempt: int = 0):
     osqp = optional("osqp", "pip install osqp", "the whole-body QP (solver osqp)")
     eye = sp.identity(p.n, format="csc")
     A = sp.vstack([p.A, p.G, eye], format="csc")
@@ -228,25 +229,25 @@ def _solve_osqp(p: QpProblem, tol: float, gap_check: bool = True, unscaled: bool
     solver.setup(sp.triu(p.P, format="csc"), p.c, A, lo, hi, eps_abs=tol, eps_rel=0.0,
                  max_iter=20000, polishing=True, verbose=False)
     r = solver.solve()
-    return (np.asarray(r.x), str(r.info.status), int(r.info.iter), float("nan"), False,
+    return (np.asarray(r.x), str(r.info.status), int(r.info.iter), float("nan"), 0,
             str(r.info.status) == "primal infeasible")
 
 
 def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7,
-             gap_check: bool = True, unscaled: bool = False) -> QpSolution:
+             gap_check: bool = True, first_attempt: int = 0) -> QpSolution:
     """Solve a QP with one of :data:`SOLVERS`.
 
     ``gap_check=False`` lets PIQP stop on its primal and dual residuals alone: on the QPs of a
     window of a long clip (:mod:`imesh.solve.windows`) its duality-gap test did not close in
     250 iterations where the residuals met ``tol`` after 23, at the same objective to 7
-    digits (docs/speed.md). ``unscaled=True`` skips PIQP's first attempt and solves as its
-    retry does (no preconditioning, :data:`PIQP_RETRY_KKT_SOLVER`): the SQP asks for it once
-    a QP of its solve needed the retry. PIQP's runs in turn: scaled, unscaled, scaled again
-    with :data:`PIQP_LAST_PRECONDITIONER_ITER` passes and the plain LDL^T; it stops at the
-    first that converges, or once two of them certify primal infeasibility.
+    digits (docs/speed.md). PIQP's runs in turn (:data:`PIQP_ATTEMPTS`): scaled, unscaled
+    (no preconditioning, :data:`PIQP_RETRY_KKT_SOLVER`), scaled again with
+    :data:`PIQP_LAST_PRECONDITIONER_ITER` passes and the plain LDL^T; it stops at the first
+    that converges, or once two of them certify primal infeasibility. ``first_attempt``
+    starts at that run: the SQP asks for the run a QP of its solve needed.
 
     Raises:
-        OptionError: unknown solver.
+        OptionError: unknown solver or first attempt.
         QpInfeasibleError: the solver certified that no point meets the constraints (PIQP: two
             runs with different scalings).
         SolverError: the solver failed or returned a non-finite point (the message carries the
@@ -255,8 +256,12 @@ def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7,
     run = {"piqp": _solve_piqp, "clarabel": _solve_clarabel, "osqp": _solve_osqp}.get(solver)
     if run is None:
         raise OptionError("QP solver", solver, SOLVERS)
+    if first_attempt not in range(len(PIQP_ATTEMPTS)):
+        raise OptionError("first_attempt", first_attempt,
+                          [f"{i} ({name})" for i, name in enumerate(PIQP_ATTEMPTS)])
     t0 = time.perf_counter()
-    x, status, iterations, kkt, unscaled, infeasible = run(problem, tol, gap_check, unscaled)
+    x, status, iterations, kkt, attempt, infeasible = run(problem, tol, gap_check,
+                                                          first_attempt)
     seconds = time.perf_counter() - t0
     if infeasible:
         raise QpInfeasibleError(f"QP solver {solver}: {status} after {iterations} iterations "
@@ -268,4 +273,4 @@ def solve_qp(problem: QpProblem, solver: str = "piqp", tol: float = 1e-7,
         raise SolverError(f"QP solver {solver} stopped with status {status}: constraint "
                           f"residuals {res}", residual=max(res.values()))
     return QpSolution(x=x, status=status, iterations=iterations, seconds=seconds,
-                      residuals=res, kkt_residual=kkt, unscaled=unscaled)
+                      residuals=res, kkt_residual=kkt, attempt=attempt)

@@ -692,19 +692,20 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
     zmp_use = config.sqp.margin_use * config.zmp.margin * min(
         min(robot.soles[s].half_extents) for s in SIDES)
 
-    # once PIQP's scaled first attempt stalls on a QP of this solve, the later ones start
-    # unscaled: their linearizations share the scaling that stalled it (iCub: every first
-    # attempt stalled at its 80-iteration limit, 5-6 s of a 10-30 s QP)
-    unscaled = False
+    # once one of PIQP's runs stalls on a QP of this solve, the later QPs start at the run
+    # that converged: their linearizations share the scaling that stalled it (iCub: every
+    # first attempt stalled at its 80-iteration limit, 5-6 s of a 10-30 s QP; the JVRC-1
+    # veer's first QPs needed the third run, after 180 iterations of the first two)
+    first_attempt = 0
 
     def solve(qp, it: int):
-        nonlocal unscaled
+        nonlocal first_attempt
         try:
             # a window's QP (fixed first frames): PIQP's duality-gap test stalls there
             sol = solve_qp(qp, config.sqp.solver, config.sqp.qp_tolerance,
                            gap_check=plan.fixed_frames == 0 and plan.fixed_end_frames == 0,
-                           unscaled=unscaled)
-            unscaled = unscaled or sol.unscaled
+                           first_attempt=first_attempt)
+            first_attempt = max(first_attempt, sol.attempt)
             return sol
         except QpInfeasibleError:
             raise  # certified: Clarabel would spend a minute to say so too
