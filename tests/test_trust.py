@@ -48,13 +48,15 @@ def test_a_step_taken_in_part_bounds_the_radii_to_twice_that_part_once_placed():
 
 def test_a_coordinate_bouncing_between_its_radii_halves_alone():
     """The JVRC-1 veer's knee: +0.3, -0.3, +0.3 rad at the radius on successive iterations
-    (half taken each time). The second reversal halves that coordinate of that frame alone;
-    one reversal (an overshoot corrected), one reversed short of its radius (a joint limit
-    nearer than it) and one at its radius in the same direction keep theirs."""
+    (half taken each time), and the G1 veer's, 0.17-0.23 rad back and forth: the second
+    reversal halves that coordinate of that frame alone. One reversal (an overshoot
+    corrected), one reversed at less than half its radius (a joint limit nearer than that)
+    and one at its radius in the same direction keep theirs."""
     region = _region(np.ones((2, 8)))
     steps = np.zeros((3, 2, 8))
     steps[:, 0, 6] = 0.3, -0.3, 0.3  # bounced twice
-    steps[:, 1, 6] = 0.3, -0.2, 0.2  # reversed short of its radius
+    steps[:, 1, 6] = 0.3, -0.1, 0.1  # reversed at a third of its radius
+    steps[:, 1, 5] = 0.17, -0.2, 0.19  # bounced twice at 0.57-0.67 of its radius
     steps[:, 0, 7] = 0.3, 0.3, 0.3  # at its radius, same direction
     steps[:, 1, 7] = 0.3, 0.3, -0.3  # reversed once
     after = []
@@ -63,7 +65,7 @@ def test_a_coordinate_bouncing_between_its_radii_halves_alone():
         after.append(region.scale.copy())
     np.testing.assert_allclose(after[1], 1.0)
     expected = np.ones((2, 8))
-    expected[0, 6] = 0.5
+    expected[0, 6] = expected[1, 5] = 0.5
     np.testing.assert_allclose(after[2], expected)
     # a third reversal at the halved radius halves it again
     region = region.follow(-0.5 * steps[2], 0.5, placed=False)

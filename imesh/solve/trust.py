@@ -17,12 +17,12 @@ valid. The radii start at ``SqpOptions.trust_region`` (the base's translation at
   polygon; bounded, 2 iterations to 3.9 mm). Far from it the L1 penalty's decrease along a
   cut step is still large, and radii shrunk to the parts taken held the G1 veer, which starts
   with the soles 180 mm off, at 19 mm steps (soles still 339 mm off after 20 iterations);
-* a coordinate whose update reached its radius against the previous step's direction, twice
-  in a row: its radius halves. The QP has no curvature along it (a term the linearization
-  leaves out), so it crosses the valley from wall to wall (the JVRC-1 veer: a knee of the
-  lead-in at +-0.3 rad on alternate iterations, 11-20, taken at half with the soles stuck 4.3
-  mm off their footprints). One reversal is an overshoot corrected: halving on it changed the
-  HRP-4C veer's path to 20 iterations instead of 15.
+* a coordinate whose update reached half its radius or more against the previous step's
+  direction, twice in a row: its radius halves. The QP has no curvature along it (a term the
+  linearization leaves out), so it crosses the valley from wall to wall (the JVRC-1 veer: a
+  knee of the lead-in at +-0.3 rad on alternate iterations, 11-20, taken at half with the soles
+  stuck 4.3 mm off their footprints). One reversal is an overshoot corrected: halving on it
+  changed the HRP-4C veer's path to 20 iterations instead of 15.
 """
 
 from __future__ import annotations
@@ -32,6 +32,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import SqpOptions
+
+#: An update reversing the previous one counts towards a bounce once it reaches this part of
+#: its radius. The G1 veer's lead-in knee went 0.17-0.3 rad back and forth on iterations
+#: 13-20, mostly short of its 0.3 rad radius (the straight knee's second-order effect on the
+#: sole, which the linearization leaves out), its soles still 1.6 mm off after 20 iterations;
+#: counted from half the radius, it stops at 16 with them within 1 mm.
+REACH = 0.5
 
 
 def nominal_radii(options: SqpOptions, nv: int) -> np.ndarray:
@@ -50,8 +57,8 @@ class TrustRegion:
         radii: (nv,) nominal radii [m or rad] (:func:`nominal_radii`).
         scale: (T, nv) each frame's and coordinate's radius as a fraction of its nominal one.
         previous: (T, nv) the QP's update of the last accepted step, or None before one.
-        reversals: (T, nv) how many accepted updates in a row reached their radius against
-            the one before.
+        reversals: (T, nv) how many accepted updates in a row reached :data:`REACH` of their
+            radius against the one before.
     """
 
     radii: np.ndarray
@@ -89,10 +96,10 @@ class TrustRegion:
                 clear (the part taken bounds the radii only then).
         """
         relative = np.abs(dq) / self.radii
-        # at the radius (a joint limit nearer than it leaves the update short of it) and
-        # reversed against the previous step
+        # far towards the radius (:data:`REACH`; a joint limit nearer than that leaves the
+        # update short of it) and reversed against the previous step
         reversed_ = np.zeros(dq.shape, dtype=bool) if self.previous is None else (
-            (relative >= 0.999 * self.scale) & (dq * self.previous < 0.0))
+            (relative >= REACH * self.scale) & (dq * self.previous < 0.0))
         reversals = np.where(reversed_, self.reversals + 1, 0)
         if alpha == 1.0:
             scale = np.minimum(2.0 * self.scale, 1.0)
