@@ -25,25 +25,29 @@ def test_nominal_radii_hold_the_base_translation_tighter():
 
 def test_a_whole_step_doubles_the_radii_up_to_their_nominal_values():
     scale = np.array([[0.25, 0.5, 1.0, 0.75, 0.1, 0.3, 0.6, 0.9]])
-    out = _region(scale).follow(np.zeros_like(scale), 1.0, placed=True)
+    out = _region(scale).follow(np.zeros_like(scale), 1.0, 1e-4, True)
     np.testing.assert_allclose(out.scale, [[0.5, 1.0, 1.0, 1.0, 0.2, 0.6, 1.0, 1.0]])
     np.testing.assert_allclose(out.shrink().scale, 0.25 * out.scale)
 
 
-def test_a_step_taken_in_part_bounds_the_radii_to_twice_that_part_once_placed():
+def test_a_step_taken_in_part_bounds_the_radii_to_twice_that_part_near_the_footprints():
     """The G1 walk's tail (soles on their footprints): 1/8 of a 0.053 rad step taken; the next
-    QP's region is 2/8 of it. Far from the footprints (the G1 veer's first iterations, soles
-    180 mm off) the part taken bounds nothing."""
+    QP's region is 2/8 of it; so with the soles 4.9 mm off (the JVRC-1 wash's 2 mm). Far from
+    the footprints (the G1 veer's first iterations, soles 180 mm off), 5.1 mm off, or with a
+    swing foot below its clearance, the part taken bounds nothing."""
     region = _region(np.ones((3, 8)))
     dq = np.zeros((3, 8))
     dq[1, 5] = 0.053
     dq[2, 0] = 0.001  # the base: 1/60 of its radius
-    np.testing.assert_allclose(region.follow(dq, 0.125, placed=True).scale,
+    np.testing.assert_allclose(region.follow(dq, 0.125, 1e-4, True).scale,
                                2 * 0.125 * 0.053 / 0.3)
-    np.testing.assert_allclose(region.follow(dq, 0.125, placed=False).scale, 1.0)
+    np.testing.assert_allclose(region.follow(dq, 0.125, 4.9e-3, True).scale,
+                               2 * 0.125 * 0.053 / 0.3)
+    for sole_error_m, clear in ((0.18, True), (5.1e-3, True), (1e-4, False)):
+        np.testing.assert_allclose(region.follow(dq, 0.125, sole_error_m, clear).scale, 1.0)
     # half a step at the radius leaves the region as it was
     dq[1, 5] = 0.3
-    np.testing.assert_allclose(region.follow(dq, 0.5, placed=True).scale, 1.0)
+    np.testing.assert_allclose(region.follow(dq, 0.5, 1e-4, True).scale, 1.0)
 
 
 def test_a_coordinate_bouncing_between_its_radii_halves_alone():
@@ -61,13 +65,13 @@ def test_a_coordinate_bouncing_between_its_radii_halves_alone():
     steps[:, 1, 7] = 0.3, 0.3, -0.3  # reversed once
     after = []
     for dq in steps:
-        region = region.follow(dq, 0.5, placed=False)
+        region = region.follow(dq, 0.5, 0.18, True)
         after.append(region.scale.copy())
     np.testing.assert_allclose(after[1], 1.0)
     expected = np.ones((2, 8))
     expected[0, 6] = expected[1, 5] = 0.5
     np.testing.assert_allclose(after[2], expected)
     # a third reversal at the halved radius halves it again
-    region = region.follow(-0.5 * steps[2], 0.5, placed=False)
+    region = region.follow(-0.5 * steps[2], 0.5, 0.18, True)
     assert region.scale[0, 6] == pytest.approx(0.25)
     assert region.reversals[0, 6] == 3

@@ -788,9 +788,10 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                  1e3 * r.sole_error_m, np.degrees(r.sole_error_rad), 1e3 * r.lowest_swing_m,
                  1e3 * r.zmp_outside_m, r.velocity_ratio, r.acceleration_ratio,
                  1e3 * r.keypoint_rms_m, sol.seconds, sol.iterations)
-        placed = (r.sole_error_m < 1e-3 and r.lowest_swing_m > config.feet.clearance_m - 1e-3)
+        clear = r.lowest_swing_m > config.feet.clearance_m - 1e-3
+        placed = r.sole_error_m < 1e-3 and clear
         feasible = placed and r.zmp_outside_m < 1e-3
-        region = region.follow(dq, alpha, placed)
+        region = region.follow(dq, alpha, r.sole_error_m, clear)
         # the key points' change against the previous accepted iterate
         kept = abs(r.keypoint_rms_m - history[-2].keypoint_rms_m) < \
             config.sqp.keypoint_change * history[-2].keypoint_rms_m

@@ -8,15 +8,16 @@ valid. The radii start at ``SqpOptions.trust_region`` (the base's translation at
 
 * no merit decrease at any step length: every radius shrinks to a quarter;
 * the whole step taken: every radius doubles, up to its nominal value;
-* a part ``alpha < 1`` of the step taken with the soles on their footprints (within 1 mm) and
-  the swing feet clear: no radius exceeds ``2 alpha`` times the step's largest coordinate
-  (relative to its nominal radius). Near a feasible point the cut measures the model's missing
-  curvature (the ZMP's): the linearization held over about that part, and a QP bounded to it
-  picks a better direction than the longer step cut short (the G1 walk with the bend planes:
-  steps taken at 1/8 over iterations 8-20 with the ZMP 9.0 -> 5.4 mm outside its shrunk
-  polygon; bounded, 2 iterations to 3.9 mm). Far from it the L1 penalty's decrease along a
-  cut step is still large, and radii shrunk to the parts taken held the G1 veer, which starts
-  with the soles 180 mm off, at 19 mm steps (soles still 339 mm off after 20 iterations);
+* a part ``alpha < 1`` of the step taken with the soles near their footprints (within
+  :data:`NEAR_M`) and the swing feet clear: no radius exceeds ``2 alpha`` times the step's
+  largest coordinate (relative to its nominal radius). Near a feasible point the cut measures
+  the model's missing curvature (the ZMP's): the linearization held over about that part, and a
+  QP bounded to it picks a better direction than the longer step cut short (the G1 walk with
+  the bend planes: steps taken at 1/8 over iterations 8-20 with the ZMP 9.0 -> 5.4 mm outside
+  its shrunk polygon; bounded, 2 iterations to 3.9 mm). Far from it the L1 penalty's decrease
+  along a cut step is still large, and radii shrunk to the parts taken held the G1 veer, which
+  starts with the soles 180 mm off, at 19 mm steps (soles still 339 mm off after 20
+  iterations);
 * a coordinate whose update reached half its radius or more against the previous step's
   direction, twice in a row: its radius halves. The QP has no curvature along it (a term the
   linearization leaves out), so it crosses the valley from wall to wall (the JVRC-1 veer: a
@@ -32,6 +33,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import SqpOptions
+
+#: The soles this near their footprints [m] make the part of a step taken bound the radii. The
+#: JVRC-1 wash's soles hovered 2.0-2.1 mm off over iterations 10-16 with steps taken at 1/4
+#: (1.23 mm after its 20); bounded from 5 mm on, it stops at 17 with them within 1 mm.
+NEAR_M = 5e-3
 
 #: An update reversing the previous one counts towards a bounce once it reaches this part of
 #: its radius. The G1 veer's lead-in knee went 0.17-0.3 rad back and forth on iterations
@@ -86,14 +92,16 @@ class TrustRegion:
         """After a step no length of which lowered the merit: every radius to a quarter."""
         return TrustRegion(self.radii, 0.25 * self.scale, self.previous, self.reversals)
 
-    def follow(self, dq: np.ndarray, alpha: float, placed: bool) -> TrustRegion:
+    def follow(self, dq: np.ndarray, alpha: float, sole_error_m: float,
+               swing_clear: bool) -> TrustRegion:
         """After a step the line search took a part ``alpha`` of.
 
         Args:
             dq: (T, nv) the QP's update (before the line search).
             alpha: the part of ``dq`` taken.
-            placed: the new iterate has its soles on their footprints and its swing feet
-                clear (the part taken bounds the radii only then).
+            sole_error_m: the new iterate's largest sole distance to its footprint [m].
+            swing_clear: the new iterate's swing feet clear the ground. The part taken bounds
+                the radii only with the soles within :data:`NEAR_M` and the swing feet clear.
         """
         relative = np.abs(dq) / self.radii
         # far towards the radius (:data:`REACH`; a joint limit nearer than that leaves the
@@ -103,7 +111,7 @@ class TrustRegion:
         reversals = np.where(reversed_, self.reversals + 1, 0)
         if alpha == 1.0:
             scale = np.minimum(2.0 * self.scale, 1.0)
-        elif placed:
+        elif sole_error_m < NEAR_M and swing_clear:
             scale = np.minimum(self.scale, 2.0 * alpha * float(relative.max(initial=0.0)))
         else:
             scale = self.scale
