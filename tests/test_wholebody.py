@@ -30,6 +30,7 @@ from imesh.solve import (
     solve_whole_body,
 )
 from imesh.solve.sqp import _Frames, linearize
+from imesh.solve.trust import nominal_radii
 
 FPS = 30.0
 
@@ -151,8 +152,6 @@ def test_qp_update_keeps_to_each_coordinates_trust_radius(robot):
     arms' swing asks for more than 1 mrad of the shoulders in the middle frames, which get 1
     mrad there (the rest rows move the first and last frames); the other coordinates keep
     the nominal region."""
-    from imesh.solve.trust import nominal_radii
-
     q = _sway(robot, T=20)
     plan, _, targets = _plan(robot, q)
     lin = linearize(robot, q, _Frames(robot, targets), FPS)
