@@ -206,6 +206,44 @@ def test_qp_stalled_at_the_iteration_limit_is_solved_again(robot, monkeypatch):
     assert np.abs(direct.x - full.x).max() < 1e-5
 
 
+def test_piqps_first_run_converges_on_the_g1_waves_first_qp(mocap, monkeypatch):
+    """The G1 wave's first whole-body QP (6,750 unknowns, captured from a default retarget):
+    with PIQP's fine-tune regularization held at its ordinary lower limit
+    (:data:`imesh.solve.qp.PIQP_REG_FINETUNE_LOWER_LIMIT`) the first, scaled run converges
+    (31 interior-point iterations measured); with PIQP's default limit, 1e-13, it stalls at its
+    iteration limit and the unscaled retry finds the same point."""
+    import dataclasses
+
+    import imesh.solve.qp as qpmod
+    import imesh.solve.sqp as sqpmod
+    from imesh.io import load_motion
+    from imesh.pipeline.retarget import RetargetConfig, retarget
+
+    class Captured(Exception):
+        pass
+
+    box = []
+
+    def capture(qp, *args, **kwargs):
+        box.append(qp)
+        raise Captured
+
+    monkeypatch.setattr(sqpmod, "solve_qp", capture)
+    with pytest.raises(Captured):
+        retarget(load_motion(mocap("cmu_141_16_wave_hello.bvh")), load_test_robot("g1"),
+                 config=dataclasses.replace(RetargetConfig(), fps=30.0))
+    qp, tol = box[0], WholeBodyConfig().sqp.qp_tolerance
+    sol = solve_qp(qp, "piqp", tol)
+    assert sol.attempt == 0 and sol.iterations <= 40
+    assert max(sol.residuals.values()) < 1e-9 and sol.kkt_residual < 1e-4
+    monkeypatch.setattr(qpmod, "PIQP_REG_FINETUNE_LOWER_LIMIT", 1e-13)
+    stalled = solve_qp(qp, "piqp", tol)
+    assert stalled.attempt == 1 and stalled.iterations >= qpmod.PIQP_MAX_ITER
+    assert np.abs(stalled.x - sol.x).max() < 1e-3
+    objective = [0.5 * x @ (qp.P @ x) + qp.c @ x for x in (sol.x, stalled.x)]
+    assert objective[0] == pytest.approx(objective[1], rel=1e-5)
+
+
 @pytest.mark.parametrize("solver", ["piqp", "clarabel"])
 def test_a_qp_certified_infeasible_is_refused_without_another_solver(solver):
     """Three unknowns in [-1, 1] whose sum must reach 5 (at most 3): certified infeasible

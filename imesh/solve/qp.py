@@ -91,10 +91,10 @@ PIQP_RETRY_MAX_ITER = 100
 #: Iteration limit of the last attempt (:data:`PIQP_LAST_PRECONDITIONER_ITER`): it converged
 #: in 75-161 iterations where the first two had not.
 PIQP_LAST_MAX_ITER = 250
-#: Ruiz equilibration passes of a first attempt (PIQP's default is 10). With 10 the G1 wave's
-#: first QP stalled (80 iterations, then 25 in the retry without scaling) and the walk's second
-#: took 45; with 3 they take 24 and 28, and the walk's and wave's 34 QPs 800 interior-point
-#: iterations together instead of about 900 (docs/speed.md).
+#: Ruiz equilibration passes of a first attempt (PIQP's default is 10). With 10 the walk's and
+#: wave's QPs took about 900 interior-point iterations together, 800 with 3 (then with PIQP's
+#: default fine-tune limit; with :data:`PIQP_REG_FINETUNE_LOWER_LIMIT` 483 against 467 on
+#: their 18 QPs, docs/speed.md).
 PIQP_PRECONDITIONER_ITER = 3
 #: PIQP's KKT back end of a first attempt. ``sparse_ldlt_eq_cond`` eliminates the equality
 #: rows' multipliers (730 of the 870 equalities define the CoM and momentum auxiliaries) into
@@ -112,6 +112,15 @@ PIQP_RETRY_KKT_SOLVER = "sparse_ldlt"
 #: ``sparse_ldlt`` in 75 (25 cpu s, the objective of Clarabel's solution to 8 digits, which
 #: took 108 cpu s; docs/clips-flight.md).
 PIQP_LAST_PRECONDITIONER_ITER = 5
+#: Smallest proximal regularization (rho, delta) of PIQP's "fine-tune" mode, which it enters
+#: after several iterations without a primal or dual update; PIQP's default is 1e-13, below its
+#: ordinary lower limit (``reg_lower_limit``, 1e-10). On the whole-body QPs (cost gradient up to
+#: 1e4, rows up to 900) a KKT system regularized by 1e-13 is factorized too inexactly to make
+#: progress: the G1 wave's first two QPs stalled there (regularization 3e-13, steps of 1e-3 to
+#: 1e-1, the dual residual at 0.1-0.3 through 250 iterations) and converge in 31 and 26 with
+#: the fine-tune limit at the ordinary one, to the same objective as the unscaled run's
+#: (docs/speed.md).
+PIQP_REG_FINETUNE_LOWER_LIMIT = 1e-10
 
 
 def accepted_residual(tol: float) -> float:
@@ -159,6 +168,7 @@ def _solve_piqp(p: QpProblem, tol: float, gap_check: bool = True, first_attempt:
         solver.settings.max_iter = a.max_iter
         solver.settings.kkt_solver = getattr(piqp.KKTSolver, a.kkt_solver)
         solver.settings.preconditioner_iter = a.preconditioner_iter
+        solver.settings.reg_finetune_lower_limit = PIQP_REG_FINETUNE_LOWER_LIMIT
         big = 1e30  # PIQP takes infinite bounds as +-inf; keep them finite for the KKT check
         solver.setup(p.P, p.c, p.A, p.b, p.G, np.maximum(p.l, -big), np.minimum(p.u, big),
                      p.x_l, p.x_u)
