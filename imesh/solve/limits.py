@@ -92,8 +92,6 @@ def bounds(plan: Plan, q: np.ndarray, config: WholeBodyConfig, lay: Layout,
     """
     T, nv, nx = lay.n_frames, lay.nv, lay.nx
     if radius is None:
-        # the base's translation moves every link: its vertical second difference enters the
-        # ZMP's denominator (g + c_z''), so it gets a tighter region
         radius = np.broadcast_to(nominal_radii(config.sqp, nv), (T, nv))
     qj = q[:, 7:]
     x_l = np.full((T, nx), -np.inf)

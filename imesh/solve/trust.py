@@ -51,6 +51,8 @@ def nominal_radii(options: SqpOptions, nv: int) -> np.ndarray:
     """(nv,) the largest change of each tangent coordinate in one iteration [m or rad]: the
     base's translation ``trust_region * base_trust``, every other one ``trust_region``."""
     radii = np.full(nv, options.trust_region)
+    # the base's translation moves every link: its vertical second difference enters the
+    # ZMP's denominator (g + c_z''), so it gets a tighter region
     radii[:3] *= options.base_trust
     return radii
 
