@@ -2,7 +2,7 @@
 person does with the boxes, and what a retarget does to the boxes today.
 
     python benchmarks/terrain.py [--robots g1] [--window 200 800] [--out DIR] [--no-robot]
-                                 [--floor-only] [--seqs seq_0 seq_1]
+                                 [--floor-only] [--seqs seq_0 seq_1] [--rescore] [--physics]
 
 Three tables, on ``IMESH_DATA/interaction/holosoma_climb`` (MANIFEST.md there):
 
@@ -25,6 +25,10 @@ Three tables, on ``IMESH_DATA/interaction/holosoma_climb`` (MANIFEST.md there):
    their tops, hands and knees held on them, no link inside them, the contact wrench cone:
    docs/terrain.md); ``--floor-only`` retargets without them (the solve knows only the floor
    z = 0, as before issue 34's part 3).
+4. **DART** (``--physics``): each written motion tracked by the whole-body controller with its
+   props in the world (boxes, their tops the soles' surfaces, the hands and knees the
+   reference rests on them point contacts: docs/checking.md), and the same motion on the floor
+   alone: the time it stood, its key points against the reference's, the force on the hands.
 """
 
 from __future__ import annotations
@@ -56,6 +60,9 @@ def main(argv=None) -> int:
                     help="retarget without the props in the solve (the scene only measured)")
     ap.add_argument("--seqs", nargs="+", default=[s[0] for s in SEQS],
                     help="sequences of table 3 (default: both)")
+    ap.add_argument("--physics", action="store_true",
+                    help="the DART check of each written motion with its props in the world "
+                         "(a fourth table)")
     ap.add_argument("--rescore", action="store_true",
                     help="table 3 from the motions and scenes already written in --out")
     args = ap.parse_args(argv)
@@ -127,6 +134,7 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     a, b = args.window
+    checks = []  # (seq, robot, motion, scene) for the DART table
     print(f"\n3. robot: source frames {a}-{b - 1} retargeted with default settings (30 fps, "
           "1 s lead-in/out); " + ("the solve knows the floor only" if args.floor_only
                                   else "the props in the solve"))
@@ -170,6 +178,7 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
                   f"{f(skid, '.1f'):>5} {f(values['ground_penetration_mm'], '.1f'):>6} "
                   f"{values['self_collision_frames']:>4} {values['limit_violation_frames']:>5} "
                   f"{props['cwc_inside_fraction']['value']:>5.3f}")
+            checks.append((seq, rname, robot, motion, written))
     print("pen: deepest point of the robot's collision proxies inside each box [mm] (the "
           "distance to the box's nearest face: at most the box's half-thickness, 187 mm for "
           "box1 at the G1's scale); >10mm: frames with a box penetrated deeper than 10 mm; "
@@ -178,7 +187,32 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
           "supporting on any surface [mm per 1/30 s]; ground: the evaluator's ground "
           "penetration [mm]; cwc: fraction of frames whose gravito-inertial wrench is "
           "inside the contact wrench cone of the robot's own contacts")
+    if args.physics:
+        physics_table(checks)
     return 0
+
+
+def physics_table(checks) -> None:
+    """4. The DART check of each written motion, with its props in the world and without."""
+    from imesh.physics import simulate_motion
+
+    print("\n4. DART check (whole-body controller, 1 kHz) of the written motions: the props "
+          "in the world, and the same motion on the floor alone")
+    print(f"{'seq':<6} {'robot':<6} {'world':<6} {'stood s':>7} {'of':>5} {'kp rms':>6} "
+          f"{'kp max':>6} {'hands N':>7} {'slip':>5}  fall")
+    for seq, rname, robot, motion, scene in checks:
+        for world, sc in (("props", scene), ("floor", None)):
+            r = simulate_motion(robot, motion, scene=sc)
+            hands = float(np.nanmax(r.link_contact_force_n)) if np.isfinite(
+                r.link_contact_force_n).any() else 0.0
+            print(f"{seq:<6} {rname:<6} {world:<6} {r.survived_s:>7.2f} "
+                  f"{(motion.n_frames - 1) / motion.fps:>5.2f} {r.keypoint_rms_mm:>6.1f} "
+                  f"{r.keypoint_max_mm:>6.1f} {hands:>7.0f} {r.slip_mm:>5.1f}  "
+                  f"{r.fall_reason or '-'}")
+    print("stood s: simulated time before a fall (of: the motion's duration); kp: the robot's "
+          "key points against the reference's over the frames it stood [mm]; hands N: "
+          "largest vertical force on links other than the soles (hands, knees), averaged "
+          "per frame; slip: sole slip within a support phase [mm]")
 
 
 if __name__ == "__main__":

@@ -219,7 +219,8 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
         robot: the robot (name or Robot); default the robot the file names.
         source: the human clip, for ``close_pair_error`` and ``marker_rms_mm``.
         adapted: the adapted markers the robot fitted (an imesh .npz stores them itself).
-        physics: run the DART dynamics check (slower).
+        physics: run the DART dynamics check (slower); a motion file's props (the
+            ``.scene.npz`` beside it) stand in its world.
         fps: frame rate of files that store none [1/s].
         resample: compare ``source``/``adapted`` markers of another frame rate or frame count
             (resampled to the motion's fps, first common frames; e.g. a 120 fps clip against a
@@ -239,16 +240,21 @@ def evaluate(motion: RobotMotion | PathLike, robot: Robot | str | None = None, *
         >>> report["limit_violation_frames"]["value"]
         0
     """
+    scene = None
     if isinstance(motion, str | os.PathLike):
         path = Path(motion)
         if robot is None:
             robot = _robot_named_in(path)
         robot = _robot(robot, urdf)
         motion = _load_for_evaluate(path, robot, fps)
+        if physics:  # the props written beside the motion stand in the DART world too
+            from .scene import find_scene  # noqa: PLC0415
+
+            scene = find_scene(path)
     else:
         robot = _robot(robot if robot is not None else motion.robot, urdf)
     return evaluate_motion(robot, motion, source=source, adapted=adapted, physics=physics,
-                           resample=resample)
+                           resample=resample, scene=scene)
 
 
 def _robot_named_in(path: Path) -> str:

@@ -295,3 +295,33 @@ def test_slip_counts_only_the_corners_on_the_ground():
     turn[7:, 1, :, 0] += 0.002 * np.arange(3)[:, None]
     slip, side, frame = sole_slip(turn, support)
     assert slip == pytest.approx(0.004) and (side, frame) == (1, T - 1)
+
+
+def test_props_in_the_world_must_be_boxes_in_the_robots_world():
+    """The DART world takes a scene's props as boxes, in the robot's world: a wedge is
+    refused by name, and so is a scene still in its file's frame."""
+    import trimesh
+
+    from imesh.physics import PhysicsError
+    from imesh.scene import Prop, Scene
+
+    robot = _load("jvrc1")
+    box = trimesh.creation.box(bounds=[[1.0, -0.5, 0.0], [1.5, 0.5, 0.3]])
+    v = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1) if not (x and z)],
+                 dtype=float) + [2.0, 0.0, 0.0]
+    wedge = trimesh.Trimesh(v).convex_hull
+    props = (Prop("step", np.asarray(box.vertices), np.asarray(box.faces)),
+             Prop("ramp", np.asarray(wedge.vertices), np.asarray(wedge.faces)))
+    with pytest.raises(PhysicsError, match=r"not boxes: \['ramp'\]"):
+        DartRobot(robot, PhysicsConfig(), scene=Scene(props, frame="robot", scale=0.8))
+    with pytest.raises(PhysicsError, match="robot's world"):
+        DartRobot(robot, PhysicsConfig(), scene=Scene(props[:1], frame="file"))
+    sim = DartRobot(robot, PhysicsConfig(), scene=Scene(props[:1], frame="robot", scale=0.8))
+    assert len(sim.props) == 1
+    node = sim.props[0].getBodyNode(0).getShapeNode(0)
+    T = node.getWorldTransform().matrix()
+    half = 0.5 * np.asarray(node.getShape().getSize())
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half
+    world = corners @ T[:3, :3].T + T[:3, 3]
+    assert np.allclose(world.min(axis=0), [1.0, -0.5, 0.0], atol=1e-12)
+    assert np.allclose(world.max(axis=0), [1.5, 0.5, 0.3], atol=1e-12)

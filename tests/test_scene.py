@@ -379,3 +379,29 @@ def test_retarget_writes_the_scene_and_evaluate_reads_it(capsys, tmp_path):
     assert again == report["scene"]
     assert again["human_prop_contact_frames"]["value"] > 0  # the person steps onto box2
     assert set(again["human_prop_contact_frames"]["props"]["box2"]) == {"toe_l", "toe_r"}
+
+
+def test_a_turned_box_is_a_box_and_a_wedge_is_not():
+    """``prop_box`` recovers a box's centre, size and axes whatever its orientation (what the
+    DART check builds its box shapes from); a wedge (a box cut on a diagonal) is no box."""
+    import trimesh
+    from scipy.spatial.transform import Rotation
+
+    from imesh.scene.props import prop_box
+
+    R = Rotation.from_euler("zyx", [30.0, 10.0, -5.0], degrees=True).as_matrix()
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, [0.4, -1.2, 0.3]
+    mesh = trimesh.creation.box(extents=[0.5, 0.8, 0.2], transform=T)
+    box = prop_box(Prop("turned", np.asarray(mesh.vertices), np.asarray(mesh.faces)))
+    assert box is not None
+    assert np.allclose(box.center_m, [0.4, -1.2, 0.3], atol=1e-12)
+    # the same box: each of its axes along one of the mesh's, with that axis's length
+    match = np.abs(R.T @ box.rotation)
+    assert np.allclose(np.sort(match.max(axis=0)), 1.0, atol=1e-9)
+    assert np.allclose(box.size_m, np.array([0.5, 0.8, 0.2])[match.argmax(axis=0)], atol=1e-9)
+    assert np.linalg.det(box.rotation) == pytest.approx(1.0)
+    v = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1) if not (x and z)],
+                 dtype=float)
+    wedge = trimesh.Trimesh(v).convex_hull
+    assert prop_box(Prop("wedge", np.asarray(wedge.vertices), np.asarray(wedge.faces))) is None

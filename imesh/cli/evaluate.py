@@ -42,7 +42,7 @@ def run(args) -> int:
     report = evaluate_motion(robot, motion, source=source, physics=args.physics,
                              adapted=args.adapted, physics_config=config,
                              plot=args.plot if args.physics else None,
-                             resample=args.resample)
+                             resample=args.resample, scene=scene)
     print(f"{args.motion}: {motion.n_frames} frames of {robot.name} at {motion.fps:g} fps")
     print(format_table(report))
     metrics = report  # the motion's table (the scene's figures are a table of their own)

@@ -84,7 +84,7 @@ def run(args) -> int:
                                         source=motion,
                                         physics=PhysicsConfig(control=ControlConfig(
                                             controller=args.controller))
-                                        if args.physics else None)
+                                        if args.physics else None, scene=scene)
         report["metrics"] = metrics
         report["verification"] = {"passed": not failed,
                                   "failed": {k: {"value": v[0], "gate": v[1]}

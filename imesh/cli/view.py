@@ -87,12 +87,12 @@ def run(args) -> int:
     return 0
 
 
-def _physics(robot, motion, controller: str | None):
-    """The DART check of a motion (printed), or None without ``controller``."""
+def _physics(robot, motion, controller: str | None, props=None):
+    """The DART check of a motion with its props (printed), or None without ``controller``."""
     if controller is None:
         return None
     physics = simulate_motion(robot, motion, config=PhysicsConfig(
-        control=ControlConfig(controller=controller)))
+        control=ControlConfig(controller=controller)), scene=props)
     print(physics_line(physics_entries(physics)))
     return physics
 
@@ -124,7 +124,7 @@ def _motion_scene(args) -> dict:
         print(f"{args.motion} is one robot of a pair: imesh view {manifest} shows both")
     source = named_clip(motion, path) if args.source == NAMED_CLIP else args.source
     props = scene_for_motion(robot, motion, path, args.scene or (), source=source)
-    physics = _physics(robot, motion, args.controller if args.physics else None)
+    physics = _physics(robot, motion, args.controller if args.physics else None, props)
     return build_scene(robot, motion, source=source, physics=physics, props=props,
                        title=f"{path.name} ({robot.name})")
 
@@ -167,12 +167,13 @@ def pair_scene(manifest: str | Path | PairFiles, *, source: bool = False,
         humans = None
     view = _pair_view(files, robots, motions, humans, metrics,
                       pair_metrics or files.manifest.get("pair_metrics", {}))
+    props = _pair_props(files, scene_files)
     entries = [SceneRobot(r, m, label=f"{k} {r.name}",
                           source=humans[i] if source and humans else None,
                           source_scale=files.scale, source_centre_m=np.asarray(files.centre_m),
-                          physics=_physics(r, m, controller))
+                          physics=_physics(r, m, controller, props))
                for i, (k, r, m) in enumerate(zip(KEYS, robots, motions, strict=True))]
-    return build_robots_scene(entries, props=_pair_props(files, scene_files), pair=view,
+    return build_robots_scene(entries, props=props, pair=view,
                               title=f"{files.manifest_path.name}: " + ", ".join(
                                   f"{Path(files.clips[k]).name} -> {files.robots[k]}"
                                   for k in KEYS))

@@ -140,7 +140,8 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
                     adapted=None, seconds: Mapping[str, float] | None = None,
                     physics_config=None, support_config: SupportDetection | None = None,
                     plot: str | os.PathLike | None = None, resample: bool = False,
-                    physics_result=None, collisions: SelfCollisions | None = None) -> dict:
+                    physics_result=None, collisions: SelfCollisions | None = None,
+                    scene=None) -> dict:
     """Every DESIGN.md quality metric of a robot motion.
 
     Args:
@@ -168,6 +169,9 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
             without running the check again, whatever ``physics`` says.
         collisions: the :func:`~imesh.metrics.collision.check_self_collisions` result of this
             motion already computed (e.g. for the viewer's scene): reported, not computed again.
+        scene: the motion's props in the robot's world (:class:`imesh.scene.Scene`), put in
+            the DART check's world (physics only; the scene's own metrics are
+            :func:`imesh.evaluate.props.evaluate_scene`'s).
 
     Returns:
         dict: exactly the keys :data:`METRIC_NAMES`; each a dict with ``value``, ``unit`` and
@@ -204,7 +208,7 @@ def evaluate_motion(robot, motion: RobotMotion, source=None, physics: bool = Fal
             plot_physics(physics_result, plot)
     elif physics:
         physics_metrics, timing["physics"] = _physics_metrics(robot, motion, physics_config,
-                                                              plot)
+                                                              plot, scene)
         out.update(physics_metrics)
     else:
         for name in ("physics_fell", "physics_survived_s", "tracking_rms_rad",
@@ -406,12 +410,13 @@ def _zmp_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, soles: Sole
     }
 
 
-def _physics_metrics(robot, motion: RobotMotion, config, plot: str | os.PathLike | None
-                     ) -> tuple[dict[str, dict], float]:
+def _physics_metrics(robot, motion: RobotMotion, config, plot: str | os.PathLike | None,
+                     scene=None) -> tuple[dict[str, dict], float]:
     """The DART check's metrics (``physics_*``, ``tracking_rms_rad``, ``torque_ratio_max``) and
-    the seconds the simulation took; writes its figure to ``plot`` when given."""
+    the seconds the simulation took, with ``scene``'s props in its world; writes its figure
+    to ``plot`` when given."""
     t0 = time.perf_counter()
-    res = simulate_motion(robot, motion, config=config or PhysicsConfig())
+    res = simulate_motion(robot, motion, config=config or PhysicsConfig(), scene=scene)
     seconds = time.perf_counter() - t0
     out = physics_entries(res)
     if plot is not None:
@@ -431,7 +436,7 @@ def physics_entries(res) -> dict[str, dict]:
                                        "keypoint_max_mm", "keypoint_worst", "keypoint_worst_s",
                                        "slip_mm", "slip_side", "slip_s",
                                        "zmp_contact_error_mm", "saturation_fraction",
-                                       "controller")}
+                                       "controller", "props", "link_contact_force_max_n")}
     out = {
         "physics_fell": _metric("physics_fell", m["physics_fell"], **details),
         "physics_survived_s": _metric("physics_survived_s", m["physics_survived_s"],

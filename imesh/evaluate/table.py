@@ -48,7 +48,11 @@ def _note(name: str, entry: dict) -> str:
         worst = worst_markers(entry)
         return f"vs {entry['reference']}" + (f"; worst {worst}" if worst else "")
     if name == "physics_fell":
-        return entry.get("fall_reason") or f"real-time factor {entry['real_time_factor']:.2f}"
+        text = entry.get("fall_reason") or f"real-time factor {entry['real_time_factor']:.2f}"
+        if entry.get("props"):
+            text += (f"; props in the world: {', '.join(entry['props'])}, hands/knees carried "
+                     f"up to {entry.get('link_contact_force_max_n', 0.0):.0f} N")
+        return text
     if name == "seconds_per_frame":
         return ", ".join(f"{k} {v:.4f}" for k, v in entry.get("stages", {}).items())
     return ""
@@ -91,7 +95,9 @@ def physics_line(report: Mapping[str, dict]) -> str:
              if fell.get("keypoint_worst") and fell.get("keypoint_worst_s") is not None else "")
     slip = (f"; slip {mm('slip_mm')} mm ({fell['slip_side']} sole at {fell['slip_s']:.2f} s)"
             if fell.get("slip_side") and fell.get("slip_s") is not None else "")
-    return (f"physics check ({fell.get('controller')}): {verdict}; key points "
+    props = (f"; with the props ({', '.join(fell['props'])}), hands/knees carrying up to "
+             f"{fell.get('link_contact_force_max_n', 0.0):.0f} N") if fell.get("props") else ""
+    return (f"physics check ({fell.get('controller')}): {verdict}{props}; key points "
             f"{mm('keypoint_rms_mm')} mm RMS, {mm('keypoint_max_mm')} mm max{worst}{slip}; "
             f"base drift {'n/a' if drift is None else f'{1e3 * drift:.0f} mm'}; torque ratio "
             f"{_fmt(ratio)} (docs/checking.md)")

@@ -65,7 +65,7 @@ def failed_gates(report: dict, gates: Gates | None = None, balanced: bool = True
 
 def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
                   balanced: bool = True, force: bool = False, source=None,
-                  physics=None) -> tuple[dict, dict]:
+                  physics=None, scene=None) -> tuple[dict, dict]:
     """Score a robot motion as it will be written and check it against the gates (what
     ``imesh retarget`` and ``imesh batch`` do before writing).
 
@@ -83,6 +83,7 @@ def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
             None.
         physics: a :class:`imesh.physics.PhysicsConfig` to run the DART check with and gate
             on (``physics_fell``), or None (no physics check).
+        scene: the motion's props in the robot's world, in the DART check's world.
 
     Returns:
         (the evaluator's report (:func:`~imesh.evaluate.scoreboard.evaluate_motion`), the failed
@@ -92,7 +93,7 @@ def verify_motion(robot, motion, *, adapted=None, seconds=None, name: str,
         VerificationError: a gate fails and not ``force`` (lists every failed gate).
     """
     metrics = evaluate_motion(robot, motion, source=source, adapted=adapted, seconds=seconds,
-                              physics=physics is not None, physics_config=physics)
+                              physics=physics is not None, physics_config=physics, scene=scene)
     failed = failed_gates(metrics, balanced=balanced)
     if failed and not force:
         raise VerificationError(f"retargeted motion of {name} for {robot.name}", failed)

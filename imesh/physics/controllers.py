@@ -16,16 +16,21 @@ the effort limits (before any clamping).
 from __future__ import annotations
 
 import logging
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg import lapack
 
 from .config import PhysicsConfig
+from .points import planned_point_contacts
 from .reference import Reference, joint_splines, sample_frames
 from .so3 import exp_so3, matrix_to_quat_xyzw
 from .track import ReferenceTrack
 from .wbc import ControlStep, WholeBodyController
 from .world import DartRobot, PhysicsError
+
+if TYPE_CHECKING:
+    from ..scene.surfaces import SupportSurfaces
 
 log = logging.getLogger(__name__)
 
@@ -146,15 +151,20 @@ class WbcTracker:
     """The whole-body QP controller in DART: the DART state converted to pinocchio's (q, v),
     one QP every ``1 / WbcConfig.rate_hz`` seconds, the torques held in between."""
 
-    def __init__(self, sim: DartRobot, ref: Reference, config: PhysicsConfig):
+    def __init__(self, sim: DartRobot, ref: Reference, config: PhysicsConfig,
+                 surfaces: SupportSurfaces | None = None):
         self.sim = sim
         self.config = config
         self.track = ReferenceTrack(sim.robot, ref)
+        # hands and knees the reference rests on prop tops (none on a floor alone)
+        points = (planned_point_contacts(sim.robot, ref.q, surfaces)
+                  if surfaces is not None and not surfaces.flat else None)
         self.controller = WholeBodyController(sim.robot, self.track, config.control.wbc,
                                               config.ground.friction,
                                               joint_damping=sim.joint_damping,
                                               time_step_s=config.timing.dt,
-                                              slide_friction=config.ground.slide_friction)
+                                              slide_friction=config.ground.slide_friction,
+                                              surfaces=surfaces, points=points)
         dt = config.timing.dt
         self.every = max(1, int(round(1.0 / (config.control.wbc.rate_hz * dt))))
         self.dt = dt

@@ -19,6 +19,8 @@ from ..metrics.zmp import zmp_trajectory
 if TYPE_CHECKING:
     from scipy.interpolate import CubicSpline
 
+    from ..scene.surfaces import SupportSurfaces
+
 log = logging.getLogger(__name__)
 
 
@@ -61,11 +63,16 @@ class Reference:
         return (self.n_frames - 1) / self.fps
 
 
-def first_frame_height(robot, q0: np.ndarray) -> float:
+def first_frame_height(robot, q0: np.ndarray, surfaces: SupportSurfaces | None = None
+                       ) -> float:
     """[m] lowest point of a configuration over the sole rectangles and the collision proxies of
-    the non-foot links (the shapes the DART world collides with)."""
+    the non-foot links (the shapes the DART world collides with). With ``surfaces`` (a scene's
+    prop tops) a sole corner counts from the surface under it (the other proxies from the
+    floor)."""
     soles = sole_tracks(robot, q0[None], 30.0)
-    low = min(float(soles.lowest(s)[0]) for s in SIDES)
+    corners = np.concatenate([soles.corners[s][0] for s in SIDES])  # (8, 3)
+    under = surfaces.heights(corners) if surfaces is not None else np.zeros(len(corners))
+    low = float((corners[:, 2] - under).min())
     lp = LowestPoint(robot)
     feet = {robot.soles[s].frame for s in robot.soles} | set(robot.foot_frames.values())
     heights = lp.heights(q0)
@@ -76,7 +83,8 @@ def first_frame_height(robot, q0: np.ndarray) -> float:
 def build_reference(robot, q: np.ndarray, fps: float, *, clearance_m: float = 0.001,
                     place_on_ground: bool = True,
                     support_config: SupportDetection | None = None,
-                    contact_modes: np.ndarray | None = None) -> Reference:
+                    contact_modes: np.ndarray | None = None,
+                    surfaces: SupportSurfaces | None = None) -> Reference:
     """Prepare a motion for tracking: ground placement, derivatives, support, planned ZMP.
 
     Args:
@@ -88,11 +96,13 @@ def build_reference(robot, q: np.ndarray, fps: float, *, clearance_m: float = 0.
         support_config: thresholds of the sole-based support detection.
         contact_modes: (T, 2) int planned contact modes (``RobotMotion.contact_modes``): the
             support phases tracked; None: detected from the soles.
+        surfaces: the prop tops the soles may stand on (the first frame's soles are placed
+            on the surfaces under them); None: the floor.
     """
     q = np.array(q, dtype=float)
     offset = 0.0
     if place_on_ground:
-        offset = clearance_m - first_frame_height(robot, q[0])
+        offset = clearance_m - first_frame_height(robot, q[0], surfaces)
         q[:, 2] += offset
         if abs(offset) > 0.01:
             log.info("%s: motion placed on the ground: base raised by %+.1f mm", robot.name,

@@ -73,6 +73,9 @@ class PhysicsResult:
         support: (T, 2) bool reference support phases used for the feed-forward.
         ground_offset_m: base height added to place the motion's first frame on the ground [m].
         config: the settings used.
+        link_contact_force_n: (T,) float vertical force of the ground and the props on the
+            robot's links other than the soles (hands, knees), averaged per frame [N].
+        props: the scene's props in the world (empty: the ground alone).
     """
 
     robot: str
@@ -115,6 +118,8 @@ class PhysicsResult:
     support: np.ndarray
     ground_offset_m: float
     config: PhysicsConfig = field(default_factory=PhysicsConfig)
+    link_contact_force_n: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    props: tuple[str, ...] = ()
 
     @property
     def zmp_contact_error_mm(self) -> float:
@@ -161,6 +166,10 @@ class PhysicsResult:
             "controller_us_per_step": self.controller_us_per_step,
             "physics_us_per_step": self.physics_us_per_step,
             "ground_offset_m": self.ground_offset_m,
+            "link_contact_force_max_n": (float(np.nanmax(self.link_contact_force_n))
+                                         if np.isfinite(self.link_contact_force_n).any()
+                                         else 0.0),
+            "props": list(self.props),
             "controller": self.config.control.controller,
             "fixed_base": self.config.fixed_base,
         }

@@ -24,6 +24,7 @@ from ..contacts.phases import SIDES, runs
 from ..errors import ImeshError
 from ..metrics.markers import keypoint_motion
 from ..metrics.soles import sole_tracks
+from ..scene.surfaces import SupportSurfaces
 from .config import PhysicsConfig
 from .controllers import JointTracker, KinematicTracker, WbcTracker
 from .reference import Reference, build_reference
@@ -42,6 +43,9 @@ DIVERGED_M = 1000.0
 CONTACT_M = 0.001
 #: Moment arm [m] that weighs the torques against the forces in the contact-wrench distribution.
 WRENCH_ARM_M = 0.05
+#: A sole this far below a prop's top, over it, still stands on it (the controller's contact
+#: test, the slip figure) [m]: soles press 1-2 mm into a surface in DART.
+SURFACE_BELOW_M = 0.05
 
 
 def feedforward(sim: DartRobot, ref: Reference) -> tuple[np.ndarray, np.ndarray]:
@@ -186,7 +190,7 @@ def sole_slip(corners_m: np.ndarray, support: np.ndarray, contact_m: float = CON
 
 def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
                      sole_force: np.ndarray, sole_moment: np.ndarray, samples: np.ndarray,
-                     friction: float) -> dict:
+                     friction: float, surfaces: SupportSurfaces | None = None) -> dict:
     """What the ground contact did, per frame and sole (forces summed over the contact samples
     of each frame period):
 
@@ -200,8 +204,11 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
       its rectangle (negative outside) [mm];
     - ``slip_mm``: largest horizontal displacement of a sole corner on the ground within one
       planned support phase that does not slide or pivot, while it stays on the ground
-      (:func:`sole_slip`), over the
+      (:func:`sole_slip`; with ``surfaces``, on the surface under it), over the
       survived frames [mm].
+
+    With a scene the centres of pressure are those of the soles' contacts with the floor and
+    the props together (their horizontal coordinates).
     """
     n = np.maximum(samples, 1)[:, None, None]
     forces = sole_force / n
@@ -237,6 +244,9 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
         use = loaded & np.isfinite(edge)
         if use.any():
             margin = float(1e3 * edge[use].min())
+        if surfaces is not None:  # heights above the surface under each corner
+            corners = corners.copy()
+            corners[..., 2] -= surfaces.heights(corners)
         slip, k, f = sole_slip(corners, ref.support & ~ref.moving & ok[:, None])
         if k >= 0:
             slip_side, slip_s = SIDES[k], float(f / ref.fps)
@@ -245,17 +255,23 @@ def _contact_figures(robot, ref: Reference, q_sim: np.ndarray, ok: np.ndarray,
             "slip_side": slip_side, "slip_s": slip_s}
 
 
-def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> PhysicsResult:
+def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None,
+                    scene=None) -> PhysicsResult:
     """Track a robot motion in DART and judge it.
 
     The motion's first frame is placed on the ground (base height shifted for all frames so its
-    lowest point is ``ground.start_clearance_m`` above z = 0), held for ``timing.settle_s``,
-    then tracked; the last frame is held for ``timing.extra_time_s``.
+    lowest point is ``ground.start_clearance_m`` above z = 0; with a scene, its lowest sole
+    corner that far above the surface under it), held for ``timing.settle_s``, then tracked;
+    the last frame is held for ``timing.extra_time_s``.
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
         motion: a :class:`imesh.core.robot_motion.RobotMotion` of this robot.
         config: PhysicsConfig.
+        scene: the motion's props (:class:`imesh.scene.Scene` in the robot's world, the
+            ``.scene.npz`` beside a motion ``imesh retarget --scene`` wrote): boxes in the
+            DART world, their tops surfaces the controller's soles stand on; None: the floor
+            alone. Ignored for a fixed base.
 
     Returns:
         PhysicsResult (``.metrics()`` gives the DESIGN.md physics metrics, ``.summary()`` the
@@ -264,7 +280,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     Raises:
         ImeshError: the motion is of another robot or has other joints.
         MissingDependencyError: dartpy missing (names the install command).
-        PhysicsError: the DART model does not match.
+        PhysicsError: the DART model does not match; a prop is not a box.
     """
     config = config or PhysicsConfig()
     if motion.robot != robot.name or tuple(motion.joint_names) != tuple(robot.joint_names):
@@ -272,13 +288,16 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
                          f"joints cannot be simulated on robot {robot.name!r} "
                          f"({robot.dof} joints): robot or joint names differ")
     t_setup = time.perf_counter()
+    if config.fixed_base:
+        scene = None
+    surfaces = SupportSurfaces(scene, below_m=SURFACE_BELOW_M) if scene is not None else None
     ref = build_reference(robot, motion.q, motion.fps, clearance_m=config.ground.start_clearance_m,
                           place_on_ground=not config.fixed_base,
-                          contact_modes=motion.contact_modes)
+                          contact_modes=motion.contact_modes, surfaces=surfaces)
     base_pose = np.eye(4)
     base_pose[:3, :3] = Rotation.from_quat(ref.q[0, 3:7]).as_matrix()
     base_pose[:3, 3] = ref.q[0, :3]
-    sim = DartRobot(robot, config, base_pose=base_pose)
+    sim = DartRobot(robot, config, base_pose=base_pose, scene=scene)
     skel, world = sim.skeleton, sim.world
     n, nb, dt = sim.n_dofs, sim.base_dofs, config.timing.dt
     fps = ref.fps
@@ -288,7 +307,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     kind = config.control.controller
     controller: WbcTracker | KinematicTracker | JointTracker
     if kind == "wbc" and nb:
-        controller = WbcTracker(sim, ref, config)
+        controller = WbcTracker(sim, ref, config, surfaces)
     elif kind == "kinematic":
         controller = KinematicTracker(sim, ref, config)
     else:  # spd, pid (and a welded base, which has no balance to keep: joint tracking)
@@ -309,9 +328,11 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     ratio_rec = np.full(T, np.nan)
     sole_force = np.zeros((T, 2, 3))  # per sole: sum of contact force vectors
     sole_moment = np.zeros((T, 2, 2))  # per sole: sum of fz * (x, y)
+    link_force = np.zeros(T)  # vertical force on the robot's other links (hands, knees)
     samples = np.zeros(T)
     sample_every = config.ground.contact_sample_every
     sides = _contact_sides(sim)
+    links = sim.link_shape_names
 
     get_pos, get_vel = skel.getPositions, skel.getVelocities
     step = world.step
@@ -393,9 +414,12 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         if tracking and nb and i % sample_every == 0:
             f = frame_of_step[i]
             for c in collision_result().getContacts():
-                s = sides.get(c.collisionObject1.getShapeFrame().getName(),
-                              sides.get(c.collisionObject2.getShapeFrame().getName()))
+                name1 = c.collisionObject1.getShapeFrame().getName()
+                name2 = c.collisionObject2.getShapeFrame().getName()
+                s = sides.get(name1, sides.get(name2))
                 if s is None:
+                    if name1 in links or name2 in links:
+                        link_force[f] += abs(float(c.force[2]))
                     continue
                 # the force on the sole, whichever object DART lists first (fz > 0)
                 force = np.asarray(c.force)
@@ -422,7 +446,7 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
     torques = np.full((T, robot.dof), np.nan)
     torques[ok] = tau_rec[ok][:, sim.joint_dofs]
     contact = _contact_figures(robot, ref, q_sim, ok, sole_force, sole_moment, samples,
-                               config.ground.friction)
+                               config.ground.friction, surfaces)
     if ok.any():
         lastok = int(np.flatnonzero(ok)[-1])
         drift = float(np.linalg.norm(q_sim[lastok, :3] - ref.q[lastok, :3]))
@@ -454,6 +478,8 @@ def simulate_motion(robot, motion, *, config: PhysicsConfig | None = None) -> Ph
         torques_nm=torques, torque_ratio=ratio_rec, zmp_contact_m=contact["zmp"],
         zmp_planned_m=ref.zmp_m, contact_force_n=contact["force"],
         sole_forces_n=contact["sole_forces"], sole_cop_m=contact["sole_cop"],
+        link_contact_force_n=np.where(ok, link_force / np.maximum(samples, 1), np.nan),
+        props=tuple(scene.names) if scene is not None else (),
         support=ref.support, ground_offset_m=ref.ground_offset_m, config=config)
     log.info("DART %s (%s, %d frames at %g fps): %s, survived %.2f of %.2f s, tracking RMS "
              "%.4f rad, key points %.1f mm RMS, torque ratio %.2f, real-time factor %.2f "

@@ -61,12 +61,21 @@ the swing knee lagged 0.3-0.6 rad behind after the lift-off (key points 80-112 m
 JVRC-1 veer and the HRP-4C walk, 27 and 46 mm with the free pitch).
 
 A sole is in contact when the reference plans it in support and the simulated sole is within
-``WbcConfig.contact_height_m`` of the ground; a planned support whose sole is still in the air
+``WbcConfig.contact_height_m`` of the ground (of the surface under it: the floor or, in a
+scene, a prop's top, :class:`imesh.scene.surfaces.SupportSurfaces`; "flat on the ground" below
+is flat on that surface); a planned support whose sole is still in the air
 is tracked as a swing sole aimed ``WbcConfig.landing_depth_m`` below its reference (it lands:
 a PD aimed at the ground slows down as it nears it, and the reference drops its last 20 mm in
 one frame, so the sole hovered a frame or two above the ground while the plan loaded it), and
 a sole that leaves its support early is tracked as a swing sole too. When no
 planned sole is down (the landing is late), the soles that are down stay in contact.
+
+A hand or knee the reference rests on a prop's top (:mod:`imesh.physics.points`) is a point
+contact while its simulated point is within ``contact_height_m`` of that top: a force ``f``
+(3, world axes) in the friction pyramid of the top's normal (z), ``|f_x|, |f_y| <= mu f_z``,
+``f_z >= 0``, its point held (``J_p a + Jdot_p v = -K_c J_p v``) and ``J_p^T f`` in the equation
+of motion beside the soles' wrenches. Without them the controller asked the soles for the
+wrench of a robot leaning on its hand, beyond the soles' edges.
 
 A contact sole the plan slides or pivots (``TrackPoint.moving``) keeps only its normal
 acceleration, roll and pitch as contact rows (flat on the ground); its tangential acceleration
@@ -81,7 +90,8 @@ the whole ``mu_s``; slower, static friction holds it within the cone of
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -91,6 +101,10 @@ from ..robot.configuration import skew
 from .config import WbcConfig
 from .so3 import log_so3, quat_xyzw_to_matrix
 from .track import ReferenceTrack, TrackPoint
+
+if TYPE_CHECKING:
+    from ..scene.surfaces import SupportSurfaces
+    from .points import PointContacts
 
 log = logging.getLogger(__name__)
 
@@ -126,6 +140,8 @@ class ControlStep:
             limits and was solved with them as the heaviest task (the step is counted).
         sliding: (2,) bool [left, right] contact soles whose friction was Coulomb's kinetic
             force against their slide (planned slides and pivots that move).
+        point_forces: (E, 3) float force of each hand / knee point contact
+            (:class:`~imesh.physics.points.PointContacts` order; 0 off contact) [N].
     """
 
     tau: np.ndarray
@@ -133,6 +149,7 @@ class ControlStep:
     wrenches: np.ndarray
     relaxed: bool
     sliding: np.ndarray
+    point_forces: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 class WholeBodyController:
@@ -150,11 +167,15 @@ class WholeBodyController:
             implicitly (below); None: the damping as an explicit force only.
         slide_friction: the friction coefficient under a sole the plan slides or pivots
             (``GroundConfig.slide_friction``); None: ``friction``.
+        surfaces: the surfaces the soles stand on (a scene's prop tops); None: the floor.
+        points: where the reference rests hands and knees on prop tops (point contacts);
+            None: the soles alone.
     """
 
     def __init__(self, robot, track: ReferenceTrack, config: WbcConfig, friction: float,
                  joint_damping: np.ndarray | None = None, time_step_s: float | None = None,
-                 slide_friction: float | None = None):
+                 slide_friction: float | None = None, surfaces: SupportSurfaces | None = None,
+                 points: PointContacts | None = None):
         from .qp import dense_qp  # noqa: PLC0415  (the solver's import is lazy)
 
         self._solve = dense_qp
@@ -205,6 +226,16 @@ class WholeBodyController:
         self._joint_diag = (np.arange(6, self.nv), np.arange(6, self.nv))
         self._limit_rows = np.hstack([np.zeros((self.n_joints, 6)), np.eye(self.n_joints)])
         self.relaxed_steps = 0
+        self.surfaces = surfaces if surfaces is not None and not surfaces.flat else None
+        # (2,) height of the surface under each sole at the current step [m]
+        self._surface_z = np.zeros(2)
+        self.points = points if points is not None and points.any and \
+            self.surfaces is not None else None
+        self._n_points = 0 if points is None else len(points.effectors)
+        self.mu_point = mu
+        # friction pyramid of a point force in world axes (normal z): |fx|, |fy| <= mu fz, fz >= 0
+        self._pyramid = np.array([[1.0, 0.0, -mu], [-1.0, 0.0, -mu], [0.0, 1.0, -mu],
+                                  [0.0, -1.0, -mu], [0.0, 0.0, -1.0]])
 
     # ------------------------------------------------------------------------------------------
 
@@ -222,9 +253,13 @@ class WholeBodyController:
         return poses[:, :3, :3] @ self.contact_R
 
     def sole_heights(self, poses: np.ndarray, frames: np.ndarray) -> np.ndarray:
-        """(2,) float [left, right] lowest sole corner above the ground [m], from the sole
-        centres' poses (2, 4, 4) and their :meth:`contact_frames`."""
-        return (poses[:, 2, 3] - np.abs(frames[:, 2, 0]) * self.half_extents[:, 0]
+        """(2,) float [left, right] lowest sole corner above the surface under the sole's
+        centre [m], from the sole centres' poses (2, 4, 4) and their :meth:`contact_frames`;
+        the surfaces' heights are kept for the contact rows of this step."""
+        if self.surfaces is not None:
+            self._surface_z = self.surfaces.heights(poses[:, :3, 3])
+        return (poses[:, 2, 3] - self._surface_z
+                - np.abs(frames[:, 2, 0]) * self.half_extents[:, 0]
                 - np.abs(frames[:, 2, 1]) * self.half_extents[:, 1])
 
     def _contact_rhs(self, dyn, s: int) -> np.ndarray:
@@ -249,14 +284,15 @@ class WholeBodyController:
 
     def _flat_error(self, pose: np.ndarray, s: int) -> np.ndarray:
         """(6,) how far a contact sole is from lying flat on the ground: its centre's height
-        (to z = 0) and its tilt (roll and pitch, to the same yaw level), world axes. A sole
-        tipped onto an edge in the simulator is driven back flat through the contact rows."""
+        (to the surface under it, z = 0 on the floor) and its tilt (roll and pitch, to the
+        same yaw level), world axes. A sole tipped onto an edge in the simulator is driven
+        back flat through the contact rows."""
         R = pose[:3, :3] @ self.contact_R[s]
         yaw = np.arctan2(R[1, 0], R[0, 0])
         c, si = np.cos(yaw), np.sin(yaw)
         level = np.array([[c, -si, 0.0], [si, c, 0.0], [0.0, 0.0, 1.0]])
         err = np.zeros(6)
-        err[2] = -pose[2, 3]
+        err[2] = self._surface_z[s] - pose[2, 3]
         err[3:] = log_so3(level @ R.T)
         err[5] = 0.0
         return err
@@ -353,9 +389,20 @@ class WholeBodyController:
         cfg = self.config
         nv, nj = self.nv, self.n_joints
         ref = self.track.at(t)
-        dyn = self.robot.dynamics(q, v, self.frames, self.centres)
-        frames = self.contact_frames(dyn.poses)
-        contact = self.contacts(ref, self.sole_heights(dyn.poses, frames))
+        planned = self._planned_points(t)
+        if planned:
+            pts = self.points
+            assert pts is not None  # planned points come from it
+            f = self.track.frame(t)
+            names = [pts.frames[e, f] for e in planned]
+            local = np.array([pts.local_m[e, f] for e in planned])
+            dyn = self.robot.dynamics(q, v, self.frames + names,
+                                      np.vstack([self.centres, local]))
+        else:
+            dyn = self.robot.dynamics(q, v, self.frames, self.centres)
+        frames = self.contact_frames(dyn.poses[:2])
+        contact = self.contacts(ref, self.sole_heights(dyn.poses[:2], frames))
+        points = self._touching(dyn, planned, t)  # (p,) effector indices in contact
         moving = ref.moving & contact
         rolling = self.rolling(t) & contact & ~moving
         slip = [self.slip_direction(dyn, s, frames[s]) if moving[s] else None
@@ -363,7 +410,8 @@ class WholeBodyController:
         sliding = np.array([d is not None for d in slip])
         active = np.flatnonzero(contact)
         k = len(active)
-        n = nv + 6 * k
+        n_p = len(points)
+        n = nv + 6 * k + 3 * n_p
 
         # --- tasks: rows J a = b with weights, summed into the Hessian's acceleration block
         # (no task weighs the wrenches): H_aa = sum_i W_i J_i^T J_i, c_a = -sum_i W_i J_i^T b_i
@@ -426,15 +474,18 @@ class WholeBodyController:
         c[6:nv] -= self.posture_weights * qdd
         H[self._accel_diag] += cfg.weights.acceleration
         if k:
-            idx = np.arange(nv, n)
+            idx = np.arange(nv, nv + 6 * k)
             H[idx, idx] += np.tile(self._wrench_weights, k)
+        if n_p:
+            idx = np.arange(nv + 6 * k, n)
+            H[idx, idx] += cfg.weights.force
 
         # --- equalities: floating-base dynamics, contacts -------------------------------------
         M, h = dyn.mass_matrix, dyn.bias.copy()
         M[self._joint_diag] += self._implicit
         h[6:] += self.damping * v[6:]  # the joints' viscous damping, as the simulator has it
-        # generalized torque rows of the contact wrenches: J_c^T w_c
-        Jt = np.zeros((nv, 6 * k))
+        # generalized torque rows of the contact wrenches and point forces: J_c^T w_c, J_p^T f
+        Jt = np.zeros((nv, 6 * k + 3 * n_p))
         E_rows, e_rows = [M[:6]], [-h[:6]]
         for j, s in enumerate(active):
             Jt[:, 6 * j:6 * j + 6] = dyn.jacobians[s].T
@@ -446,6 +497,11 @@ class WholeBodyController:
                 rows, rhs = dyn.jacobians[s], self._contact_rhs(dyn, int(s))
             E_rows.append(rows)
             e_rows.append(rhs)
+        for i, row in enumerate(points):  # point contacts: held where they touch
+            J = dyn.jacobians[row, :3]
+            Jt[:, 6 * k + 3 * i:6 * k + 3 * i + 3] = J.T
+            E_rows.append(J)
+            e_rows.append(-dyn.drifts[row, :3] - g.contact_kd * dyn.twists[row, :3])
         E = np.hstack([np.vstack(E_rows), np.zeros((sum(len(r) for r in E_rows), n - nv))])
         e = np.concatenate(e_rows)
         E[:6, nv:] = -Jt[:6]
@@ -484,6 +540,12 @@ class WholeBodyController:
             G_rows.append(G)
             l_rows.append(np.full(len(C), -np.inf))
             u_rows.append(upper)
+        for i in range(n_p):
+            G = np.zeros((len(self._pyramid), n))
+            G[:, nv + 6 * k + 3 * i:nv + 6 * k + 3 * i + 3] = self._pyramid
+            G_rows.append(G)
+            l_rows.append(np.full(len(G), -np.inf))
+            u_rows.append(np.zeros(len(G)))
         # joint position and velocity limits as acceleration bounds over the horizon
         hz = cfg.limit_horizon_s
         qj, vj = q[7:], v[6:]
@@ -530,5 +592,30 @@ class WholeBodyController:
         wrenches = np.zeros((2, 6))
         for j, s in enumerate(active):
             wrenches[s] = w[6 * j:6 * j + 6]
+        point_forces = np.zeros((self._n_points, 3))
+        for i, row in enumerate(points):
+            point_forces[planned[row - 2]] = w[6 * k + 3 * i:6 * k + 3 * i + 3]
         return ControlStep(tau=tau, contacts=contact, wrenches=wrenches, relaxed=relaxed,
-                           sliding=sliding)
+                           sliding=sliding, point_forces=point_forces)
+
+    def _planned_points(self, t: float) -> list[int]:
+        """Effector indices the reference rests on a prop's top at time ``t``."""
+        if self.points is None:
+            return []
+        return [int(e) for e in np.flatnonzero(self.points.planned[self.track.frame(t)])]
+
+    def _touching(self, dyn, planned: list[int], t: float) -> list[int]:
+        """Rows of ``dyn`` (2 + i for the i-th planned effector) whose simulated point is
+        down on the top under it (within ``contact_height_m``)."""
+        if not planned:
+            return []
+        pts = self.points
+        assert pts is not None and self.surfaces is not None
+        f = self.track.frame(t)
+        radius = np.array([pts.radius_m[e, f] for e in planned])
+        p = dyn.poses[2:, :3, 3].copy()
+        p[:, 2] -= radius
+        top = self.surfaces.heights(p)
+        h = p[:, 2] - top
+        down = (top > 0.0) & (h <= self.config.contact_height_m)
+        return [2 + int(i) for i in np.flatnonzero(down)]

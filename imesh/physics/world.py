@@ -13,7 +13,9 @@ primitive proxies (``Robot.collision_shapes``), except on the feet, which get on
 (``GroundConfig.sole_thickness_m`` thick, its bottom face on the sole rectangle).
 Self-collision is off in DART (checked separately on the URDF geometry with coal,
 :mod:`imesh.metrics.collision`). The ground is a large box whose top face is z = 0, with
-Coulomb friction.
+Coulomb friction. A scene's props (:class:`imesh.scene.Scene`, in the robot's world) are static
+boxes welded to the world, with the ground's friction; a prop that is not a box is refused
+(:class:`PhysicsError`): dartpy builds mesh shapes only from files it loads itself.
 
 State conventions: DART (6.20) orders a floating base's positions as (rotation vector,
 translation) and its velocities as (angular, linear) velocity in the *world* frame; pinocchio
@@ -171,17 +173,23 @@ class DartRobot:
         robot: an :class:`imesh.robot.Robot`.
         config: the physics settings (fixed base, friction, soles, collision detector, dt).
         base_pose: (4, 4) float world pose of the base for ``fixed_base`` (ignored otherwise).
+        scene: static props in the robot's world (boxes), or None (the ground alone; a fixed
+            base has neither).
 
     Attributes:
         world: the dartpy World (gravity -9.81 z, time step ``config.timing.dt``).
         skeleton: the robot's dartpy Skeleton.
         ground: the ground Skeleton (None for a fixed base).
+        props: the props' Skeletons, one per prop (empty without a scene or for a fixed base).
+        link_shape_names: names of the robot's collision shape nodes other than the soles
+            (hands, knees, ...: their contacts with the ground and the props are counted apart).
         n_dofs: DART degrees of freedom (6 + joints, or joints for a fixed base).
         base_dofs: 6 (floating base) or 0 (fixed base).
         joint_dofs: (n,) int DART DOF index of every joint of ``robot.joint_names``.
     """
 
-    def __init__(self, robot, config: PhysicsConfig, base_pose: np.ndarray | None = None):
+    def __init__(self, robot, config: PhysicsConfig, base_pose: np.ndarray | None = None,
+                 scene=None):
         dart = dartpy()
         self.dart = dart
         self.robot = robot
@@ -233,11 +241,15 @@ class DartRobot:
         world.getConstraintSolver().setCollisionDetector(detector)
         world.addSkeleton(skel)
         self.ground = None
+        self.props: list = []
         if not config.fixed_base:
             self.ground = self._make_ground()
             world.addSkeleton(self.ground)
+            self.props = self._make_props(scene) if scene is not None else []
+            for prop in self.props:
+                world.addSkeleton(prop)
         self.world = world
-        # ground contact is the only collision: a fixed base has no ground at all
+        # ground (and prop) contact is the only collision: a fixed base has neither
         log.debug("DART world of %s: %d DOF, %.2f kg, %d shape nodes, detector %s", robot.name,
                   self.n_dofs, mass, skel.getNumShapeNodes(), config.ground.collision_detector)
 
@@ -249,6 +261,7 @@ class DartRobot:
         # such as iCub's l_foot under l_sole)
         feet = {link for s in robot.soles for link in robot.rigid_links(robot.soles[s].frame)}
         feet |= {robot.soles[s].frame for s in robot.soles} | set(robot.foot_frames.values())
+        link_shapes: set[str] = set()
         for shape in robot.collision_shapes:
             if shape.frame in feet:
                 continue
@@ -259,6 +272,8 @@ class DartRobot:
             node = body.createShapeNode(_shape(dart, shape.kind, shape.dims))
             node.setRelativeTransform(_isometry(dart, shape.placement))
             _add_collision(node, cfg.ground.friction)
+            link_shapes.add(node.getName())
+        self.link_shape_names = frozenset(link_shapes)
         th = cfg.ground.sole_thickness_m
         self._sole_nodes = {}
         for side, sole in robot.soles.items():
@@ -298,6 +313,33 @@ class DartRobot:
         node.setRelativeTransform(_isometry(dart, pose))
         _add_collision(node, self.config.ground.friction)
         return ground
+
+    def _make_props(self, scene) -> list:
+        """One welded Skeleton per prop of ``scene`` (robot world), a box shape with the
+        ground's friction; every prop is checked before any is built."""
+        from ..scene.props import prop_box  # noqa: PLC0415  (numpy + trimesh, scenes only)
+
+        if scene.frame != "robot":
+            raise PhysicsError(f"the DART check needs the scene in the robot's world (the "
+                               f".scene.npz 'imesh retarget --scene' writes), not the "
+                               f"{scene.frame!r} frame")
+        boxes = [prop_box(p) for p in scene.props]
+        bad = [p.name for p, b in zip(scene.props, boxes, strict=True) if b is None]
+        if bad:
+            raise PhysicsError(f"the DART check takes box props; not boxes: {bad} (their "
+                               "convex hulls are not six faces in three orthogonal pairs)")
+        dart, out = self.dart, []
+        for prop, box in zip(scene.props, boxes, strict=True):
+            assert box is not None  # refused above
+            skel = dart.dynamics.Skeleton(f"prop:{prop.name}")
+            _, body = skel.createWeldJointAndBodyNodePair()
+            node = body.createShapeNode(dart.dynamics.BoxShape(np.asarray(box.size_m, float)))
+            node.setRelativeTransform(_isometry(dart, box.pose))
+            node.setName(f"prop:{prop.name}")
+            _add_collision(node, self.config.ground.friction)
+            out.append(skel)
+        log.debug("DART world: %d props (%s)", len(out), ", ".join(scene.names))
+        return out
 
     @property
     def joint_damping(self) -> np.ndarray:

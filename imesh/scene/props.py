@@ -26,8 +26,8 @@ from ..errors import ImeshError, _listing
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Prop", "SceneFileError", "MESH_EXTENSIONS", "SCENE_EXTENSIONS", "load_props",
-           "prop_planes"]
+__all__ = ["Prop", "PropBox", "SceneFileError", "MESH_EXTENSIONS", "SCENE_EXTENSIONS",
+           "load_props", "prop_box", "prop_planes"]
 
 MESH_EXTENSIONS = (".obj", ".stl", ".ply", ".off")
 SCENE_EXTENSIONS = MESH_EXTENSIONS + (".urdf",)
@@ -89,6 +89,55 @@ def prop_planes(prop: Prop) -> np.ndarray:
     keyed = np.round(planes, 9)
     _, first = np.unique(keyed, axis=0, return_index=True)
     return planes[np.sort(first)]
+
+
+@dataclass(frozen=True, eq=False)
+class PropBox:
+    """A prop that is a box (any orientation).
+
+    Attributes:
+        center_m: (3,) float centre [m].
+        rotation: (3, 3) float its axes as columns (right-handed).
+        size_m: (3,) float its edge lengths along those axes [m].
+    """
+
+    center_m: np.ndarray
+    rotation: np.ndarray
+    size_m: np.ndarray
+
+    @property
+    def pose(self) -> np.ndarray:
+        """(4, 4) float world pose of the box's centre and axes."""
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = self.rotation, self.center_m
+        return T
+
+
+def prop_box(prop: Prop, tol: float = 1e-6) -> PropBox | None:
+    """The box a prop is, or None: its convex hull has six faces in three antiparallel pairs
+    whose normals are orthogonal (within ``tol``). Its size and centre are the extent of the
+    vertices along those normals."""
+    planes = prop_planes(prop)
+    if len(planes) != 6:
+        return None
+    n = planes[:, :3]
+    axes, used = [], set()
+    for i in range(6):
+        if i in used:
+            continue
+        j = int(np.argmin(n @ n[i]))
+        if j in used or n[i] @ n[j] > -1.0 + tol:
+            return None
+        used |= {i, j}
+        axes.append(n[i])
+    R = np.array(axes).T
+    if len(axes) != 3 or np.abs(R.T @ R - np.eye(3)).max() > tol:
+        return None
+    if np.linalg.det(R) < 0:
+        R[:, 2] *= -1.0
+    proj = prop.vertices_m @ R
+    lo, hi = proj.min(axis=0), proj.max(axis=0)
+    return PropBox(center_m=R @ (0.5 * (lo + hi)), rotation=R, size_m=hi - lo)
 
 
 def _origin(elem: ET.Element | None) -> np.ndarray:

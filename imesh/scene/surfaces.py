@@ -1,4 +1,5 @@
-"""Support surfaces of a scene: the floor (z = 0) and the props' tops.
+"""Support surfaces of a scene: the floor (z = 0) and the props' tops (:func:`surface_heights`;
+:class:`SupportSurfaces` for callers that ask at every step).
 
 A point is over a prop's top when the point ``(x, y, top - 1 mm)`` is inside the prop's convex
 hull (its face planes, :func:`imesh.scene.prop_planes`); the surface under a point is the
@@ -47,3 +48,32 @@ def surface_heights(scene: Scene, points_m: np.ndarray, below_m: float,
         on = over & (p[..., 2] >= top - below_m)
         out = np.where(on, np.maximum(out, top), out)
     return out
+
+
+class SupportSurfaces:
+    """The floor and a scene's prop tops, as the surfaces a foot can stand on: the height of
+    the surface under points, with the props' planes computed once (for callers that ask
+    many times, such as a controller at every step).
+
+    Args:
+        scene: the props (in the points' frame), or None for the floor alone.
+        below_m: how far below a top a point may be and still be on it [m]
+            (:func:`surface_heights`).
+    """
+
+    def __init__(self, scene: Scene | None = None, below_m: float = 0.05):
+        self.scene = scene if scene is not None and scene.props else None
+        self.below_m = float(below_m)
+        self._planes = scene_planes(self.scene) if self.scene is not None else []
+
+    @property
+    def flat(self) -> bool:
+        """True without props: every surface is the floor, z = 0."""
+        return self.scene is None
+
+    def heights(self, points_m: np.ndarray) -> np.ndarray:
+        """(...,) [m] height of the surface under each point (..., 3)."""
+        p = np.asarray(points_m, dtype=float)
+        if self.scene is None:
+            return np.zeros(p.shape[:-1])
+        return surface_heights(self.scene, p, self.below_m, self._planes)
