@@ -91,3 +91,26 @@ def test_the_dart_check_stands_on_the_box_leaning_on_the_hands(standing):
     assert np.nanmax(force[42:]) > 50.0
     floor = simulate_motion(robot, motion)
     assert floor.fell and floor.survived_s < with_props.survived_s - 0.5
+
+
+def test_evaluate_physics_takes_the_props_written_beside_the_motion(standing, tmp_path, capsys):
+    """``imesh evaluate OUT.npz --physics`` finds ``OUT.scene.npz`` and checks the motion with
+    the boxes in the DART world: it stands, and the report names the props and the force on
+    the hands."""
+    pytest.importorskip("dartpy")
+    from conftest import run_cli
+
+    from imesh.io.atomic import atomic_path
+    from imesh.io.robot_motion import save_robot_motion
+    from imesh.scene import save_scene, scene_path_for
+
+    _, _, scene, result, _ = standing
+    out = tmp_path / "stand.npz"
+    save_robot_motion(out, result.motion)
+    save_scene(scene_path_for(out), scene, atomic=atomic_path)
+    status, text = run_cli(capsys, "evaluate", out, "--physics")
+    assert status == 0, text
+    line = next(ln for ln in text.splitlines() if ln.startswith("physics_fell"))
+    assert " no " in line and "props in the world: box1, box2" in line
+    carried = float(line.split("carried up to ")[1].split(" N")[0])
+    assert carried > 50.0
