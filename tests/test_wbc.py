@@ -395,3 +395,41 @@ def test_the_veer_stands_from_its_lead_in(tmp_path):
     res = simulate_motion(robot, motion, config=PhysicsConfig())
     assert not res.fell, res.fall_reason
     assert res.base_drift_m <= 0.05
+
+
+def test_a_sole_on_a_box_edge_stands_on_the_box(jvrc1):
+    """With props, a sole's height is taken above the highest surface under its centre or a
+    corner: the left sole with its toe corners on a box's top and its centre 20 mm beyond the
+    box's edge is on the box (height 0), the right sole beside the box is 0.1 m above the
+    floor; the contact rows drive a sole to the surface it is over."""
+    import trimesh
+
+    from imesh.physics.reference import build_reference
+    from imesh.physics.track import ReferenceTrack
+    from imesh.physics.wbc import WholeBodyController
+    from imesh.scene import Prop, Scene
+    from imesh.scene.surfaces import SupportSurfaces
+
+    robot = jvrc1
+    motion = _standing(robot, 0.2)
+    ref = build_reference(robot, motion.q, motion.fps)
+    q = ref.q[0].copy()
+    top = 0.1
+    frames = [robot.soles[s].frame for s in SIDES]
+    centres = np.array([robot.soles[s].center for s in SIDES])
+    poses = robot.dynamics(ref.q[0], np.zeros(robot.nv), frames, centres).poses
+    floor = poses[:, 2, 3].copy()  # the soles' height standing on the floor
+    q[2] += top
+    left = poses[0, :3, 3]
+    X = robot.soles["left"].half_extents[0]
+    box = trimesh.creation.box(bounds=[[left[0] + 0.02, left[1] - 0.05, 0.0],
+                                       [left[0] + X + 0.2, left[1] + 0.05, top]])
+    scene = Scene((Prop("step", np.asarray(box.vertices), np.asarray(box.faces)),),
+                  frame="robot")
+    controller = WholeBodyController(robot, ReferenceTrack(robot, ref), WbcConfig(), 1.0,
+                                     surfaces=SupportSurfaces(scene))
+    dyn = robot.dynamics(q, np.zeros(robot.nv), frames, centres)
+    heights = controller.sole_heights(dyn.poses, controller.contact_frames(dyn.poses))
+    np.testing.assert_allclose(heights, [floor[0], floor[1] + top], atol=1e-9)
+    # flat on the box's top: the contact rows' height error is 0 for the left sole
+    assert abs(controller._flat_error(dyn.poses[0], 0)[2] + floor[0]) < 1e-9

@@ -253,11 +253,19 @@ class WholeBodyController:
         return poses[:, :3, :3] @ self.contact_R
 
     def sole_heights(self, poses: np.ndarray, frames: np.ndarray) -> np.ndarray:
-        """(2,) float [left, right] lowest sole corner above the surface under the sole's
-        centre [m], from the sole centres' poses (2, 4, 4) and their :meth:`contact_frames`;
-        the surfaces' heights are kept for the contact rows of this step."""
+        """(2,) float [left, right] lowest sole corner above the surface the sole is over [m],
+        from the sole centres' poses (2, 4, 4) and their :meth:`contact_frames`; the
+        surfaces' heights are kept for the contact rows of this step. The surface is the
+        highest under the sole's centre or a corner: a sole landing on a box's edge with its
+        centre beyond it stands on the box (the G1 on the holosoma climb seq_0, its right sole
+        on box2 at robot frames 41-42)."""
         if self.surfaces is not None:
-            self._surface_z = self.surfaces.heights(poses[:, :3, 3])
+            X, Y = self.half_extents[:, 0, None], self.half_extents[:, 1, None]
+            sx, sy = np.array([1.0, 1.0, -1.0, -1.0]), np.array([1.0, -1.0, -1.0, 1.0])
+            corners = (poses[:, None, :3, 3] + (sx * X)[..., None] * frames[:, None, :, 0]
+                       + (sy * Y)[..., None] * frames[:, None, :, 1])  # (2, 4, 3)
+            points = np.concatenate([poses[:, None, :3, 3], corners], axis=1)
+            self._surface_z = self.surfaces.heights(points).max(axis=1)
         return (poses[:, 2, 3] - self._surface_z
                 - np.abs(frames[:, 2, 0]) * self.half_extents[:, 0]
                 - np.abs(frames[:, 2, 1]) * self.half_extents[:, 1])
