@@ -232,7 +232,6 @@ class WholeBodyController:
         self.points = points if points is not None and points.any and \
             self.surfaces is not None else None
         self._n_points = 0 if points is None else len(points.effectors)
-        self.mu_point = mu
         # friction pyramid of a point force in world axes (normal z): |fx|, |fy| <= mu fz, fz >= 0
         self._pyramid = np.array([[1.0, 0.0, -mu], [-1.0, 0.0, -mu], [0.0, 1.0, -mu],
                                   [0.0, -1.0, -mu], [0.0, 0.0, -1.0]])
