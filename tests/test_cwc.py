@@ -219,3 +219,29 @@ def test_cone_violation_is_what_the_slack_covers():
         else:
             w = required_wrench(com[0], zero[0], zero[0], MASS, cone.ref_m)
             assert v == pytest.approx(cone.violation(w) + 0.05, abs=1e-12)
+
+
+# JVRC-1's hand and knee contacts in a frame of the holosoma climb seq_1 (the whole sequence
+# retargeted with the boxes): the hand's two proxy points at rows 3 and 5 are 1.2e-7 m apart
+NEAR_DUPLICATE = np.array([
+    [-0.6033662228057804, -0.6717101802012845, 0.8680271938302162],
+    [0.09210791023820178, -0.5031565379077061, 0.8644920032635973],
+    [0.07949693104103742, -0.5952978295297688, 0.8644857820718254],
+    [0.07129939313116858, -0.4730574649164343, 0.8684048980351422],
+    [0.06519734016639929, -0.5176417143176628, 0.8684018877977052],
+    [0.07129939703664197, -0.4730573572711654, 0.8684048384644245]])
+
+
+def test_a_contact_listed_twice_is_one_contact():
+    """Two contacts a fraction of a micrometre apart (which made Qhull stop with a "dupridge"
+    topology error and the evaluator with a traceback) give the cone of one: the same faces as
+    without the duplicate, about the same reference point; a duplicated sole corner likewise."""
+    cone = _cone(NEAR_DUPLICATE)
+    alone = contact_wrench_cone(NEAR_DUPLICATE[:5], np.tile(UP, (5, 1)),
+                                ref_m=NEAR_DUPLICATE.mean(axis=0))
+    np.testing.assert_allclose(cone.ref_m, alone.ref_m)
+    np.testing.assert_allclose(cone.faces, alone.faces, atol=1e-9)
+    twice = _cone(np.vstack([FEET, FEET[:1]]))
+    once = contact_wrench_cone(FEET, np.tile(UP, (len(FEET), 1)),
+                               ref_m=np.vstack([FEET, FEET[:1]]).mean(axis=0))
+    np.testing.assert_allclose(twice.faces, once.faces, atol=1e-12)

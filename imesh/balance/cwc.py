@@ -31,10 +31,11 @@ the hull is taken in their span and the cone gets equality rows ``E w = 0`` for 
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import ImeshError
 
@@ -45,6 +46,10 @@ FRICTION = 0.7
 GRAVITY = 9.81
 #: Relative singular value below which a direction of the slice is not spanned.
 RANK_TOLERANCE = 1e-9
+#: Contacts with the same normal this close are one contact [m].
+SAME_CONTACT_M = 1e-6
+
+log = logging.getLogger(__name__)
 
 
 def sole_wrench_cone(half_x: float, half_y: float, mu: float) -> np.ndarray:
@@ -154,6 +159,31 @@ def pyramid_generators(points_m: np.ndarray, normals: np.ndarray, ref_m: np.ndar
     return np.concatenate([u, np.cross(lever, u)], axis=1)
 
 
+def _distinct_contacts(points_m: np.ndarray, normals: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """The contacts with those within ``SAME_CONTACT_M`` of an earlier one with the same
+    normal left out: one contact listed twice (two proxy points of a link at one place, 1e-7 m
+    apart on JVRC-1's hand in the holosoma climb) gives two equal pyramids, whose generators
+    Qhull cannot always merge (a "dupridge" topology error)."""
+    keep: list[int] = []
+    for i in range(len(points_m)):
+        if not any(np.linalg.norm(points_m[i] - points_m[j]) <= SAME_CONTACT_M
+                   and np.allclose(normals[i], normals[j]) for j in keep):
+            keep.append(i)
+    return points_m[keep], normals[keep]
+
+
+def _hull_equations(y: np.ndarray) -> np.ndarray:
+    """(F, r + 1) facet equations of the convex hull of points ``y`` (K, r); nearly degenerate
+    input that Qhull's default merging cannot handle is hulled again with joggled input (``QJ``:
+    the points moved by about 1e-11 of their extent, every facet simplicial)."""
+    try:
+        return ConvexHull(y).equations
+    except QhullError:
+        log.debug("contact wrench cone: Qhull's merge failed on %d generators; joggled", len(y))
+        return ConvexHull(y, qhull_options="QJ").equations
+
+
 def contact_wrench_cone(points_m: np.ndarray, normals: np.ndarray, ref_m: np.ndarray | None = None,
                         mu: float = FRICTION) -> WrenchCone:
     """The face form of the CWC of point contacts (see the module docstring).
@@ -173,7 +203,7 @@ def contact_wrench_cone(points_m: np.ndarray, normals: np.ndarray, ref_m: np.nda
         raise ConeError("contact wrench cone: every contact normal must point upward (n_z > "
                         "0.1): the cone is built on its slice of unit vertical force", n)
     ref = p.mean(axis=0) if ref_m is None else np.asarray(ref_m, float)
-    v = pyramid_generators(p, n, ref, mu)
+    v = pyramid_generators(*_distinct_contacts(p, n), ref, mu)
     rest = [0, 1, 3, 4, 5]
     x = v[:, rest] / v[:, 2:3]  # the slice w_z = 1
     mean = x.mean(axis=0)
@@ -182,7 +212,7 @@ def contact_wrench_cone(points_m: np.ndarray, normals: np.ndarray, ref_m: np.nda
     basis, comp = vt[:r].T, vt[r:].T  # (5, r), (5, 5 - r)
     y = (x - mean) @ basis
     if r >= 2:
-        eq = ConvexHull(y).equations  # (F, r + 1): a . y + b <= 0 inside
+        eq = _hull_equations(y)  # (F, r + 1): a . y + b <= 0 inside
         a, b = eq[:, :r], eq[:, r]
     elif r == 1:
         a, b = np.array([[1.0], [-1.0]]), np.array([-y.max(), y.min()])
