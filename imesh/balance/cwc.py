@@ -162,14 +162,12 @@ def pyramid_generators(points_m: np.ndarray, normals: np.ndarray, ref_m: np.ndar
 def _distinct_contacts(points_m: np.ndarray, normals: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray]:
     """The contacts with those within ``SAME_CONTACT_M`` of an earlier one with the same
-    normal left out: one contact listed twice (two proxy points of a link at one place, 1e-7 m
-    apart on JVRC-1's hand in the holosoma climb) gives two equal pyramids, whose generators
-    Qhull cannot always merge (a "dupridge" topology error)."""
-    keep: list[int] = []
-    for i in range(len(points_m)):
-        if not any(np.linalg.norm(points_m[i] - points_m[j]) <= SAME_CONTACT_M
-                   and np.allclose(normals[i], normals[j]) for j in keep):
-            keep.append(i)
+    normal (to 1e-9) left out: one contact listed twice (two proxy points of a link at one
+    place, 1e-7 m apart on JVRC-1's hand in the holosoma climb) gives two equal pyramids, whose
+    generators Qhull cannot always merge (a "dupridge" topology error)."""
+    near = np.linalg.norm(points_m[:, None] - points_m[None], axis=-1) <= SAME_CONTACT_M
+    same = near & (np.abs(normals[:, None] - normals[None]).max(axis=-1) <= 1e-9)
+    keep = ~np.triu(same, 1).any(axis=0)  # not a repeat of an earlier contact
     return points_m[keep], normals[keep]
 
 

@@ -64,6 +64,13 @@ class CwcBalance:
                 "worst_violation": float(out.max()) if len(out) else 0.0}
 
 
+def effector_links(robot, effector: str) -> set[str]:
+    """The links of a key point ``effector`` (``hand_l``, ...): its frame and the links rigidly
+    attached to it (the proxies whose points can touch for it)."""
+    frame = robot.markers.keypoints[effector].frame
+    return set(robot.rigid_links(frame)) | {frame}
+
+
 def _top_heights(points: np.ndarray, planes: Sequence[np.ndarray]) -> np.ndarray:
     """(...,) height of each point (..., 3) above the highest prop top it is over (the floor
     z = 0 where none): over a top when the point ``(x, y, top - 1 mm)`` is inside the prop and
@@ -98,10 +105,10 @@ def cwc_balance(robot, q: np.ndarray, fps: float, planes: Sequence[np.ndarray],
         pts.append(c)
     proxy = ProxyPoints.of(robot)
     keypoints = robot.markers.keypoints
-    links = set()
+    links: set[str] = set()
     for e in CWC_EFFECTORS:
         if e in keypoints:
-            links |= set(robot.rigid_links(keypoints[e].frame)) | {keypoints[e].frame}
+            links |= effector_links(robot, e)
     sel = np.flatnonzero([proxy.frames[o] in links for o in proxy.owner])
     world = proxy.world(robot, q)[:, sel]
     world = world - np.array([0.0, 0.0, 1.0]) * proxy.radius_m[sel, None]  # sphere bottoms

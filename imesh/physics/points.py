@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..metrics.cwc import CWC_EFFECTORS
+from ..metrics.cwc import CWC_EFFECTORS, effector_links
 from ..metrics.props import ProxyPoints
 from ..scene.surfaces import SupportSurfaces
 
@@ -79,7 +79,7 @@ def planned_point_contacts(robot, q: np.ndarray, surfaces: SupportSurfaces,
         if e not in keypoints:
             continue
         kp = keypoints[e]
-        links = set(robot.rigid_links(kp.frame)) | {kp.frame}
+        links = effector_links(robot, e)
         at = robot.frame_positions(robot.q_nominal, [kp.frame], np.asarray([kp.offset]))[0]
         near = np.linalg.norm(nominal - at, axis=1) - proxy.radius_m <= REACH_M
         sel = np.flatnonzero([proxy.frames[o] in links and ok
@@ -95,6 +95,7 @@ def planned_point_contacts(robot, q: np.ndarray, surfaces: SupportSurfaces,
     if not E or surfaces.flat:
         return PointContacts(tuple(effectors), frames, local, radius, planned)
     world = proxy.world(robot, q)  # (T, N, 3)
+    link_of_point = np.asarray(proxy.frames, dtype=object)[proxy.owner]  # (N,)
     for k, sel in enumerate(sels):
         bottom = world[:, sel, 2] - proxy.radius_m[sel]  # (T, n)
         low = sel[np.argmin(bottom, axis=1)]  # (T,) the lowest point of the effector
@@ -102,7 +103,7 @@ def planned_point_contacts(robot, q: np.ndarray, surfaces: SupportSurfaces,
         top = surfaces.heights(p - np.array([0.0, 0.0, 1.0]) * proxy.radius_m[low, None])
         h = p[:, 2] - proxy.radius_m[low] - top
         planned[:, k] = (top > 0.0) & (np.abs(h) <= touch_m)
-        frames[k] = np.array([proxy.frames[o] for o in proxy.owner[low]], dtype=object)
+        frames[k] = link_of_point[low]
         local[k] = proxy.local_m[low]
         radius[k] = proxy.radius_m[low]
     return PointContacts(tuple(effectors), frames, local, radius, planned)

@@ -396,11 +396,11 @@ class WholeBodyController:
         cfg = self.config
         nv, nj = self.nv, self.n_joints
         ref = self.track.at(t)
-        planned = self._planned_points(t)
+        f = self.track.frame(t)
+        planned = self._planned_points(f)
         if planned:
             pts = self.points
             assert pts is not None  # planned points come from it
-            f = self.track.frame(t)
             names = [pts.frames[e, f] for e in planned]
             local = np.array([pts.local_m[e, f] for e in planned])
             dyn = self.robot.dynamics(q, v, self.frames + names,
@@ -409,7 +409,7 @@ class WholeBodyController:
             dyn = self.robot.dynamics(q, v, self.frames, self.centres)
         frames = self.contact_frames(dyn.poses[:2])
         contact = self.contacts(ref, self.sole_heights(dyn.poses[:2], frames))
-        points = self._touching(dyn, planned, t)  # (p,) effector indices in contact
+        points = self._touching(dyn, planned, f)  # (p,) rows of dyn in contact
         moving = ref.moving & contact
         rolling = self.rolling(t) & contact & ~moving
         slip = [self.slip_direction(dyn, s, frames[s]) if moving[s] else None
@@ -605,20 +605,19 @@ class WholeBodyController:
         return ControlStep(tau=tau, contacts=contact, wrenches=wrenches, relaxed=relaxed,
                            sliding=sliding, point_forces=point_forces)
 
-    def _planned_points(self, t: float) -> list[int]:
-        """Effector indices the reference rests on a prop's top at time ``t``."""
+    def _planned_points(self, f: int) -> list[int]:
+        """Effector indices the reference rests on a prop's top at its frame ``f``."""
         if self.points is None:
             return []
-        return [int(e) for e in np.flatnonzero(self.points.planned[self.track.frame(t)])]
+        return [int(e) for e in np.flatnonzero(self.points.planned[f])]
 
-    def _touching(self, dyn, planned: list[int], t: float) -> list[int]:
-        """Rows of ``dyn`` (2 + i for the i-th planned effector) whose simulated point is
-        down on the top under it (within ``contact_height_m``)."""
+    def _touching(self, dyn, planned: list[int], f: int) -> list[int]:
+        """Rows of ``dyn`` (2 + i for the i-th planned effector at reference frame ``f``)
+        whose simulated point is down on the top under it (within ``contact_height_m``)."""
         if not planned:
             return []
         pts = self.points
         assert pts is not None and self.surfaces is not None
-        f = self.track.frame(t)
         radius = np.array([pts.radius_m[e, f] for e in planned])
         p = dyn.poses[2:, :3, 3].copy()
         p[:, 2] -= radius
