@@ -143,6 +143,12 @@ def test_a_user_robot_is_found_by_its_provenance(tmp_path, capsys, caplog):
     robot = load_test_robot("hrp4c")
     with pytest.raises(RobotConfigError):
         robot_for_motion_file(_hrp4c_file(tmp_path, robot, None))
+    # --urdf alone: HRP-4C with that model, not a robot generated from the URDF ('hrp4')
+    assert robot_for_motion_file(_hrp4c_file(tmp_path, robot, None),
+                                 urdf=hrp4c_urdf()).name == "hrp4c"
+    assert main(["-q", "evaluate", str(_hrp4c_file(tmp_path, robot, None)), "--urdf",
+                 str(hrp4c_urdf())]) == 0
+    assert "40 frames of hrp4c" in capsys.readouterr().out
     prov = Provenance(lead_in=5, lead_out=5, robot="hrp4c", robot_sha256=robot_sha256(robot),
                       robot_toml=str(robot.config.path), urdf=str(hrp4c_urdf()),
                       imesh_version="0")

@@ -374,8 +374,10 @@ def robot_named_in(path: str | os.PathLike) -> str | None:
 
 def robot_for_motion_file(path: str | os.PathLike, robot: str | os.PathLike | None = None,
                           urdf: str | os.PathLike | None = None):
-    """The robot of a motion file: ``robot``/``urdf`` when given (``load_robot(robot, urdf)``),
-    else the robot the file names (``imesh view|evaluate|export`` without ``--robot``).
+    """The robot of a motion file: ``robot`` when given (``load_robot(robot, urdf)``), else the
+    robot the file names (``imesh view|evaluate|export`` without ``--robot``); ``urdf`` alone
+    is that robot's model file when the file names a shipped robot (``hrp4c``), else the URDF a
+    configuration is generated from.
 
     A robot whose model the user provides (HRP-4C, a URDF alone) is found by the robot.toml
     and URDF paths its provenance records, when they still exist. A robot configuration that
@@ -390,14 +392,20 @@ def robot_for_motion_file(path: str | os.PathLike, robot: str | os.PathLike | No
     from ..core.provenance import robot_sha256
     from ..robot.errors import RobotConfigError
 
-    if robot is not None or urdf is not None:
-        return load_robot(None if robot is None else str(robot),
-                          urdf=None if urdf is None else str(urdf))
+    if robot is not None:
+        return load_robot(str(robot), urdf=None if urdf is None else str(urdf))
     path = Path(path)
     if not path.is_file():
         raise MotionFileError(str(path), "no such file")
     name = robot_named_in(path) if path.suffix.lower() in (".npz", ".csv") or is_gmr(path) \
         else None
+    if urdf is not None:
+        # ``--urdf`` alone on a motion of a shipped robot whose model the user provides
+        # (hrp4c): that robot with this model, as ``imesh retarget --robot hrp4c --urdf``
+        # made it; a robot of no shipped configuration: generated from the URDF alone
+        from ..robot.registry import robot_names
+
+        return load_robot(name if name in robot_names() else None, urdf=str(urdf))
     if not name:
         raise MotionFileError(str(path), "the file does not name its robot: pass --robot "
                               "(robot=)" + ("; GMR's pickles do not (GMR's unitree_g1 is "
