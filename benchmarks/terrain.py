@@ -140,7 +140,7 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
                                   else "the props in the solve"))
     print(f"{'seq':<6} {'robot':<6} {'frames':>6} {'solve s':>7} {'pen mm per box':<15} "
           f"{'>10mm':>5} {'deepest link (box)':<32} {'kept':>5} {'of':>4} {'skid':>5} "
-          f"{'ground':>6} {'self':>4} {'limit':>5} {'cwc':>5}")
+          f"{'max':>5} {'slide':>5} {'ground':>6} {'self':>4} {'limit':>5} {'cwc':>5}")
     for seq, folder, _ in SEQS:
         if seq not in args.seqs:
             continue
@@ -165,7 +165,7 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
             pen = props["prop_penetration_mm"]
             worst = max(pen["props"].items(), key=lambda kv: kv[1]["deepest_mm"])
             kept = props["prop_contacts_kept"]
-            skid = props["surface_skid_mm_per_frame"]["value"]
+            skid = props["surface_skid_mm_per_frame"]
 
             def f(v, fmt):
                 return "n/a" if v is None else format(v, fmt)
@@ -175,7 +175,9 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
                   f"{per_box:<15} {props['prop_penetration_frames']['value']:>5} "
                   f"{(worst[1]['worst_link'] or '-') + ' (' + worst[0] + ')':<32} "
                   f"{f(kept['value'], '.2f'):>5} {kept.get('samples', 0):>4} "
-                  f"{f(skid, '.1f'):>5} {f(values['ground_penetration_mm'], '.1f'):>6} "
+                  f"{f(skid['value'], '.2f'):>5} {f(skid.get('max_mm'), '.1f'):>5} "
+                  f"{f(skid.get('slide_mm_per_frame'), '.1f'):>5} "
+                  f"{f(values['ground_penetration_mm'], '.1f'):>6} "
                   f"{values['self_collision_frames']:>4} {values['limit_violation_frames']:>5} "
                   f"{props['cwc_inside_fraction']['value']:>5.3f}")
             checks.append((seq, rname, robot, motion, written))
@@ -183,10 +185,11 @@ def robot_table(args, base: Path, robots: dict, clips: dict) -> int:
           "distance to the box's nearest face: at most the box's half-thickness, 187 mm for "
           "box1 at the G1's scale); >10mm: frames with a box penetrated deeper than 10 mm; "
           "kept: the human's box contacts (toe/hand/knee samples on the clip's frames) whose "
-          "robot link is within 20 mm of the box surface; skid: largest sole slide while "
-          "supporting on any surface [mm per 1/30 s]; ground: the evaluator's ground "
-          "penetration [mm]; cwc: fraction of frames whose gravito-inertial wrench is "
-          "inside the contact wrench cone of the robot's own contacts")
+          "robot link is within 20 mm of the box surface; skid, max: mean and largest "
+          "slide of a sole supporting on any surface (the motion's planned support; its planned "
+          "slides apart, their mean motion in slide) [mm per 1/30 s]; ground: the "
+          "evaluator's ground penetration [mm]; cwc: fraction of frames whose "
+          "gravito-inertial wrench is inside the contact wrench cone of the robot's own contacts")
     if args.physics:
         physics_table(checks)
     return 0

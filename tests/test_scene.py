@@ -271,6 +271,34 @@ def test_skid_on_a_box_top():
     ref = foot_skid(soles, detect_support(soles, SupportDetection()).support)
     assert floor.surfaces == {"floor": 18, "step": 0}
     assert floor.max_mm == pytest.approx(ref.max_mm_per_frame) == pytest.approx(4.0)
+    assert floor.mean_mm == pytest.approx(ref.mean_mm_per_frame) == pytest.approx(4.0)
+    assert not floor.planned and np.isnan(floor.slide_mm)
+
+
+def test_skid_on_a_box_top_by_the_planned_support():
+    """A motion that carries its contact modes is judged by them, as
+    ``foot_skid_mm_per_frame`` on flat ground: a landing's approach that the plan has in swing
+    (the sole 6 mm above the top, 12 mm per frame) is not support, though the detection counts
+    it (the holosoma seq_1 window's 34.8 mm maximum was such a frame); a planned slide
+    (5 mm per frame) is counted apart, with its frame before it."""
+    from imesh.contacts.phases import SLIDE, STANCE
+
+    robot = load_test_robot("g1")
+    box = _foot_box(robot, 0.302, "step")
+    q = np.repeat(robot.q_nominal[None], 10, axis=0)
+    q[:, 2] += 0.3
+    q[:3, 2] += 0.008  # frames 0-2: coming down onto the top, 12 mm per frame
+    q[:3, 0] -= 0.012 * np.arange(3, 0, -1)
+    q[6:, 0] += 0.005 * np.arange(1, 5)  # frames 6-9: a slide on the top
+    detected = surface_skid(robot, q, 30.0, [prop_planes(box)], ["step"])
+    assert detected.max_mm == pytest.approx(12.0, abs=1e-6)
+    modes = np.zeros((10, 2), dtype=np.int8)
+    modes[3:, 0] = STANCE
+    modes[6:, 0] = SLIDE
+    planned = surface_skid(robot, q, 30.0, [prop_planes(box)], ["step"], contact_modes=modes)
+    assert planned.planned and planned.surfaces == {"floor": 0, "step": 1}
+    assert planned.mean_mm == pytest.approx(0.0, abs=1e-9)
+    assert planned.slide_mm == pytest.approx(4.0, abs=1e-6)  # 0, 5, 5, 5, 5 mm
 
 
 # ----------------------------------------------------------------------------------------------

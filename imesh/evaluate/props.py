@@ -9,8 +9,11 @@
 - ``prop_contacts_kept``: fraction of the human's prop contacts (toes, hands, knees within their
   thresholds of a prop, on the clip's frames) that the robot keeps: the link of the marker's key
   point within 20 mm of the same prop (needs the source clip: ``--source`` or the provenance).
-- ``surface_skid_mm_per_frame``: largest slide of a sole supporting on the floor or on a prop
-  (the evaluator's support detection measured from each surface), per 1/30 s.
+- ``surface_skid_mm_per_frame``: ``foot_skid_mm_per_frame`` on every surface: the mean slide of
+  a sole supporting on the floor or on a prop, per 1/30 s, with the support the flat figure
+  takes (the motion's planned contact modes, slides apart; else the evaluator's detection
+  measured from each surface); the largest slide, its 95th percentile and the share over 10 mm
+  beside it.
 - ``human_prop_contact_frames``: the human's contact frames per prop and effector (a table,
   no single value: its ``value`` is the total).
 - ``cwc_inside_fraction``: fraction of frames whose gravito-inertial wrench is inside the
@@ -26,6 +29,8 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+
+import numpy as np
 
 from ..core.motion import MarkerMotion
 from ..core.robot_motion import RobotMotion
@@ -153,11 +158,16 @@ def evaluate_scene(robot, motion: RobotMotion, scene: Scene, source=None) -> dic
     out["cwc_inside_fraction"] = {
         "value": cwc["cwc_inside_fraction"], "unit": "fraction",
         **{k: v for k, v in cwc.items() if k != "cwc_inside_fraction"}}
-    skid = surface_skid(robot, motion.q, motion.fps, planes, names)
+    skid = surface_skid(robot, motion.q, motion.fps, planes, names,
+                        contact_modes=motion.contact_modes)
     out["surface_skid_mm_per_frame"] = {
-        "value": None if not skid.samples else skid.max_mm, "unit": "mm per 1/30 s",
-        "p95": skid.p95_mm, "samples": skid.samples, "surfaces": skid.surfaces,
-        "max_by_surface_mm": skid.max_by_surface_mm,
+        "value": None if not skid.samples else skid.mean_mm, "unit": "mm per 1/30 s",
+        "max_mm": skid.max_mm, "p95": skid.p95_mm,
+        "fraction_over_10mm": skid.fraction_over_10mm, "samples": skid.samples,
+        "surfaces": skid.surfaces, "max_by_surface_mm": skid.max_by_surface_mm,
+        "mean_by_surface_mm": skid.mean_by_surface_mm,
+        "support": "planned" if skid.planned else "detected",
+        "slide_mm_per_frame": None if np.isnan(skid.slide_mm) else skid.slide_mm,
         **({} if skid.samples else {"reason": "no sole touches a surface"})}
     human = _source_motion(source, motion)
     if human is None:
@@ -202,10 +212,13 @@ def format_scene_table(report: dict) -> str:
                     f"({e['no_contact_frames']} without contact), worst face "
                     f"{e['worst_violation']:.2f} m/s^2")
         elif name == "surface_skid_mm_per_frame" and e.get("surfaces"):
-            worst = e.get("max_by_surface_mm", {})
-            note = "support samples (max mm) on " + ", ".join(
-                f"{k} {n}" + (f" ({worst[k]:.1f})" if k in worst else "")
+            mean, worst = e.get("mean_by_surface_mm", {}), e.get("max_by_surface_mm", {})
+            note = f"{e.get('support', 'detected')} support samples (mean / max mm) on "
+            note += ", ".join(
+                f"{k} {n}" + (f" ({mean[k]:.2f} / {worst[k]:.1f})" if k in worst else "")
                 for k, n in e["surfaces"].items())
+            if e.get("slide_mm_per_frame") is not None:
+                note += f"; planned slides {e['slide_mm_per_frame']:.1f} mm apart"
         rows.append((name, _fmt(e["value"]), e["unit"], note))
     w = [max(len(r[k]) for r in rows) for k in range(3)]
     return "\n".join(f"{a:<{w[0]}}  {b:>{w[1]}}  {c:<{w[2]}}  {d}".rstrip() for a, b, c, d in rows)

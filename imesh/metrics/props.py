@@ -17,10 +17,13 @@ distance to the farthest face plane (exact above a face, a lower bound near edge
   robot link carrying that marker's key point (with the links rigidly attached to it) is within
   20 mm of the same prop's surface at the same frame: at most 20 mm away, and not sunk more
   than 20 mm into it (a link deep inside a box does not keep a contact with its top).
-- **Skid on any surface** (:func:`surface_skid`): a sole supporting on the floor or a prop at
-  two consecutive frames (the evaluator's support detection with the height taken from that
-  surface: lowest corner within 10 mm of it, at most 10 mm into a prop, centre slower than
-  0.5 m/s, hysteresis); its horizontal slide per 1/30 s.
+- **Skid on any surface** (:func:`surface_skid`): DESIGN.md's ``foot_skid_mm_per_frame`` (the
+  mean horizontal slide per 1/30 s of a supporting sole) with each sample on its surface. The
+  support is the one the flat-ground figure takes: the motion's planned contact modes when it
+  carries them (each support sample on the surface nearest to the sole; planned slides and
+  pivots apart), else the evaluator's detection with the height taken from each surface
+  (lowest corner within 10 mm of it, at most 10 mm into a prop, centre slower than 0.5 m/s,
+  hysteresis).
 """
 
 from __future__ import annotations
@@ -31,7 +34,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..contacts.phases import SIDES
+from ..contacts.phases import SIDES, Contacts
+from .skid import SKID_THRESHOLD_MM
 from .soles import sole_tracks
 from .support import SupportDetection
 
@@ -330,66 +334,113 @@ def contact_preservation(robot, q: np.ndarray, human: HumanContacts,
 
 @dataclass(frozen=True)
 class SurfaceSkid:
-    """Sole slide while touching any surface (floor or prop).
+    """Sole slide while supporting on any surface (floor or prop): DESIGN.md's
+    ``foot_skid_mm_per_frame`` with each support sample on its surface.
 
     Attributes:
-        max_mm: largest horizontal slide of a touching sole's centre [mm per 1/30 s].
-        p95_mm: its 95th percentile.
-        samples: (foot, frame) samples supporting at both frames.
+        mean_mm: mean horizontal slide of a supporting sole's centre [mm per 1/30 s] (NaN
+            without samples): the figure, as ``foot_skid_mm_per_frame`` on flat ground.
+        max_mm: the largest slide; p95_mm: its 95th percentile.
+        fraction_over_10mm: share of the samples sliding more than 10 mm per 1/30 s.
+        samples: (foot, frame) samples supporting on one surface at the frame and the
+            previous one.
         surfaces: surface name -> samples on it.
-        max_by_surface_mm: surface name -> largest slide on it (surfaces with samples).
+        max_by_surface_mm, mean_by_surface_mm: surface name -> largest / mean slide on it
+            (surfaces with samples).
+        planned: the support is the motion's planned contact modes (else detected).
+        slide_mm: mean motion of the planned slides and pivots on the surfaces, counted apart
+            (NaN without).
     """
 
+    mean_mm: float
     max_mm: float
     p95_mm: float
+    fraction_over_10mm: float
     samples: int
     surfaces: dict = field(default_factory=dict)
     max_by_surface_mm: dict = field(default_factory=dict)
+    mean_by_surface_mm: dict = field(default_factory=dict)
+    planned: bool = False
+    slide_mm: float = float("nan")
+
+
+def _surface_heights(corners: np.ndarray, planes: Sequence[np.ndarray], height_m: float
+                     ) -> np.ndarray:
+    """(T, 1 + P) [m] a sole's height above the floor (its lowest corner) and above each prop
+    (the signed distance of its corner nearest to the prop, where that corner is over an
+    upward face and not sunk more than ``height_m`` into it; inf elsewhere)."""
+    heights = [corners[..., 2].min(axis=1)]
+    t = np.arange(len(corners))
+    for pl in planes:
+        d = corners @ pl[:, :3].T - pl[:, 3]  # (T, 4, K) each corner against each face
+        sd = d.max(axis=-1)  # (T, 4)
+        # on a prop: the corner nearest to the prop is over one of its upward faces (a sole
+        # on the floor inside a box sits at the box's bottom face, not on the box)
+        lowest = np.argmin(sd, axis=1)
+        upward = pl[np.argmax(d[t, lowest], axis=-1), 2] > UPWARD_NZ
+        h = sd[t, lowest]
+        heights.append(np.where(upward & (h >= -height_m), h, np.inf))
+    return np.stack(heights, axis=1)
 
 
 def surface_skid(robot, q: np.ndarray, fps: float, planes: Sequence[np.ndarray],
-                 names: Sequence[str], detection: SupportDetection | None = None
-                 ) -> SurfaceSkid:
+                 names: Sequence[str], detection: SupportDetection | None = None,
+                 contact_modes: np.ndarray | None = None) -> SurfaceSkid:
     """Horizontal slide of each sole while it supports on the floor (z = 0) or on a prop, at a
-    frame and the previous one.
+    frame and the previous one: DESIGN.md's ``foot_skid_mm_per_frame`` (the mean) on every
+    surface, with the support the flat-ground figure takes
+    (:func:`imesh.metrics.support.motion_support`).
 
-    Support on each surface is the evaluator's sole-based detection
-    (:func:`imesh.metrics.support.detect_support`: the sole's lowest corner within 10 mm and its
-    centre slower than 0.5 m/s, with hysteresis and a minimum phase of 0.05 s) with the height
-    measured from that surface: the lowest corner's height above the floor, or its signed
-    distance to the prop (a sole sunk more than ``height_m`` into a prop is not on it).
+    Args:
+        contact_modes: (T, 2) the motion's planned contact modes
+            (``RobotMotion.contact_modes``): a planned support sample is on the surface
+            nearest to the sole, and planned slides and pivots are counted apart
+            (``slide_mm``), as ``foot_skid_mm_per_frame`` counts them. None: the support on each
+            surface is the evaluator's detection
+            (:func:`imesh.metrics.support.detect_support`: the sole's lowest corner within
+            10 mm and its centre slower than 0.5 m/s, with hysteresis and a minimum phase of
+            0.05 s) with the height measured from that surface (a sole sunk more than
+            ``height_m`` into a prop is not on it).
     """
     detection = detection or SupportDetection()
     soles = sole_tracks(robot, np.asarray(q, float), fps)
-    steps, on = [], {n: 0 for n in ("floor", *names)}
-    worst: dict[str, float] = {}
-    for side in SIDES:
-        c = soles.corners[side]  # (T, 4, 3)
-        speed = soles.speed(side)
-        heights = [c[..., 2].min(axis=1)]
-        for pl in planes:
-            d = c @ pl[:, :3].T - pl[:, 3]  # (T, 4, K) each corner against each face
-            sd = d.max(axis=-1)  # (T, 4)
-            # on a prop: the corner nearest to the prop is over one of its upward faces (a
-            # sole on the floor inside a box sits at the box's bottom face, not on the box)
-            lowest = np.argmin(sd, axis=1)
-            t = np.arange(len(c))
-            upward = pl[np.argmax(d[t, lowest], axis=-1), 2] > UPWARD_NZ
-            h = sd[t, lowest]
-            heights.append(np.where(upward & (h >= -detection.height_m), h, np.inf))
-        support = np.stack([detection.phases.support(h, speed, detection.height_m,
-                                                     detection.speed_mps, soles.fps)
-                            for h in heights], axis=1)  # (T, 1 + P)
-        both = support[1:] & support[:-1]  # on the same surface at both frames
+    labels = ("floor", *names)
+    planned = contact_modes is not None
+    modes = Contacts.from_modes(contact_modes, soles.fps) if planned else None
+    steps, slides = [], []
+    by: dict[str, list] = {n: [] for n in labels}
+    for k, side in enumerate(SIDES):
+        heights = _surface_heights(soles.corners[side], planes, detection.height_m)
         step = np.linalg.norm(np.diff(soles.centers[side][:, :2], axis=0), axis=1)
-        for k, n in enumerate(("floor", *names)):
-            on[n] += int(both[:, k].sum())
         mm = step * 1e3 * fps / SKID_FPS
-        for k, n in enumerate(("floor", *names)):
-            if both[:, k].any():
-                worst[n] = max(worst.get(n, 0.0), float(mm[both[:, k]].max()))
+        if modes is None:
+            speed = soles.speed(side)
+            support = np.stack([detection.phases.support(h, speed, detection.height_m,
+                                                         detection.speed_mps, soles.fps)
+                                for h in heights.T], axis=1)  # (T, 1 + P)
+            moving = np.zeros(len(support), dtype=bool)
+        else:
+            nearest = np.argmin(np.abs(heights), axis=1)  # the floor is always finite
+            support = (np.arange(heights.shape[1]) == nearest[:, None]) \
+                & modes.support[:, k, None]
+            moving = modes.moving[:, k].copy()
+            moving[1:] |= modes.moving[:-1, k]  # the skid of frame t is the motion from t - 1
+            moving[:-1] |= modes.moving[1:, k]
+        both = support[1:] & support[:-1]  # on the same surface at both frames
+        slide = both.any(axis=1) & moving[1:]
+        both &= ~moving[1:, None]
+        for j, n in enumerate(labels):
+            by[n].append(mm[both[:, j]])
         steps.append(mm[both.any(axis=1)])
-    s = np.concatenate(steps)
+        slides.append(mm[slide])
+    s, sl = np.concatenate(steps), np.concatenate(slides)
+    per = {n: np.concatenate(v) for n, v in by.items()}
+    kw = dict(surfaces={n: int(v.size) for n, v in per.items()},
+              max_by_surface_mm={n: float(v.max()) for n, v in per.items() if v.size},
+              mean_by_surface_mm={n: float(v.mean()) for n, v in per.items() if v.size},
+              planned=planned, slide_mm=float(sl.mean()) if sl.size else float("nan"))
     if not s.size:
-        return SurfaceSkid(float("nan"), float("nan"), 0, on, worst)
-    return SurfaceSkid(float(s.max()), float(np.percentile(s, 95)), int(s.size), on, worst)
+        nan = float("nan")
+        return SurfaceSkid(nan, nan, nan, nan, 0, **kw)
+    return SurfaceSkid(float(s.mean()), float(s.max()), float(np.percentile(s, 95)),
+                       float(np.mean(s > SKID_THRESHOLD_MM)), int(s.size), **kw)
