@@ -406,7 +406,7 @@ def surface_skid(robot, q: np.ndarray, fps: float, planes: Sequence[np.ndarray],
     soles = sole_tracks(robot, np.asarray(q, float), fps)
     labels = ("floor", *names)
     planned = contact_modes is not None
-    modes = Contacts.from_modes(contact_modes, soles.fps) if planned else None
+    modes = None if contact_modes is None else Contacts.from_modes(contact_modes, soles.fps)
     steps, slides = [], []
     by: dict[str, list] = {n: [] for n in labels}
     for k, side in enumerate(SIDES):
@@ -435,12 +435,12 @@ def surface_skid(robot, q: np.ndarray, fps: float, planes: Sequence[np.ndarray],
         slides.append(mm[slide])
     s, sl = np.concatenate(steps), np.concatenate(slides)
     per = {n: np.concatenate(v) for n, v in by.items()}
-    kw = dict(surfaces={n: int(v.size) for n, v in per.items()},
-              max_by_surface_mm={n: float(v.max()) for n, v in per.items() if v.size},
-              mean_by_surface_mm={n: float(v.mean()) for n, v in per.items() if v.size},
-              planned=planned, slide_mm=float(sl.mean()) if sl.size else float("nan"))
-    if not s.size:
-        nan = float("nan")
-        return SurfaceSkid(nan, nan, nan, nan, 0, **kw)
-    return SurfaceSkid(float(s.mean()), float(s.max()), float(np.percentile(s, 95)),
-                       float(np.mean(s > SKID_THRESHOLD_MM)), int(s.size), **kw)
+    nan = float("nan")
+    return SurfaceSkid(
+        mean_mm=float(s.mean()) if s.size else nan, max_mm=float(s.max()) if s.size else nan,
+        p95_mm=float(np.percentile(s, 95)) if s.size else nan,
+        fraction_over_10mm=float(np.mean(s > SKID_THRESHOLD_MM)) if s.size else nan,
+        samples=int(s.size), surfaces={n: int(v.size) for n, v in per.items()},
+        max_by_surface_mm={n: float(v.max()) for n, v in per.items() if v.size},
+        mean_by_surface_mm={n: float(v.mean()) for n, v in per.items() if v.size},
+        planned=planned, slide_mm=float(sl.mean()) if sl.size else nan)
