@@ -102,3 +102,38 @@ def test_a_foot_put_down_in_the_lead_carries_its_markers(g1):
     low = np.min(np.einsum("nij,kj->nki", poses[:, :3, :3], feet.corners[1])[..., 2]
                  + poses[:, None, 2, 3], axis=1)
     assert low.min() >= 0.0
+
+
+def test_a_foot_put_down_over_a_prop_stands_on_its_top_with_its_markers(g1):
+    """A foot the lead-in puts down over a prop's top (``heights_m``, the top the plan's lead
+    footprint stands on: :func:`imesh.pipeline.retarget.lead_heights`) stands there, and so do
+    its markers: on the holosoma seq_0 window the lead-out put the right sole on box2's top
+    (0.367 m at the G1's scale) and its ankle and toe markers on the floor under it, 367 mm
+    below the footprint the solve held the sole on."""
+    from imesh.fit.targets import compile_targets, robot_targets
+    from imesh.solve.lead import lead_feet
+
+    kps, dirs = robot_targets(g1)
+    names = sorted({k.marker for k in kps} | {m for d in dirs for m in (d.from_marker,
+                                                                         d.to_marker)})
+    targets = compile_targets(g1, names, None, None)
+    q = _g1_lifted(g1)
+    q[:, 2] += 0.5  # the robot above a 0.367 m top, its right foot lifted
+    at = g1.frame_positions(q[0], [k.frame for k in targets.keypoints], targets.kp_offsets)
+    markers = np.zeros((2, len(names), 3))
+    markers[:, targets.kp_markers] = at
+    top = 0.367
+    floor = lead_feet(g1, q, targets)
+    feet = lead_feet(g1, q, targets, np.array([[top, top], [top, top]]))
+    np.testing.assert_allclose(feet.down_first[..., 2, 3] - floor.down_first[..., 2, 3], top)
+    lead = add_lead(q, markers, np.array([[True, False], [True, True]]), 30, 0,
+                    step_frames=15, feet=feet)
+    corners = np.einsum("ij,kj->ki", feet.down_first[1][:3, :3], feet.corners[1]) \
+        + feet.down_first[1][:3, 3]
+    np.testing.assert_allclose(corners[:, 2], top, atol=1e-9)  # the sole level on the top
+    toe = lead.markers[:15, names.index("toe_r")]
+    carried = feet.down_first[1] @ np.linalg.inv(feet.first[1])
+    expected = carried[:3, :3] @ lead.markers[30, names.index("toe_r")] + carried[:3, 3]
+    np.testing.assert_allclose(toe, np.repeat(expected[None], 15, axis=0), atol=1e-12)
+    ankle_above_sole = (lead.markers[0, names.index("ankle_r"), 2] - top)
+    assert 0.0 < ankle_above_sole < 0.1  # on the top, not 0.367 m under it

@@ -322,10 +322,20 @@ def lead_heights(surface_m: np.ndarray, markers_m: np.ndarray, names: MarkerMoti
     props' (:func:`imesh.scene.surfaces.scene_planes`)."""
     out = np.pad(surface_m, ((n_lead, n_lead), (0, 0)), mode="edge")
     lead = np.r_[0:n_lead, len(out) - n_lead:len(out)]
+    out[lead] = tops_under_feet(markers_m[lead], names, scene, planes)
+    return out
+
+
+def tops_under_feet(markers_m: np.ndarray, names: MarkerMotion, scene,
+                    planes: list[np.ndarray]) -> np.ndarray:
+    """(F, 2) [m] [left, right] the highest prop top under each foot's toe and ankle markers
+    (``markers_m`` (F, M, 3), named as ``names``), whatever their height (0: none, the
+    floor): where a foot the lead puts down stands."""
+    out = np.zeros((len(markers_m), 2))
     for k, side in enumerate(SIDES):
-        pts = markers_m[lead][:, [names.index(m) for m in FOOT_MARKERS[side]]].copy()
+        pts = markers_m[:, [names.index(m) for m in FOOT_MARKERS[side]]].copy()
         pts[..., 2] = np.inf
-        out[lead, k] = surface_heights(scene, pts, np.inf, planes).max(axis=1)
+        out[:, k] = surface_heights(scene, pts, np.inf, planes).max(axis=1)
     return out
 
 
@@ -605,10 +615,13 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
         q_init = smooth_initializer(robot, q_out, source.fps, config.wholebody.initial_lowpass_hz)
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")
+        # a foot the lead puts down over a prop's top stands on it, with its markers
+        ends = (None if surface is None else tops_under_feet(
+            fit_markers.positions_m[[0, -1]], fit_markers, scene, scene_planes(scene)))
         ext = add_lead(q_init, fit_markers.positions_m, flat.support, n_lead, n_lead,
                        step_frames=int(round(0.5 * source.fps)),
                        land_frames=int(round(config.lead_land_s * source.fps)),
-                       feet=lead_feet(robot, q_init, targets))
+                       feet=lead_feet(robot, q_init, targets, ends))
         limits = joint_limits(robot, fit_config.limits)
         sliding = np.zeros_like(ext.support)
         sliding[n_lead:n_lead + n_work] = flat.moving

@@ -60,8 +60,9 @@ class LeadFeet:
             key points on the leg within ``LEAD_FOOT_RADIUS_M`` of the sole centre.
         first, last: (2, 4, 4) world poses of the sole frames at the clip's first and last
             frames [m].
-        down_first, down_last: (2, 4, 4) the same soles laid level on z = 0 under them (where
-            the lead stands them: :func:`imesh.solve.footprints.level_placement`).
+        down_first, down_last: (2, 4, 4) the same soles laid level under them (where the lead
+            stands them: :func:`imesh.solve.footprints.level_placement`), on z = 0 or on the
+            prop's top under them.
         corners: (2, 4, 3) sole corners in the sole frames [m].
     """
 
@@ -73,13 +74,17 @@ class LeadFeet:
     corners: np.ndarray
 
 
-def lead_feet(robot, q: np.ndarray, targets) -> LeadFeet:
+def lead_feet(robot, q: np.ndarray, targets, heights_m: np.ndarray | None = None) -> LeadFeet:
     """The :class:`LeadFeet` of a clip.
 
     Args:
         robot: the robot.
         q: (T, nq) initializer of the clip (its first and last frames are used).
         targets: the compiled key points and directions (:func:`imesh.fit.compile_targets`).
+        heights_m: (2, 2) [first, last] x [left, right] height of the surface a foot put down
+            in the lead stands on [m] (a prop's top under it: the plan's lead footprint is
+            there, :func:`imesh.pipeline.retarget.lead_heights`, and the foot's markers stand
+            on it with the foot); None: the floor, z = 0.
     """
     frames = [robot.soles[s].frame for s in SIDES]
     level = robot.frame_rotations(robot.q_nominal, frames)
@@ -103,13 +108,13 @@ def lead_feet(robot, q: np.ndarray, targets) -> LeadFeet:
                                          strict=True)
                if set(robot.rigid_links(d.frame)) == foot for m in (a, b)}
         markers.append(np.array(sorted(on), dtype=np.int64))
-    return LeadFeet(
-        markers=(markers[0], markers[1]), first=first, last=last,
-        down_first=np.array([level_placement(robot.soles[s], level[k], first[k:k + 1])
-                             for k, s in enumerate(SIDES)]),
-        down_last=np.array([level_placement(robot.soles[s], level[k], last[k:k + 1])
-                            for k, s in enumerate(SIDES)]),
-        corners=np.array([robot.soles[s].corners() for s in SIDES]))
+    down = np.array([[level_placement(robot.soles[s], level[k], ends[k:k + 1])
+                      for k, s in enumerate(SIDES)] for ends in (first, last)])  # (2, 2, 4, 4)
+    if heights_m is not None:
+        down[..., 2, 3] += np.asarray(heights_m, dtype=float)
+    return LeadFeet(markers=(markers[0], markers[1]), first=first, last=last,
+                    down_first=down[0], down_last=down[1],
+                    corners=np.array([robot.soles[s].corners() for s in SIDES]))
 
 
 def _swing_poses(down: np.ndarray, up: np.ndarray, corners: np.ndarray, n: int) -> np.ndarray:
