@@ -20,7 +20,7 @@ import numpy as np
 from ..contacts.phases import SIDES, runs
 from ..core.checks import require_finite
 from .derivatives import motion_derivatives
-from .skid import SkidReport, foot_skid
+from .skid import SkidReport, foot_skid, near_slides
 from .soles import SoleTracks
 
 GRAVITY = 9.81
@@ -127,8 +127,5 @@ def skid_apart_from_slides(soles: SoleTracks, support: np.ndarray, sliding: np.n
     Returns:
         (skid without the slides, the same measure over the slides).
     """
-    sliding = np.asarray(sliding, dtype=bool)
-    near = sliding.copy()
-    near[1:] |= sliding[:-1]
-    near[:-1] |= sliding[1:]
+    near = near_slides(sliding)
     return foot_skid(soles, support & ~near), foot_skid(soles, support & near)

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..contacts.phases import SIDES, Contacts
-from .skid import SKID_THRESHOLD_MM
+from .skid import SKID_THRESHOLD_MM, near_slides
 from .soles import sole_tracks
 from .support import SupportDetection
 
@@ -423,9 +423,7 @@ def surface_skid(robot, q: np.ndarray, fps: float, planes: Sequence[np.ndarray],
             nearest = np.argmin(np.abs(heights), axis=1)  # the floor is always finite
             support = (np.arange(heights.shape[1]) == nearest[:, None]) \
                 & modes.support[:, k, None]
-            moving = modes.moving[:, k].copy()
-            moving[1:] |= modes.moving[:-1, k]  # the skid of frame t is the motion from t - 1
-            moving[:-1] |= modes.moving[1:, k]
+            moving = near_slides(modes.moving[:, k])
         both = support[1:] & support[:-1]  # on the same surface at both frames
         slide = both.any(axis=1) & moving[1:]
         both &= ~moving[1:, None]

@@ -35,6 +35,17 @@ class SkidReport:
     samples: int
 
 
+def near_slides(sliding: np.ndarray) -> np.ndarray:
+    """(T, ...) bool the frames of planned slides (``sliding`` (T, ...)) and the frames next to
+    them: the skid of frame t is the motion from t - 1, so a slide's first and last steps
+    count with it."""
+    sliding = np.asarray(sliding, dtype=bool)
+    near = sliding.copy()
+    near[1:] |= sliding[:-1]
+    near[:-1] |= sliding[1:]
+    return near
+
+
 def foot_skid(soles: SoleTracks, support: np.ndarray) -> SkidReport:
     """Foot skid of the support feet (DESIGN.md ``foot_skid_mm_per_frame``)."""
     values = []

@@ -615,9 +615,10 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
         q_init = smooth_initializer(robot, q_out, source.fps, config.wholebody.initial_lowpass_hz)
         targets = compile_targets(robot, fit_markers.names, keypoints, directions,
                                   source=fit_markers.source or "motion")
+        faces = None if surface is None else scene_planes(scene)
         # a foot the lead puts down over a prop's top stands on it, with its markers
-        ends = (None if surface is None else tops_under_feet(
-            fit_markers.positions_m[[0, -1]], fit_markers, scene, scene_planes(scene)))
+        ends = (None if faces is None else tops_under_feet(
+            fit_markers.positions_m[[0, -1]], fit_markers, scene, faces))
         ext = add_lead(q_init, fit_markers.positions_m, flat.support, n_lead, n_lead,
                        step_frames=int(round(0.5 * source.fps)),
                        land_frames=int(round(config.lead_land_s * source.fps)),
@@ -629,8 +630,7 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
         if flat.inferred is not None:
             inferred[n_lead:n_lead + n_work] = flat.inferred
         surface_z = planes = None
-        if surface is not None:
-            faces = scene_planes(scene)
+        if surface is not None and faces is not None:
             surface_z = lead_heights(surface, ext.markers, fit_markers, scene, n_lead, faces)
             planes = pad_planes(faces)
         plan, footprints = plan_whole_body(robot, ext.q, ext.markers, targets, ext.support,
