@@ -548,3 +548,55 @@ def test_inferred_support_holds_the_sole_where_it_last_stood():
     np.testing.assert_array_equal(out[6], poses[7])  # no support before: the frame after
     keep = ~inferred
     np.testing.assert_array_equal(out[keep], poses[keep])
+    # a body that turns on the held foot: the sole keeps its place and turns by the part of
+    # the turn beyond the leg's twist (0.5 rad); a small turn keeps the held pose
+    yaw = np.concatenate([[0.0, 0.0], np.linspace(0.4, 2.0, 2), np.zeros(4)])
+    turned = hold_poses(poses, support, inferred, base_yaw=yaw, twist_rad=0.5)
+    np.testing.assert_array_equal(turned[2, :3, :3], poses[1, :3, :3])  # 0.4 rad: held
+    np.testing.assert_array_equal(turned[2:4, :3, 3], poses[[1, 1], :3, 3])
+    heading = np.arctan2(turned[3, 1, 0], turned[3, 0, 0])
+    assert heading == pytest.approx(1.5, abs=1e-12)  # 2.0 rad less the 0.5 the leg twists
+    np.testing.assert_array_equal(turned[6], poses[7])  # its base yaw equals frame 7's
+
+
+def test_a_pirouette_on_a_foot_the_clip_has_in_the_air_is_a_pivot(mocap):
+    """CMU 05_06 on G1: the dancer's right foot carries a 4.3 rad pirouette (output frames
+    95-109) with its toe marker 0.1-0.2 m up (an inferred support). Held at its first pose,
+    its footprint was 100-171 deg off the fitted sole there; the held foot now turns with the
+    body (``hold_poses``' ``base_yaw``) and the plan makes it a pivot: one footprint per frame,
+    within 70 deg of the fitted sole."""
+    from scipy.spatial.transform import Rotation
+
+    from imesh.contacts.phases import runs
+    from imesh.io import load_motion
+    from imesh.pipeline.retarget import RetargetConfig, retarget
+    from imesh.solve.footprints import hold_poses, split_pivots
+
+    motion = load_motion(mocap("cmu_05_06_dance_pirouettes_jete.bvh"))
+    robot = load_test_robot("g1")
+    res = retarget(motion, robot, config=RetargetConfig(balance="none"))
+    q = res.fit.motion.q
+    inferred = res.support.inferred
+    support = res.support.support & ~res.support.sliding
+    k = 1
+    runs_k = [(a, b) for a, b in runs(inferred[:, k]) if b - a >= 10]
+    assert runs_k, "no long inferred run on the right foot"
+    a, b = runs_k[0]
+    kin = robot.trajectory_kinematics(q, [robot.soles["right"].frame])
+    poses = kin.placements[:, 0]
+    base = Rotation.from_quat(q[:, 3:7]).as_matrix()
+    yaw = np.arctan2(base[:, 1, 0], base[:, 0, 0])
+    planned = res.support.support[:, k]
+    held = hold_poses(poses, planned, inferred[:, k])
+    turned = hold_poses(poses, planned, inferred[:, k], base_yaw=yaw)
+
+    def off_deg(p):
+        rel = p[a:b, :3, :3] @ np.transpose(poses[a:b, :3, :3], (0, 2, 1))
+        return np.degrees(Rotation.from_matrix(rel).magnitude()).max()
+
+    assert off_deg(held) > 150.0
+    assert off_deg(turned) < 75.0
+    pivots = np.zeros_like(support)
+    split_pivots(robot, {"left": poses, "right": turned}, support, 30.0, pivots=pivots)
+    assert pivots[a + 2:b, k].all()
+

@@ -458,14 +458,18 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
         inferred: (T, 2) bool support frames whose foot holds still where it last stood
             (``Contacts.inferred``: the person's foot in the air while it carries the body): the
             footprints and the pivot test take the sole pose of the foot's support frame next
-            to them (:func:`~imesh.solve.footprints.hold_poses`). None: none.
+            to them, turned by the base's turn beyond a leg's twist (a pirouette on the ball of
+            the foot: :func:`~imesh.solve.footprints.hold_poses`). None: none.
     """
     T = len(q_init)
     frames = _Frames(robot, targets)
     kin = robot.trajectory_kinematics(q_init, [frames.ids[i] for i in frames.soles])
     support = np.asarray(support, dtype=bool)
+    base = _base_rotations(q_init)
+    base_yaw = np.arctan2(base[:, 1, 0], base[:, 0, 0])
     poses = {s: (kin.placements[:, k] if inferred is None
-                 else hold_poses(kin.placements[:, k], support[:, k], inferred[:, k]))
+                 else hold_poses(kin.placements[:, k], support[:, k], inferred[:, k],
+                                 base_yaw))
              for k, s in enumerate(SIDES)}
     sliding = (np.zeros_like(support) if sliding is None
                else np.asarray(sliding, dtype=bool) & support)
