@@ -50,15 +50,18 @@ class Track:
 
 
 def _warm_start(problem: FitProblem, q_out: np.ndarray, t: int, q0: np.ndarray,
-                init: np.ndarray | None) -> np.ndarray:
+                init: np.ndarray | None, jumped: bool = False) -> np.ndarray:
     """(nq,) starting configuration of frame ``t`` (a new array) from the frames fitted so far
-    ``q_out[:t]``, the frame-0 configuration ``q0`` and the optional (T, nq) ``init``."""
+    ``q_out[:t]``, the frame-0 configuration ``q0`` and the optional (T, nq) ``init``.
+    ``jumped``: frame ``t - 1`` came from a restart, so frames ``t - 2, t - 1`` are two basins,
+    not a velocity: the start is frame ``t - 1`` itself (extrapolating the jump flung the
+    base into a third basin: CMU 05_06's penché on G1 turned 100-190 degrees a frame)."""
     robot = problem.robot
     if t == 0:
         q = q0.copy()
     elif init is not None and init.ndim == 2:
         q = init[t].copy()
-    elif t >= 2 and problem.config.extrapolate:
+    elif t >= 2 and problem.config.extrapolate and not jumped:
         q = robot.integrate(q_out[t - 1], robot.difference(q_out[t - 2], q_out[t - 1]))
     else:
         q = q_out[t - 1].copy()
@@ -154,11 +157,12 @@ def track(problem: FitProblem, frames: FrameTargets, limits: IncrementBox, q0: n
     empty = 0
     restarts = 0
     prev_rms = float("nan")
+    jumped = False
     for t in range(n_frames):
         box = limits.at(q_out[t - 1, 7:] if t >= 1 else None,
                         q_out[t - 2, 7:] if t >= 2 else None)
         conflict[t] = box.conflict
-        q = _warm_start(problem, q_out, t, q0, init)
+        q = _warm_start(problem, q_out, t, q0, init, jumped)
         q[7:] = np.clip(q[7:], box.lo, box.hi)
         rows = frames.rows(t)
         if rows.empty:
@@ -170,6 +174,7 @@ def track(problem: FitProblem, frames: FrameTargets, limits: IncrementBox, q0: n
             first=t == 0, q_prev=q_out[t - 1] if t >= 1 and base_box else None, index=t)
         q, points, axes, it = solve_frame(problem, frame, q)
         kp_err[t], dir_err[t] = frames.errors(t, points, axes)
+        jumped = False
         if (fresh is not None and t >= 1 and rows.ok_p.any() and np.isfinite(fresh[t]).all()
                 and np.sqrt(np.nanmean(kp_err[t] ** 2)) > config.restart_rms_m):
             better = _restart(problem, frame, q, fresh[t])
@@ -177,6 +182,7 @@ def track(problem: FitProblem, frames: FrameTargets, limits: IncrementBox, q0: n
                 q, points, axes, it_more = better
                 it += it_more
                 restarts += 1
+                jumped = True
                 kp_err[t], dir_err[t] = frames.errors(t, points, axes)
         q_out[t] = q
         iters[t] = it
