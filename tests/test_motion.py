@@ -28,6 +28,18 @@ def test_resample_reproduces_linear_motion():
                                atol=1e-12)
 
 
+def test_resample_to_a_rate_a_header_rounded_keeps_every_frame(mocap):
+    # the Bandai Namco run's header: frame time 0.0333333 s (30.00003 fps), 68 frames
+    m = load_motion(mocap("bandai_nc_dataset-2_run_normal_001.bvh"))
+    assert m.n_frames == 68 and m.fps == pytest.approx(30.00003, rel=1e-6)
+    r = m.resample(30.0)
+    assert r.n_frames == 68
+    np.testing.assert_allclose(r.positions_m[-1], m.positions_m[-1], atol=1e-4)
+    np.testing.assert_allclose(r.positions_m[:5], m.positions_m[:5], atol=1e-4)
+    # a real change of rate keeps the frames that fall within the clip, no more
+    assert _linear_motion(n=61, fps=60.0).resample(29.0).n_frames == 30
+
+
 def test_resample_real_clip_keeps_duration(mocap):
     m = load_motion(mocap("cmu_141_16_wave_hello.bvh"))
     r = m.resample(30.0)

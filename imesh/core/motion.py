@@ -195,7 +195,10 @@ class MarkerMotion:
         if abs(fps - self.fps) < 1e-9 * self.fps:
             return self
         t_src = np.arange(self.n_frames) / self.fps
-        n_new = int(np.floor(self.duration_s * fps + 1e-9)) + 1
+        # a frame short of the end by a rounding of the header's frame time still counts (a
+        # 30 fps BVH's 0.0333333 s is 30.00003 fps: 67.99993 frames at 30 fps, not 67; the
+        # last one's time is clipped to the source's end)
+        n_new = int(np.floor(self.duration_s * fps + 1e-3)) + 1
         t_new = np.arange(n_new) / fps
         s = np.clip(t_new * self.fps, 0, self.n_frames - 1)
         i0 = np.floor(s).astype(np.int64)
