@@ -137,3 +137,43 @@ def test_a_foot_put_down_over_a_prop_stands_on_its_top_with_its_markers(g1):
     np.testing.assert_allclose(toe, np.repeat(expected[None], 15, axis=0), atol=1e-12)
     ankle_above_sole = (lead.markers[0, names.index("ankle_r"), 2] - top)
     assert 0.0 < ankle_above_sole < 0.1  # on the top, not 0.367 m under it
+
+
+def test_a_foot_kicked_up_behind_is_stood_down_in_the_initializer(g1):
+    """A running clip's first frame has the rear foot kicked up behind the body, its sole
+    pitched past 90 degrees (the Bandai Namco run on G1: 109), so its x axis points back. The
+    lead puts it down with the heading of the shortest rotation that levels it (the other
+    foot's, not turned round), and the initializer's right leg alone stands that sole on its
+    footprint through the lead-in, then blends into the clip's over the swing: the SQP's
+    trust region would need more iterations than it has to unfold the knee (the sole was
+    still 370 mm off after 20)."""
+    from imesh.fit.targets import compile_targets, robot_targets
+    from imesh.solve.lead import lead_feet
+
+    kps, dirs = robot_targets(g1)
+    names = sorted({k.marker for k in kps} | {m for d in dirs for m in (d.from_marker,
+                                                                         d.to_marker)})
+    targets = compile_targets(g1, names, None, None)
+    q = g1.q_nominal.copy()
+    for name, angle in (("right_hip_pitch_joint", 0.6), ("right_knee_joint", 2.0),
+                        ("right_ankle_pitch_joint", 0.3)):
+        q[7 + g1.joint_index(name)] += angle
+    q = np.repeat(g1.clip(q)[None], 2, axis=0)
+    frames = [g1.soles[s].frame for s in ("left", "right")]
+    R = g1.frame_rotations(q[0], frames) @ np.transpose(
+        g1.frame_rotations(g1.q_nominal, frames), (0, 2, 1))
+    assert np.degrees(np.arccos(R[1, 2, 2])) > 95  # the right sole pitched past 90 deg
+    feet = lead_feet(g1, q, targets)
+    yaw = [np.arctan2(d[1, 0], d[0, 0]) for d in feet.down_first]
+    assert abs(yaw[1] - yaw[0]) < 0.05  # not turned round (pi with the x axis's heading)
+    stood = g1.frame_placements(feet.q_first[1], frames)
+    np.testing.assert_allclose(stood[1], feet.down_first[1], atol=1e-4)  # on its footprint
+    legs = np.zeros(g1.nq, bool)
+    legs[7 + feet.legs[1]] = True
+    np.testing.assert_array_equal(feet.q_first[1][~legs], q[0][~legs])  # the right leg alone
+    lead = add_lead(q, np.zeros((2, len(names), 3)), np.array([[True, False], [True, True]]),
+                    30, 0, step_frames=15, feet=feet)
+    np.testing.assert_array_equal(lead.q[:15], np.repeat(feet.q_first[1][None], 15, axis=0))
+    np.testing.assert_array_equal(lead.q[30:], q)
+    steps = np.abs(np.diff(lead.q[14:31, 7:], axis=0)).max(axis=1)
+    assert steps.max() <= 1.6 * np.abs(q[0, 7:] - feet.q_first[1][7:]).max() / 16

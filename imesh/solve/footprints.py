@@ -52,9 +52,25 @@ class Footprint:
     sliding: bool = False
 
 
+#: Tilt [rad] of a sole from level beyond which its heading is taken as the twist of
+#: :func:`_yaw` rather than its x axis's.
+TWIST_TILT_RAD = np.pi / 4
+
+
 def _yaw(rot: np.ndarray) -> np.ndarray:
-    """(N,) yaw [rad] of rotation matrices (N, 3, 3) (heading of their x axis)."""
-    return np.arctan2(rot[:, 1, 0], rot[:, 0, 0])
+    """(N,) yaw [rad] of sole rotations (N, 3, 3) relative to level: the heading of their x
+    axis, or, for a sole tilted more than ``TWIST_TILT_RAD`` from level, that of the shortest
+    rotation laying it level (the twist about the vertical in ``R = swing twist``,
+    ``2 atan2(q_z, q_w)`` of its quaternion, which is ``atan2(R_10 - R_01, R_00 + R_11)``).
+
+    The two agree for pure pitch or roll and differ by about pitch x roll / 2 otherwise; the
+    x axis's turns over where the sole pitches past 90 degrees: a run's first frame has the
+    rear foot kicked up behind the body, pitched 109 degrees, its x axis pointing back, 150
+    degrees off its twist (and off the other foot), and the lead put that foot down turned
+    round (:func:`level_placement`, :mod:`.lead`)."""
+    x_heading = np.arctan2(rot[:, 1, 0], rot[:, 0, 0])
+    twist = np.arctan2(rot[:, 1, 0] - rot[:, 0, 1], rot[:, 0, 0] + rot[:, 1, 1])
+    return np.where(rot[:, 2, 2] < np.cos(TWIST_TILT_RAD), twist, x_heading)
 
 
 def _rz(yaw: float) -> np.ndarray:

@@ -6,11 +6,13 @@ solve therefore gets ``n_in`` frames before the clip and ``n_out`` after it in w
 are in support: a foot in support at the clip's first (last) frame keeps that phase's footprint,
 a foot in the air is put down under where it is (level, same heading) and swings over the
 lead's last (first) ``step_frames`` into (out of) the clip. The initializer and the marker
-targets hold the first (last) frame, except the markers on a foot put down (:class:`LeadFeet`):
-they stand with the foot and follow its swing, a smooth rigid motion from the footprint to where
-the clip has the foot. The jump from rest into the clip's velocity is covered by the elastic
-acceleration rows of the solve, which then moves the CoM over the support and the swing foot
-into its first step with the ZMP inside the support polygon.
+targets hold the first (last) frame, except on a foot put down (:class:`LeadFeet`): its markers
+stand with the foot and follow its swing, a smooth rigid motion from the footprint to where the
+clip has the foot, and in the initializer its leg stands on the footprint (its joints alone,
+:func:`put_down`) and blends into the clip's over the swing. The jump from rest into the
+clip's velocity is covered by the elastic acceleration rows of the solve, which then moves the
+CoM over the support and the swing foot into its first step with the ZMP inside the support
+polygon.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from ..contacts.phases import SIDES
 from .footprints import level_placement
+from .operators import log3
 
 #: Least height [m] of the swinging sole's corners above the ground in the middle of a lead
 #: swing (a sin(pi u) profile, u the swing's progress): the straight motion from the footprint
@@ -64,6 +67,9 @@ class LeadFeet:
             stands them: :func:`imesh.solve.footprints.level_placement`), on z = 0 or on the
             prop's top under them.
         corners: (2, 4, 3) sole corners in the sole frames [m].
+        legs: per side (left, right) (k,) int indices into ``q[7:]`` of the leg's joints.
+        q_first, q_last: (2, nq) the clip's first and last configurations with that side's
+            leg alone standing its sole on ``down_first`` / ``down_last`` (:func:`put_down`).
     """
 
     markers: tuple[np.ndarray, np.ndarray]
@@ -72,6 +78,46 @@ class LeadFeet:
     down_first: np.ndarray
     down_last: np.ndarray
     corners: np.ndarray
+    legs: tuple[np.ndarray, np.ndarray]
+    q_first: np.ndarray
+    q_last: np.ndarray
+
+
+def put_down(robot, q: np.ndarray, frame: str, target: np.ndarray, joints: np.ndarray,
+             iterations: int = 60, damping: float = 0.01, max_step_rad: float = 0.2
+             ) -> np.ndarray:
+    """(nq,) ``q`` with the ``joints`` alone moved so that ``frame`` reaches ``target``.
+
+    Damped least squares on the frame's error ``e = [p_T - p; log(R_T R^T)]`` (the sole rows'
+    of the whole-body solve, :func:`imesh.solve.contacts.sole_errors`): ``dq = J^T (J J^T +
+    damping^2 I)^-1 e`` over the columns of ``joints``, each step at most ``max_step_rad`` per
+    joint, the joints clipped into their limits. A foot the clip has in the air at its first
+    frame (a run's rear foot kicked up behind, pitched 109 degrees) then stands on its lead
+    footprint in the initializer, where the SQP's trust region would need more iterations than
+    it has to unfold the knee (the Bandai Namco run on G1: the sole still 370 mm off after 20).
+
+    Args:
+        robot: the robot.
+        q: (nq,) configuration.
+        frame: the sole frame.
+        target: (4, 4) its world pose to reach.
+        joints: (k,) indices into ``q[7:]`` of the joints to move (the leg's).
+    """
+    cols = 6 + np.asarray(joints, dtype=np.int64)
+    q = np.array(q, dtype=float)
+    for _ in range(iterations):
+        M = robot.frame_placements(q, [frame])[0]
+        e = np.concatenate([target[:3, 3] - M[:3, 3],
+                            log3((target[:3, :3] @ M[:3, :3].T)[None])[0]])
+        if np.linalg.norm(e) < 1e-6:
+            break
+        J = robot.frame_jacobians(q, [frame])[0][:, cols]
+        dq = J.T @ np.linalg.solve(J @ J.T + damping ** 2 * np.eye(6), e)
+        dq *= min(1.0, max_step_rad / max(np.abs(dq).max(), 1e-12))
+        dv = np.zeros(robot.nv)
+        dv[cols] = dq
+        q = robot.clip(robot.integrate(q, dv))
+    return q
 
 
 def lead_feet(robot, q: np.ndarray, targets, heights_m: np.ndarray | None = None) -> LeadFeet:
@@ -112,9 +158,45 @@ def lead_feet(robot, q: np.ndarray, targets, heights_m: np.ndarray | None = None
                       for k, s in enumerate(SIDES)] for ends in (first, last)])  # (2, 2, 4, 4)
     if heights_m is not None:
         down[..., 2, 3] += np.asarray(heights_m, dtype=float)
+    legs = tuple(robot.supporting_joints(f) for f in frames)
+    stood = np.zeros((2, 2, len(q[0])))
+    for e, i in enumerate((0, -1)):
+        for k in range(2):
+            down[e, k], stood[e, k] = _reachable(robot, q[i], frames[k], down[e, k], legs[k])
     return LeadFeet(markers=(markers[0], markers[1]), first=first, last=last,
                     down_first=down[0], down_last=down[1],
-                    corners=np.array([robot.soles[s].corners() for s in SIDES]))
+                    corners=np.array([robot.soles[s].corners() for s in SIDES]),
+                    legs=(legs[0], legs[1]), q_first=stood[0], q_last=stood[1])
+
+
+#: Steps from "under where the foot is" towards the foot's place in the nominal stance, in
+#: which a lead footprint the leg cannot reach is moved (:func:`_reachable`).
+REACH_STEPS = 10
+
+
+def _reachable(robot, q: np.ndarray, frame: str, down: np.ndarray, joints: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(footprint (4, 4), configuration (nq,)): the lead footprint ``down`` (under where the
+    clip has the foot) moved towards where the nominal stance has that foot under the body,
+    carried with the base of ``q`` (same heading, z kept), by the least of ``REACH_STEPS``
+    steps at which the leg alone reaches it within 1 mm (:func:`put_down`); the last step
+    otherwise. A run's rear foot kicked up behind the body is 0.2-0.3 m behind the stance
+    foot, out of reach of a straight leg from the clip's hips."""
+    base = np.eye(4)
+    base[:3, :3] = Rotation.from_quat(q[3:7]).as_matrix()
+    base[:3, 3] = q[:3]
+    nominal = np.eye(4)
+    nominal[:3, :3] = Rotation.from_quat(robot.q_nominal[3:7]).as_matrix()
+    nominal[:3, 3] = robot.q_nominal[:3]
+    sole = base @ np.linalg.inv(nominal) @ robot.frame_placements(robot.q_nominal, [frame])[0]
+    target = down.copy()
+    for lam in np.linspace(0.0, 1.0, REACH_STEPS + 1):
+        target[:2, 3] = (1.0 - lam) * down[:2, 3] + lam * sole[:2, 3]
+        stood = put_down(robot, q, frame, target, joints)
+        if np.linalg.norm(robot.frame_placements(stood, [frame])[0][:3, 3]
+                          - target[:3, 3]) < 1e-3:
+            break
+    return target, stood
 
 
 def _swing_poses(down: np.ndarray, up: np.ndarray, corners: np.ndarray, n: int) -> np.ndarray:
@@ -135,6 +217,24 @@ def _swing_poses(down: np.ndarray, up: np.ndarray, corners: np.ndarray, n: int) 
     out[:, :3, :3] = R
     out[:, :3, 3] = c - R @ centre
     return out
+
+
+def _stand_leg(q: np.ndarray, joints: np.ndarray, stood: np.ndarray, frames: slice,
+               swing: slice, reverse: bool) -> None:
+    """The leg ``joints`` (indices into ``q[7:]``) of the lead's standing ``frames`` at the
+    configuration ``stood``, blended along a smoothstep into the clip's over the ``swing``
+    frames (which end at the clip, or start from it with ``reverse``) (in place)."""
+    cols = 7 + np.asarray(joints, dtype=np.int64)
+    q[frames, cols] = stood[cols]
+    n = swing.stop - swing.start
+    if n <= 0:
+        return
+    u = np.arange(1, n + 1) / (n + 1)
+    s = u * u * (3.0 - 2.0 * u)
+    if reverse:
+        s = s[::-1]
+    clip = q[swing.stop if not reverse else swing.start - 1, cols]
+    q[swing, cols] = (1 - s)[:, None] * stood[cols] + s[:, None] * clip
 
 
 def _carry(markers: np.ndarray, index: np.ndarray, frames: slice, poses: np.ndarray,
@@ -175,7 +275,9 @@ def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
             that steps out of (into) the lead stand with it on its footprint and follow its
             swing (None: they hold the clip's first (last) frame throughout, and the solve
             lifts the sole in the frame the support ends: G1's sole rose 99 mm and pitched
-            32 deg in one frame into the CMU veer).
+            32 deg in one frame into the CMU veer); the initializer's leg of such a foot
+            stands on its footprint (``feet.q_first`` / ``q_last``) and blends into the clip's
+            over the swing (None: it holds the clip's first (last) frame).
     """
     def pad(a: np.ndarray) -> np.ndarray:
         return np.concatenate([np.repeat(a[:1], n_in, axis=0), a,
@@ -185,6 +287,7 @@ def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
     sup[:n_in] = True
     sup[len(sup) - n_out:] = True
     marks = pad(np.asarray(markers, dtype=np.float64))
+    q_out = pad(np.asarray(q, dtype=np.float64))
     T = len(support)
     for k in range(sup.shape[1]):
         down = np.flatnonzero(support[:, k])
@@ -200,6 +303,9 @@ def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
                            np.repeat(feet.down_first[k][None], n_in - n, axis=0), at)
                     _carry(marks, feet.markers[k], slice(n_in - n, n_in),
                            _swing_poses(feet.down_first[k], at, feet.corners[k], n), at)
+                if feet is not None:
+                    _stand_leg(q_out, feet.legs[k], feet.q_first[k], slice(0, n_in - n),
+                               slice(n_in - n, n_in), reverse=False)
         if n_out and not support[-1, k]:
             if len(down) and T - 1 - down[-1] <= land_frames:
                 sup[n_in + down[-1]:n_in + T, k] = True
@@ -212,4 +318,8 @@ def add_lead(q: np.ndarray, markers: np.ndarray, support: np.ndarray, n_in: int,
                            _swing_poses(feet.down_last[k], at, feet.corners[k], n)[::-1], at)
                     _carry(marks, feet.markers[k], slice(n_in + T + n, n_in + T + n_out),
                            np.repeat(feet.down_last[k][None], n_out - n, axis=0), at)
-    return Lead(q=pad(q), markers=marks, support=sup, n_in=n_in, n_out=n_out)
+                if feet is not None:
+                    _stand_leg(q_out, feet.legs[k], feet.q_last[k],
+                               slice(n_in + T + n, n_in + T + n_out),
+                               slice(n_in + T, n_in + T + n), reverse=True)
+    return Lead(q=q_out, markers=marks, support=sup, n_in=n_in, n_out=n_out)
