@@ -137,6 +137,14 @@ def test_a_foot_put_down_over_a_prop_stands_on_its_top_with_its_markers(g1):
     np.testing.assert_allclose(toe, np.repeat(expected[None], 15, axis=0), atol=1e-12)
     ankle_above_sole = (lead.markers[0, names.index("ankle_r"), 2] - top)
     assert 0.0 < ankle_above_sole < 0.1  # on the top, not 0.367 m under it
+    # on a top the footprint stays under the foot and the initializer keeps the clip's leg:
+    # moved within the leg's reach it left the top (holosoma seq_1: 37 -> 158 mm into box1)
+    from imesh.solve.footprints import level_placement
+    level = g1.frame_rotations(g1.q_nominal, [g1.soles["right"].frame])[0]
+    under = level_placement(g1.soles["right"], level, feet.first[1][None])
+    np.testing.assert_allclose(feet.down_first[1][:2, 3], under[:2, 3], atol=1e-12)
+    np.testing.assert_array_equal(feet.q_first[1], q[0])
+    np.testing.assert_array_equal(lead.q[:30], np.repeat(q[:1], 30, axis=0))
 
 
 def test_a_foot_kicked_up_behind_is_stood_down_in_the_initializer(g1):

@@ -69,7 +69,8 @@ class LeadFeet:
         corners: (2, 4, 3) sole corners in the sole frames [m].
         legs: per side (left, right) (k,) int indices into ``q[7:]`` of the leg's joints.
         q_first, q_last: (2, nq) the clip's first and last configurations with that side's
-            leg alone standing its sole on ``down_first`` / ``down_last`` (:func:`put_down`).
+            leg alone standing its sole on ``down_first`` / ``down_last`` (:func:`put_down`);
+            the clip's own where that footprint is on a prop's top.
     """
 
     markers: tuple[np.ndarray, np.ndarray]
@@ -162,6 +163,13 @@ def lead_feet(robot, q: np.ndarray, targets, heights_m: np.ndarray | None = None
     stood = np.zeros((2, 2, len(q[0])))
     for e, i in enumerate((0, -1)):
         for k in range(2):
+            if heights_m is not None and heights_m[e][k] > 1e-3:
+                # a foot put down on a prop's top keeps the clip's leg and its footprint under
+                # it: moved within the leg's reach, the footprint leaves the top (the holosoma
+                # seq_1 window's lead-out stands the left foot on box2's top 0.55 m below the
+                # person's foot: 37 -> 158 mm into box1 with it moved and the leg stood)
+                stood[e, k] = q[i]
+                continue
             down[e, k], stood[e, k] = _reachable(robot, q[i], frames[k], down[e, k], legs[k])
     return LeadFeet(markers=(markers[0], markers[1]), first=first, last=last,
                     down_first=down[0], down_last=down[1],
