@@ -18,6 +18,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES, runs
 from ..contacts.support import middle_half
@@ -219,10 +220,7 @@ def hold_poses(poses: np.ndarray, support: np.ndarray, inferred: np.ndarray,
         turn = np.unwrap(base_yaw[lo:hi])
         d = turn - turn[src - lo]
         psi = (np.sign(d) * np.maximum(np.abs(d) - twist_rad, 0.0))[a - lo:b - lo]
-        c, s = np.cos(psi), np.sin(psi)
-        rz = np.zeros((b - a, 3, 3))
-        rz[:, 0, 0], rz[:, 0, 1], rz[:, 1, 0], rz[:, 1, 1], rz[:, 2, 2] = c, -s, s, c, 1.0
-        out[a:b, :3, :3] = rz @ poses[src, :3, :3]
+        out[a:b, :3, :3] = Rotation.from_euler("z", psi[:, None]).as_matrix() @ poses[src, :3, :3]
     return out
 
 

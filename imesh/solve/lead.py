@@ -190,21 +190,24 @@ def _reachable(robot, q: np.ndarray, frame: str, down: np.ndarray, joints: np.nd
     steps at which the leg alone reaches it within 1 mm (:func:`put_down`); the last step
     otherwise. A run's rear foot kicked up behind the body is 0.2-0.3 m behind the stance
     foot, out of reach of a straight leg from the clip's hips."""
-    base = np.eye(4)
-    base[:3, :3] = Rotation.from_quat(q[3:7]).as_matrix()
-    base[:3, 3] = q[:3]
-    nominal = np.eye(4)
-    nominal[:3, :3] = Rotation.from_quat(robot.q_nominal[3:7]).as_matrix()
-    nominal[:3, 3] = robot.q_nominal[:3]
-    sole = base @ np.linalg.inv(nominal) @ robot.frame_placements(robot.q_nominal, [frame])[0]
+    q0 = robot.q_nominal
+    # the nominal sole frame's origin, carried from the nominal base to the base of q
+    carry = Rotation.from_quat(q[3:7]) * Rotation.from_quat(q0[3:7]).inv()
+    sole = q[:3] + carry.apply(robot.frame_positions(q0, [frame])[0] - q0[:3])
     target = down.copy()
     for lam in np.linspace(0.0, 1.0, REACH_STEPS + 1):
-        target[:2, 3] = (1.0 - lam) * down[:2, 3] + lam * sole[:2, 3]
+        target[:2, 3] = (1.0 - lam) * down[:2, 3] + lam * sole[:2]
         stood = put_down(robot, q, frame, target, joints)
         if np.linalg.norm(robot.frame_placements(stood, [frame])[0][:3, 3]
                           - target[:3, 3]) < 1e-3:
             break
     return target, stood
+
+
+def _smoothstep(n: int) -> np.ndarray:
+    """(n,) progress ``3 u^2 - 2 u^3`` of a move over ``n`` frames, both ends excluded."""
+    u = np.arange(1, n + 1) / (n + 1)
+    return u * u * (3.0 - 2.0 * u)
 
 
 def _swing_poses(down: np.ndarray, up: np.ndarray, corners: np.ndarray, n: int) -> np.ndarray:
@@ -213,7 +216,7 @@ def _swing_poses(down: np.ndarray, up: np.ndarray, corners: np.ndarray, n: int) 
     slerped, and the pose is raised until its corners clear the ground by
     ``LEAD_SWING_CLEARANCE_M sin(pi u)``."""
     u = np.arange(1, n + 1) / (n + 1)
-    s = u * u * (3.0 - 2.0 * u)
+    s = _smoothstep(n)
     rot = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([down[:3, :3], up[:3, :3]])))(s)
     R = rot.as_matrix()
     centre = corners.mean(axis=0)
@@ -237,8 +240,7 @@ def _stand_leg(q: np.ndarray, joints: np.ndarray, stood: np.ndarray, frames: sli
     n = swing.stop - swing.start
     if n <= 0:
         return
-    u = np.arange(1, n + 1) / (n + 1)
-    s = u * u * (3.0 - 2.0 * u)
+    s = _smoothstep(n)
     if reverse:
         s = s[::-1]
     clip = q[swing.stop if not reverse else swing.start - 1, cols]
