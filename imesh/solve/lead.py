@@ -170,38 +170,11 @@ def lead_feet(robot, q: np.ndarray, targets, heights_m: np.ndarray | None = None
                 # person's foot: 37 -> 158 mm into box1 with it moved and the leg stood)
                 stood[e, k] = q[i]
                 continue
-            down[e, k], stood[e, k] = _reachable(robot, q[i], frames[k], down[e, k], legs[k])
+            stood[e, k] = put_down(robot, q[i], frames[k], down[e, k], legs[k])
     return LeadFeet(markers=(markers[0], markers[1]), first=first, last=last,
                     down_first=down[0], down_last=down[1],
                     corners=np.array([robot.soles[s].corners() for s in SIDES]),
                     legs=(legs[0], legs[1]), q_first=stood[0], q_last=stood[1])
-
-
-#: Steps from "under where the foot is" towards the foot's place in the nominal stance, in
-#: which a lead footprint the leg cannot reach is moved (:func:`_reachable`).
-REACH_STEPS = 10
-
-
-def _reachable(robot, q: np.ndarray, frame: str, down: np.ndarray, joints: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """(footprint (4, 4), configuration (nq,)): the lead footprint ``down`` (under where the
-    clip has the foot) moved towards where the nominal stance has that foot under the body,
-    carried with the base of ``q`` (same heading, z kept), by the least of ``REACH_STEPS``
-    steps at which the leg alone reaches it within 1 mm (:func:`put_down`); the last step
-    otherwise. A run's rear foot kicked up behind the body is 0.2-0.3 m behind the stance
-    foot, out of reach of a straight leg from the clip's hips."""
-    q0 = robot.q_nominal
-    # the nominal sole frame's origin, carried from the nominal base to the base of q
-    carry = Rotation.from_quat(q[3:7]) * Rotation.from_quat(q0[3:7]).inv()
-    sole = q[:3] + carry.apply(robot.frame_positions(q0, [frame])[0] - q0[:3])
-    target = down.copy()
-    for lam in np.linspace(0.0, 1.0, REACH_STEPS + 1):
-        target[:2, 3] = (1.0 - lam) * down[:2, 3] + lam * sole[:2]
-        stood = put_down(robot, q, frame, target, joints)
-        if np.linalg.norm(robot.frame_placements(stood, [frame])[0][:3, 3]
-                          - target[:3, 3]) < 1e-3:
-            break
-    return target, stood
 
 
 def _smoothstep(n: int) -> np.ndarray:
