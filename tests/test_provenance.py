@@ -39,7 +39,7 @@ def test_the_file_records_its_timeline_clip_and_robot(g1_walk):
 
 def test_evaluate_source_gives_the_retargets_close_pair_error(g1_walk, tmp_path, capsys):
     """Acceptance 2: the retarget's report, ``imesh evaluate --source`` (no --robot) and the
-    figure on the clip's frames computed by hand agree within 1e-6 (0.0374 on this walk)."""
+    figure on the clip's frames computed by hand agree within 1e-6 (0.0380 on this walk)."""
     from imesh.evaluate.scoreboard import evaluate_motion
     from imesh.io.robot_motion import load_robot_motion
 
@@ -60,7 +60,7 @@ def test_evaluate_source_gives_the_retargets_close_pair_error(g1_walk, tmp_path,
     assert by_hand["frames"] == evaluated["frames"] == 86
     assert abs(evaluated["value"] - own) <= 1e-6
     assert abs(by_hand["value"] - own) <= 1e-6
-    assert own == pytest.approx(0.0374, abs=5e-4)
+    assert own == pytest.approx(0.0380, abs=5e-4)
     # a copy of the clip is the same clip (same bytes)
     copy = tmp_path / "copy.bvh"
     shutil.copyfile(demo_clip(), copy)

@@ -176,7 +176,6 @@ def test_workers_option_names_what_is_valid():
 def _border_checks(robot, written, borders) -> None:
     """The ZMP inside the support polygon and the joint accelerations within their limits in
     the 12 frames around each border of the written motion."""
-    from imesh.metrics.derivatives import motion_derivatives
     from imesh.metrics.soles import sole_tracks
     from imesh.metrics.support import detect_support
     from imesh.metrics.zmp import zmp_report, zmp_trajectory
@@ -184,8 +183,7 @@ def _border_checks(robot, written, borders) -> None:
     q, fps = written.q, written.fps
     soles = sole_tracks(robot, q, fps)
     support = detect_support(soles).support
-    v, a = motion_derivatives(q, fps)
-    zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
+    zmp = zmp_report(zmp_trajectory(robot, q, fps), soles, support)
     acc = np.abs(np.diff(q[:, 7:], 2, axis=0)) * fps ** 2 / robot.a_max
     for border in borders:
         near = np.arange(border - 6, border + 6)

@@ -22,7 +22,6 @@ from ..contacts.phases import runs
 from ..core.checks import require_count, require_finite
 from ..errors import ImeshError, OptionError, SolverError
 from ..human.filtering import lowpass_array
-from ..metrics.derivatives import motion_derivatives
 from ..metrics.soles import sole_tracks
 from ..metrics.zmp import zmp_report, zmp_trajectory
 from .nishiwaki import nishiwaki_correction
@@ -198,8 +197,7 @@ def zmp_state(robot, q: np.ndarray, fps: float, support: np.ndarray,
         support: (T, 2) bool planned support [left, right].
         transition_s: desired-ZMP blending time [s].
     """
-    v, a = motion_derivatives(q, fps)
-    zmp = zmp_trajectory(robot, q, v, a)
+    zmp = zmp_trajectory(robot, q, fps)
     soles = sole_tracks(robot, q, fps)
     rep = zmp_report(zmp, soles, support, transition_s)
     com = np.array([robot.com(qt) for qt in q])

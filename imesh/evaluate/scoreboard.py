@@ -35,7 +35,7 @@ from ..metrics.collision import (
     check_self_collisions,
 )
 from ..metrics.derivatives import motion_derivatives
-from ..metrics.dynamics import MU, reference_dynamics, worst_frame
+from ..metrics.dynamics import MU, ground_wrench, reference_dynamics, worst_frame
 from ..metrics.flight import skid_apart_from_slides
 from ..metrics.limits import limit_violations
 from ..metrics.markers import (
@@ -114,14 +114,17 @@ def _missing(name: str, reason: str, **details) -> dict:
 EVAL_BLOCK_FRAMES = 2048
 
 
-def _reference_dynamics_blocked(robot, q, v, a, support):
+def _reference_dynamics_blocked(robot, q, v, a, fps, support):
     """:func:`reference_dynamics` over blocks of :data:`EVAL_BLOCK_FRAMES` frames (its figures
-    are per frame; the velocities and accelerations are the whole motion's), merged."""
+    are per frame; the velocities, accelerations and the ground's wrench are the whole
+    motion's), merged."""
     B = EVAL_BLOCK_FRAMES
+    wrench = ground_wrench(robot, q, v, fps)
     if len(q) <= B:
-        return reference_dynamics(robot, q, v, a, support)
+        return reference_dynamics(robot, q, v, a, support, wrench)
     parts = [(s, reference_dynamics(robot, q[s:s + B], v[s:s + B], a[s:s + B],
-                                    support[s:s + B])) for s in range(0, len(q), B)]
+                                    support[s:s + B], wrench[s:s + B]))
+             for s in range(0, len(q), B)]
     start, best = parts[0]
     for s, r in parts[1:]:
         if r.torque_ratio > best.torque_ratio:
@@ -327,8 +330,8 @@ def _kinematics_metrics(robot, q: np.ndarray, fps: float, soles: SoleTracks,
         position_joints=lim.position_joints, velocity_joints=lim.velocity_joints,
         acceleration_joints=lim.acceleration_joints)
     v, a = motion_derivatives(q, fps)
-    out.update(_dynamics_metrics(robot, q, v, a, support))
-    out.update(_zmp_metrics(robot, q, v, a, soles, support))
+    out.update(_dynamics_metrics(robot, q, v, a, fps, support))
+    out.update(_zmp_metrics(robot, q, v, fps, soles, support))
     return out
 
 
@@ -369,13 +372,13 @@ def _sole_metrics(soles: SoleTracks, contacts: Contacts,
     return out
 
 
-def _dynamics_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+def _dynamics_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, fps: float,
                       support: np.ndarray) -> dict[str, dict]:
     """``torque_ratio_ref`` and ``friction_ratio_max`` of the motion's inverse dynamics."""
     if not support.any():
         return {name: _missing(name, "no support frame detected")
                 for name in ("torque_ratio_ref", "friction_ratio_max")}
-    dyn = _reference_dynamics_blocked(robot, q, v, a, support)
+    dyn = _reference_dynamics_blocked(robot, q, v, a, fps, support)
     return {
         "torque_ratio_ref": _metric("torque_ratio_ref", dyn.torque_ratio,
                                     joint=dyn.torque_joint, frame=dyn.torque_frame,
@@ -386,12 +389,12 @@ def _dynamics_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
     }
 
 
-def _zmp_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, soles: SoleTracks,
+def _zmp_metrics(robot, q: np.ndarray, v: np.ndarray, fps: float, soles: SoleTracks,
                  support: np.ndarray) -> dict[str, dict]:
     """``zmp_inside_fraction`` and ``zmp_error_mm`` of the multibody ZMP, with the frame counts
     of the support phases and the ZMP's frame-to-frame swing the central differences do not
     see (``zmp_jitter_mm``, :func:`imesh.metrics.zmp.zmp_jitter_mm`)."""
-    com, dh, _ = robot.centroidal_trajectory(q, v, a)  # one pinocchio pass for both
+    com, dh, _ = robot.centroidal_trajectory(q, v, fps)
     zmp = zmp_report(multibody_zmp(com, dh, robot.mass), soles, support)
     sup_frames = int(support.any(axis=1).sum())
     jitter = _clean(zmp_jitter_mm(com, soles.fps, np.asarray(support.any(axis=1))))

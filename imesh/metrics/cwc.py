@@ -120,8 +120,8 @@ def cwc_balance(robot, q: np.ndarray, fps: float, planes: Sequence[np.ndarray],
     touch = np.concatenate([(h_c <= touch_m) & (h_c >= -touch_m),
                             np.isfinite(top_e) & (h_e <= touch_m) & (h_e >= -touch_m)], axis=1)
     where = np.concatenate([corners, world], axis=1)
-    v, a = motion_derivatives(q, fps)
-    com, dh, _ = robot.centroidal_trajectory(q, v, a)
+    v, _ = motion_derivatives(q, fps)
+    com, dh, _ = robot.centroidal_trajectory(q, v, fps)
     acc = dh[:, :3] / robot.mass
     violation = np.zeros(T)
     for t in range(T):  # one cone per frame: its contact set is the motion's own

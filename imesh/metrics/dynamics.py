@@ -3,7 +3,10 @@
 Inverse dynamics (pinocchio RNEA, free-flyer) gives the wrench the base would need and the joint
 torques. The ground supplies the base wrench through the support soles: the sole wrenches ``f``
 (world-aligned force and moment at each support sole frame) solve ``J_b^T f = tau_b`` (the six
-base rows) in the least-norm sense, and the joint torques are ``tau_j - J_j^T f``. The torque
+base rows) in the least-norm sense, and the joint torques are ``tau_j - J_j^T f``. The friction
+and yaw ratios split the ground's wrench the ZMP and the whole-body solve see
+(:func:`ground_wrench`: the centroidal momentum's rate by differences of the samples), so the
+balance figures share one definition of the motion's accelerations. The torque
 ratio is ``max |tau_j| / effort_max``; the friction ratio is ``|f_xy| / (mu f_z)`` of each
 support sole (infinite where a sole would have to pull, f_z <= 0). In single support the sole's
 wrench is the ground's whole wrench, so the yaw ratio, its moment about the vertical over the
@@ -17,9 +20,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..balance.cwc import sole_yaw_ratio
 from ..contacts.phases import SIDES
+from .flight import GRAVITY
 
 #: Friction coefficient of the friction ratio.
 MU = 0.7
@@ -81,14 +86,33 @@ def net_torque_map(J: np.ndarray) -> np.ndarray:
     return P
 
 
+def ground_wrench(robot, q: np.ndarray, v: np.ndarray, fps: float) -> np.ndarray:
+    """(T, 6) the wrench the ground must exert on the robot, as a base wrench ``tau_b`` (force
+    and moment about the base's origin, in the base frame: the six rows of RNEA's free-flyer):
+    ``f = m (c'' + g)`` and ``n = Ld`` about the CoM, the rates by differences of the samples
+    (:meth:`imesh.robot.Robot.centroidal_trajectory`), moved to the base.
+
+    Args:
+        q: (T, nq) configurations sampled at ``fps`` [1/s]; v: (T, nv) their velocities.
+    """
+    com, dh, _ = robot.centroidal_trajectory(q, v, fps)
+    f = dh[:, :3] + robot.mass * np.array([0.0, 0.0, GRAVITY])
+    n = dh[:, 3:] + np.cross(com - q[:, :3], f)
+    R = Rotation.from_quat(q[:, 3:7]).as_matrix()  # scipy and pinocchio: x, y, z, w
+    return np.concatenate([np.einsum("tji,tj->ti", R, f), np.einsum("tji,tj->ti", R, n)], 1)
+
+
 def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                       support: np.ndarray, mu: float = MU) -> ReferenceDynamics:
+                       support: np.ndarray, base_wrench: np.ndarray,
+                       mu: float = MU) -> ReferenceDynamics:
     """Joint torques and sole forces the motion needs (see the module docstring).
 
     Args:
         robot: the robot.
         q: (T, nq) configurations; v, a: (T, nv) velocities and accelerations.
         support: (T, 2) bool [left, right] soles in support.
+        base_wrench: (T, 6) the ground's wrench as a base wrench (:func:`ground_wrench`), which
+            the support soles split for the friction and yaw ratios.
         mu: friction coefficient.
     """
     T = len(q)
@@ -103,7 +127,7 @@ def reference_dynamics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
         J = kin.jacobians[t, feet].reshape(-1, robot.nv)  # (6k, nv)
         tau = net_torque_map(J) @ tau_all[t]
         if len(feet):
-            fk = (sole_wrench_map(J) @ tau_all[t, :6]).reshape(-1, 6)
+            fk = (sole_wrench_map(J) @ base_wrench[t]).reshape(-1, 6)
             fz = fk[:, 2]
             tang = np.linalg.norm(fk[:, :2], axis=1)
             with np.errstate(divide="ignore", invalid="ignore"):

@@ -89,8 +89,8 @@ def flight_report(robot, q: np.ndarray, fps: float, soles: SoleTracks,
     config = config or FlightDetection()
     fly = flight_mask(soles, config)
     phases = runs(fly)
-    v, a = motion_derivatives(q, fps)
-    com, dh, _ = robot.centroidal_trajectory(q, v, a)
+    v, _ = motion_derivatives(q, fps)
+    com, dh, _ = robot.centroidal_trajectory(q, v, fps)
     acc = dh[:, :3] / robot.mass
     # the evaluator's acceleration at t differences t-2..t+2: judge frames whose stencil flies
     inner = np.zeros(len(q), dtype=bool)

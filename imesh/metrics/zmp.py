@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..contacts.phases import SIDES, runs
+from .derivatives import motion_derivatives
 from .flight import GRAVITY
 from .polygon import distance_to_polygon, inside_polygon, polygon_centroid, support_polygons
 from .soles import SoleTracks
@@ -68,11 +69,12 @@ def multibody_zmp(com: np.ndarray, dh: np.ndarray, mass: float) -> np.ndarray:
                      com[:, 1] - (com[:, 2] * acc[:, 1] - ld[:, 0] / mass) / dn], axis=1)
 
 
-def zmp_trajectory(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                   ground_z: float = 0.0) -> np.ndarray:
-    """(T, 2) float [m] multibody ZMP of every frame on the plane z = ``ground_z``
-    (``Robot.zmp``, from one pinocchio pass over the trajectory: :func:`multibody_zmp`)."""
-    com, dh, _ = robot.centroidal_trajectory(q, v, a)
+def zmp_trajectory(robot, q: np.ndarray, fps: float, ground_z: float = 0.0) -> np.ndarray:
+    """(T, 2) float [m] multibody ZMP of every frame of a trajectory ``q`` (T, nq) sampled at
+    ``fps`` on the plane z = ``ground_z`` (:func:`multibody_zmp`, the momentum's rates by
+    differences of the samples: :meth:`imesh.robot.Robot.centroidal_trajectory`)."""
+    v, _ = motion_derivatives(q, fps)
+    com, dh, _ = robot.centroidal_trajectory(q, v, fps)
     return multibody_zmp(com - np.array([0.0, 0.0, ground_z]), dh, robot.mass)
 
 

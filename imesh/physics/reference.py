@@ -110,7 +110,7 @@ def build_reference(robot, q: np.ndarray, fps: float, *, clearance_m: float = 0.
     v, a = motion_derivatives(q, fps)
     soles = sole_tracks(robot, q, fps)
     contacts = motion_support(soles, contact_modes, support_config)
-    zmp = zmp_trajectory(robot, q, v, a)
+    zmp = zmp_trajectory(robot, q, fps)
     return Reference(q=q, v=v, a=a, fps=fps, support=contacts.support, moving=contacts.moving,
                      soles=soles, zmp_m=zmp, ground_offset_m=float(offset))
 

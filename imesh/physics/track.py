@@ -168,7 +168,7 @@ class ReferenceTrack:
         self._base = _Orientation(base_R, ref.fps)
         self._sole_rot = [_Orientation(pl[:, k, :3, :3], ref.fps) for k in range(2)]
         self.com_height_m = float(np.mean(kin.com[:, 2]))
-        _, dh, ag = robot.centroidal_trajectory(ref.q, ref.v, ref.a)
+        _, dh, ag = robot.centroidal_trajectory(ref.q, ref.v, ref.fps)
         self._momentum = np.einsum("tij,tj->ti", ag[:, 3:], ref.v)
         self._momentum_rate = dh[:, 3:]
 

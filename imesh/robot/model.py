@@ -402,11 +402,17 @@ class Robot:
         """
         return self._trajectory.kinematics(q, self._ids(frames))
 
-    def centroidal_trajectory(self, q: np.ndarray, v: np.ndarray, a: np.ndarray
+    def centroidal_trajectory(self, q: np.ndarray, v: np.ndarray, fps: float
                               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(com (T, 3) [m], dh (T, 6), Ag (T, 6, nv)) along a trajectory: q (T, nq), v and a
-        (T, nv) (:meth:`imesh.robot.trajectory.TrajectoryData.centroidal`)."""
-        return self._trajectory.centroidal(q, v, a)
+        """(com (T, 3) [m], dh (T, 6), Ag (T, 6, nv)) along a trajectory sampled at ``fps``:
+        q (T, nq), v (T, nv); the rates by differences of the samples
+        (:meth:`imesh.robot.trajectory.TrajectoryData.centroidal`)."""
+        return self._trajectory.centroidal(q, v, fps)
+
+    def momentum_jacobians(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(T, 6, nv) derivative of the centroidal momentum with respect to each ``q_t``, its
+        velocity held (:meth:`imesh.robot.trajectory.TrajectoryData.momentum_jacobians`)."""
+        return self._trajectory.momentum_jacobians(q, v)
 
     def inverse_dynamics_trajectory(self, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                                     derivatives: np.ndarray | None = None

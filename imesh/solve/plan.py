@@ -41,10 +41,13 @@ class Linearization:
         body_z: (T, Q) [m] heights of the other leg proxies' points (shins, knees, ankle
             links); body_jacobians_z: (T, Q, nv) rows of their heights.
         com: (T, 3) [m]; com_jacobians: (T, 3, nv).
-        com_acceleration: (T, 3) [m/s^2] and angular_momentum_rate: (T, 3) [Nm] from
-            pinocchio with the evaluator's finite-difference velocities and accelerations.
-        centroidal_angular: (T, 2, nv) x, y rows of the centroidal momentum matrix's angular
-            part; mass: [kg]; centroidal_angular_z: (T, nv) its z row.
+        com_acceleration: (T, 3) [m/s^2] and angular_momentum_rate: (T, 3) [Nm], the
+            evaluator's: differences of the sampled CoM and angular momentum
+            (:meth:`imesh.robot.Robot.centroidal_trajectory`).
+        momentum_jacobians: (T, 3, 3, nv) derivative of the centroidal angular momentum
+            ``k_t = Ag_ang(q_t) v_t`` (x, y, z) with respect to the tangent updates of the frames
+            its velocity differences, ``prev(t), t, next(t)``
+            (:func:`imesh.metrics.derivatives.velocity_jacobians`); mass: [kg].
         zmp_multibody: (T, 2) [m] the evaluator's multibody ZMP of the trajectory.
         base_rotations: (T, 3, 3) world rotations of the base.
         torques: the net joint torques and their working-set rows (None: not linearized).
@@ -72,7 +75,7 @@ class Linearization:
     com_jacobians: np.ndarray
     com_acceleration: np.ndarray
     angular_momentum_rate: np.ndarray
-    centroidal_angular: np.ndarray
+    momentum_jacobians: np.ndarray
     mass: float
     zmp_multibody: np.ndarray
     base_rotations: np.ndarray
@@ -81,7 +84,6 @@ class Linearization:
     props: PropLinearization | None = None
     held_points: np.ndarray | None = None
     held_jacobians: np.ndarray | None = None
-    centroidal_angular_z: np.ndarray | None = None
     obstacles: ObstacleLinearization | None = None
 
 

@@ -25,7 +25,7 @@ from ..core.limits import JointLimits
 from ..errors import QpInfeasibleError, SolverError
 from ..fit.targets import CompiledTargets
 from ..mesh.interaction import build_interaction_mesh
-from ..metrics.derivatives import motion_derivatives
+from ..metrics.derivatives import motion_derivatives, velocity_jacobians
 from ..metrics.props import ProxyPoints
 from ..metrics.zmp import desired_zmp, multibody_zmp
 from ..robot.capsules.obstacles import Obstacles
@@ -271,9 +271,12 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
     jb = J[:, frames.body]
     body_jz = jb[:, :, 2] + (jb[:, :, 3] * lever_b[..., 1:2] - jb[:, :, 4] * lever_b[..., 0:1])
     v, a = motion_derivatives(q, fps)
-    com, dh, ag = robot.centroidal_trajectory(q, v, a)
+    com, dh, ag = robot.centroidal_trajectory(q, v, fps)
     m = robot.mass
     acc, ld = dh[:, :3] / m, dh[:, 3:]
+    # k_t = Ag_ang(q_t) v_t moves with the velocity's frames and with q_t itself
+    kj = np.einsum("tan,tsnm->tsam", ag[:, 3:], velocity_jacobians(q, fps))
+    kj[:, 1] += robot.momentum_jacobians(q, v)[:, 3:]
     zmp = multibody_zmp(com, dh, m)
     rot = _base_rotations(q)
     torques = None
@@ -324,11 +327,11 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
                          corners=corners, corner_jacobians_z=cz, body_z=body_z,
                          body_jacobians_z=body_jz, com=kin.com,
                          com_jacobians=kin.com_jacobians, com_acceleration=acc,
-                         angular_momentum_rate=ld, centroidal_angular=ag[:, 3:5], mass=m,
+                         angular_momentum_rate=ld, momentum_jacobians=kj, mass=m,
                          zmp_multibody=zmp,
                          base_rotations=rot, torques=torques, collision=collision,
                          props=prop_lin, held_points=held, held_jacobians=held_j,
-                         centroidal_angular_z=ag[:, 5], obstacles=obstacle_lin)
+                         obstacles=obstacle_lin)
 
 
 #: A frame whose ZMP is within this of the CoM's ground projection is quasi-static [m]
@@ -491,8 +494,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
         log.info("supports on a prop's top: footprints not moved under the ZMP")
     if not on_props and (config.feet.under_zmp == "all"
                          or (config.feet.under_zmp == "slides" and sliding.any())):
-        v, a = motion_derivatives(q_init, fps)
-        com, dh, _ = robot.centroidal_trajectory(q_init, v, a)
+        v, _ = motion_derivatives(q_init, fps)
+        com, dh, _ = robot.centroidal_trajectory(q_init, v, fps)
         zmp = multibody_zmp(com, dh, robot.mass)
         footprints, moved = place_under_zmp(
             footprints, support, zmp, max(1, int(round(0.1 * fps))), int(round(0.2 * fps)),

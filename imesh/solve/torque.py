@@ -32,9 +32,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..contacts.phases import SIDES
+from ..metrics.derivatives import velocity_jacobians
 from ..metrics.dynamics import net_torque_map
 from ..metrics.soles import SoleTracks
 from ..metrics.support import detect_support
@@ -165,35 +165,24 @@ def _linearize_split(robot, q, v, a, fps, support, sole_jacobians, limit, tau
 def _derivative_blocks(q: np.ndarray, v: np.ndarray, fps: float
                        ) -> tuple[np.ndarray, np.ndarray]:
     """(T, W, nv, nv) ``dv_t / d dq_{t+o}`` and ``da_t / d dq_{t+o}``, o = -REACH..REACH, of
-    the evaluator's finite differences (:func:`imesh.metrics.derivatives.motion_derivatives`).
-
-    Joints: the weights of G and G G. Base (linear ``R_t^T (p_n - p_p) / span``, angular
-    ``log(R_p^T R_n) / span`` with p, n the neighbours): a tangent update moves ``p_s`` by
-    ``R_s dp_s`` and turns ``R_s`` by ``exp(dw_s)``, so ``dv_lin = sum_s G_ts R_t^T R_s dp_s
-    + [v_lin]x dw_t`` and ``dv_ang = sum_s G_ts Jr^-1(phi_t) R_n^T R_s dw_s`` with
-    ``phi_t = log(R_p^T R_n)`` (the inverse right Jacobian of SO(3)); ``a = G v``.
+    the evaluator's finite differences (:func:`imesh.metrics.derivatives.motion_derivatives`):
+    ``v``'s from :func:`~imesh.metrics.derivatives.velocity_jacobians` (the base's turn between
+    the frames included), ``a = G v``. At the ends a neighbour that is the frame itself adds
+    to offset 0.
     """
     T, nv = v.shape
     W = 2 * REACH + 1
     coo = gradient_operator(T, 1.0 / fps).tocoo()
     wG = np.zeros((T, W))
     wG[coo.row, coo.col - coo.row + REACH] = coo.data
-    R = Rotation.from_quat(q[:, 3:7]).as_matrix()
     frames = np.arange(T)
-    nxt = np.minimum(frames + 1, T - 1)
-    prv = np.maximum(frames - 1, 0)
-    jr_inv = _right_jacobian_inverse(v[:, 3:6] * ((nxt - prv) / fps)[:, None])
+    Jv = velocity_jacobians(q, fps)  # (T, 3, nv, nv): prev, t, next
     Bv = np.zeros((T, W, nv, nv))
-    for o in range(-1, 2):
-        s = np.clip(frames + o, 0, T - 1)
-        w = wG[:, o + REACH][:, None, None]
-        Bv[:, o + REACH, :3, :3] = w * np.transpose(R, (0, 2, 1)) @ R[s]
-        Bv[:, o + REACH, 3:6, 3:6] = w * jr_inv @ np.transpose(R[nxt], (0, 2, 1)) @ R[s]
-        Bv[:, o + REACH, np.arange(6, nv), np.arange(6, nv)] = wG[:, o + REACH, None]
-    vl = v[:, :3]
-    skew = np.zeros((T, 3, 3))  # [v_lin]x
-    skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -vl[:, 2], vl[:, 1], -vl[:, 0]
-    Bv[:, REACH, :3, 3:6] += skew - np.transpose(skew, (0, 2, 1))
+    Bv[:, REACH] = Jv[:, 1]
+    for k, o in ((0, -1), (2, 1)):
+        inside = (frames + o >= 0) & (frames + o < T)
+        Bv[inside, REACH + o] = Jv[inside, k]
+        Bv[~inside, REACH] += Jv[~inside, k]
     # a_t = sum_u G_tu v_u: offsets o1 (t -> u) and o2 (u -> s) add up
     Ba = np.zeros_like(Bv)
     for o1 in range(-1, 2):
@@ -202,19 +191,6 @@ def _derivative_blocks(q: np.ndarray, v: np.ndarray, fps: float
         for o2 in range(-1, 2):
             Ba[:, o1 + o2 + REACH] += w * Bv[u, o2 + REACH]
     return Bv, Ba
-
-
-def _right_jacobian_inverse(phi: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) inverse right Jacobians of SO(3) at rotation vectors phi (N, 3):
-    ``log(exp(phi) exp(d)) = phi + Jr^-1(phi) d + O(d^2)``."""
-    theta = np.linalg.norm(phi, axis=1)
-    K = np.zeros((len(phi), 3, 3))
-    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -phi[:, 2], phi[:, 1], -phi[:, 0]
-    K = K - np.transpose(K, (0, 2, 1))
-    small = theta < 1e-6
-    t = np.where(small, 1.0, theta)
-    c = np.where(small, 1.0 / 12.0, 1.0 / t**2 - (1 + np.cos(t)) / (2 * t * np.sin(t)))
-    return np.eye(3) + 0.5 * K + c[:, None, None] * K @ K
 
 
 def sole_chain_columns(robot) -> np.ndarray:

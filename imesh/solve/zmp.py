@@ -158,26 +158,28 @@ def polygon_rows(out: Rows, lin: Linearization, plan: Plan, zl: ZmpLinearization
 def auxiliary_rows(lin: Linearization, zl: ZmpLinearization, lay: Layout
                    ) -> tuple[list[sp.spmatrix], list[np.ndarray]]:
     """Equalities defining the auxiliaries: ``dc_t = J_c dq_t`` and
-    ``dk_t = Ag_ang,t (x, y rows) sum_s grad_ts dq_s`` (the velocity perturbation of frame t)."""
+    ``dk_t = sum_s K_ts dq_s`` over the frames ``s = prev(t), t, next(t)`` whose difference is
+    ``v_t`` (``Linearization.momentum_jacobians``: x, y rows; z for the cone rows)."""
     T, nv, nx = lay.n_frames, lay.nv, lay.nx
     frames_all = np.arange(T)
     eq = [lay.rows(np.repeat(frames_all, 3), lin.com_jacobians.reshape(-1, nv))
           - lay.rows(np.repeat(frames_all, 3), np.tile(np.eye(3), (T, 1)), lay.offset["com"])]
     rhs = [np.zeros(3 * T)]
-    gc = zl.grad.tocoo()
-    vals = gc.data[:, None, None] * lin.centroidal_angular[gc.row]  # (nnz, 2, nv)
-    rows = (2 * gc.row[:, None, None] + np.arange(2)[None, :, None]) + 0 * np.arange(nv)
-    cols = (gc.col[:, None, None] * nx + np.arange(nv)[None, None, :]) + 0 * rows
-    Mk = sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(2 * T, lay.n))
+    K = lin.momentum_jacobians  # (T, 3 frames, 3 axes, nv)
+    near = np.stack([np.r_[0, np.arange(T - 1)], frames_all,
+                     np.r_[np.arange(1, T), T - 1]], axis=1)  # (T, 3) prev, t, next
+    # repeated (t, column) entries at the ends add up (csr sums duplicates)
+    rows = (2 * frames_all[:, None, None, None] + np.arange(2)[None, None, :, None]
+            + 0 * np.arange(nv)) + 0 * near[:, :, None, None]
+    cols = (near[:, :, None, None] * nx + np.arange(nv)) + 0 * rows
+    Mk = sp.csr_matrix((K[:, :, :2].ravel(), (rows.ravel(), cols.ravel())), shape=(2 * T, lay.n))
     eq.append(lay.rows(np.repeat(frames_all, 2), np.tile(np.eye(2), (T, 1)), lay.offset["momentum"])
               - Mk)
     rhs.append(np.zeros(2 * T))
     if "momentum_z" in lay.offset:  # the cone rows' vertical momentum (imesh.solve.cwc)
-        assert lin.centroidal_angular_z is not None
-        vals = gc.data[:, None] * lin.centroidal_angular_z[gc.row]  # (nnz, nv)
-        cols = gc.col[:, None] * nx + np.arange(nv)
-        Mz = sp.csr_matrix((vals.ravel(), (np.repeat(gc.row, nv), cols.ravel())),
-                           shape=(T, lay.n))
+        rz = np.broadcast_to(frames_all[:, None, None], (T, 3, nv))
+        cz = near[:, :, None] * nx + np.arange(nv)
+        Mz = sp.csr_matrix((K[:, :, 2].ravel(), (rz.ravel(), cz.ravel())), shape=(T, lay.n))
         eq.append(lay.pick(lay.offset["momentum_z"]) - Mz)
         rhs.append(np.zeros(T))
     return eq, rhs

@@ -12,7 +12,7 @@ from ..errors import ImeshError
 from ..io.atomic import atomic_path
 from ..mesh.bones import bone_lengths
 from ..metrics.derivatives import motion_derivatives
-from ..metrics.dynamics import reference_dynamics
+from ..metrics.dynamics import ground_wrench, reference_dynamics
 from ..metrics.polygon import support_polygons
 from ..metrics.soles import sole_tracks
 from ..metrics.support import motion_support
@@ -74,12 +74,12 @@ def plot_wholebody(robot, motion, path: str | os.PathLike, title: str = "") -> N
     soles = sole_tracks(robot, q, fps)
     support = motion_support(soles, motion.contact_modes).support
     v, a = motion_derivatives(q, fps)
-    zmp = zmp_trajectory(robot, q, v, a)
+    zmp = zmp_trajectory(robot, q, fps)
     want = desired_zmp(soles, support)
     polys = support_polygons(soles, support)
     lo = np.array([p.min(axis=0) if p is not None else [np.nan, np.nan] for p in polys])
     hi = np.array([p.max(axis=0) if p is not None else [np.nan, np.nan] for p in polys])
-    dyn = reference_dynamics(robot, q, v, a, support)
+    dyn = reference_dynamics(robot, q, v, a, support, ground_wrench(robot, q, v, fps))
     fig, axes = plt.subplots(4, 1, figsize=(10, 11), sharex=True)
     for k, axis in enumerate("xy"):
         ax = axes[k]

@@ -38,7 +38,7 @@ from ..evaluate.table import _note, physics_line
 from ..evaluate.verify import Gates, failed_gates
 from ..io.atomic import atomic_path
 from ..metrics.derivatives import motion_derivatives
-from ..metrics.dynamics import reference_dynamics
+from ..metrics.dynamics import ground_wrench, reference_dynamics
 from ..metrics.markers import keypoint_motion
 from ..metrics.polygon import support_polygons
 from ..metrics.soles import sole_tracks
@@ -408,12 +408,13 @@ def motion_figures(robot, motion, physics=None) -> dict[str, str]:
     soles = sole_tracks(robot, q, fps)
     support = motion_support(soles, motion.contact_modes).support
     v, a = motion_derivatives(q, fps)
-    zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
+    zmp = zmp_report(zmp_trajectory(robot, q, fps), soles, support)
     figures = {"zmp": figure_zmp(t, zmp, support_polygons(soles, support), support),
                "soles": figure_soles(t, soles, support),
                "joints": figure_joints(t, robot, q, fps)}
     if support.any():
-        figures["torques"] = figure_torques(t, reference_dynamics(robot, q, v, a, support))
+        figures["torques"] = figure_torques(t, reference_dynamics(
+            robot, q, v, a, support, ground_wrench(robot, q, v, fps)))
     adapted = motion.adapted
     if adapted is not None:
         figures["markers"] = figure_markers(t, keypoint_motion(robot, q, fps), adapted)

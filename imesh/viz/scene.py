@@ -37,7 +37,6 @@ from ..human.arrange import arrange_for_robot
 from ..human.markerset import STANDARD_BONE_NAMES
 from ..mesh.interaction import tetrahedralize
 from ..metrics.collision import SelfCollisions, check_self_collisions
-from ..metrics.derivatives import motion_derivatives
 from ..metrics.markers import keypoint_motion
 from ..metrics.polygon import support_polygons
 from ..metrics.soles import sole_tracks
@@ -417,8 +416,7 @@ def robot_entry(r: SceneRobot, model: Mapping, key: str) -> dict:
     # soles, support, ZMP
     soles = sole_tracks(robot, q, fps)
     support = motion_support(soles, motion.contact_modes).support
-    v, a = motion_derivatives(q, fps)
-    zmp = zmp_report(zmp_trajectory(robot, q, v, a), soles, support)
+    zmp = zmp_report(zmp_trajectory(robot, q, fps), soles, support)
     polys = support_polygons(soles, support)
     width = max((len(p) for p in polys if p is not None), default=1)
     poly_arr = np.zeros((T, width, 2), dtype=np.float32)
