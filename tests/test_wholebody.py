@@ -492,7 +492,7 @@ def test_torque_rows_match_finite_differences(robot, supported):
     step is below 0.2 % of the change (second order), not a fraction of it."""
     from scipy.spatial.transform import Rotation
 
-    from imesh.metrics.derivatives import motion_derivatives
+    from imesh.metrics.derivatives import motion_derivatives, velocity_jacobians
     from imesh.metrics.dynamics import ground_wrench, reference_dynamics
     from imesh.solve.torque import _linearize_split
 
@@ -509,7 +509,8 @@ def test_torque_rows_match_finite_differences(robot, supported):
         lin = linearize(robot, q, frames, FPS)
         v, a = motion_derivatives(q, FPS)
         tau, _ = robot.inverse_dynamics_trajectory(q, v, a)
-        return _linearize_split(robot, q, v, a, FPS, support, lin.sole_jacobians, 1e-9, tau)
+        return _linearize_split(robot, q, v, a, FPS, support, lin.sole_jacobians, 1e-9, tau,
+                                velocity_jacobians(q, FPS))
 
     trq = split(q)
     assert len(trq.frames) >= len(q) * robot.dof // 2  # all but the unloaded joints
@@ -524,7 +525,8 @@ def test_torque_rows_match_finite_differences(robot, supported):
     assert error < 2e-3 * change
     # the ratios are the evaluator's (reference_dynamics, same finite differences)
     v, a = motion_derivatives(q2, FPS)
-    ref = reference_dynamics(robot, q2, v, a, support, ground_wrench(robot, q2, v, FPS))
+    ref = reference_dynamics(robot, q2, v, a, support, ground_wrench(
+        q2, *robot.centroidal_trajectory(q2, v, FPS)[:2], robot.mass))
     assert np.isclose(np.abs(split(q2).ratio).max(), ref.torque_ratio, rtol=1e-9)
 
 
@@ -549,7 +551,8 @@ def test_torques_also_hold_with_the_evaluators_support(robot, mocap):
     planned = np.ones((len(q), 2), bool)  # the plan keeps the right foot down throughout
     lin = linearize(robot, q, frames, FPS, planned, torque_limit=1.0)
     v, a = motion_derivatives(q, FPS)
-    both = [reference_dynamics(robot, q, v, a, s, ground_wrench(robot, q, v, FPS)).torque_ratios
+    wrench = ground_wrench(q, *robot.centroidal_trajectory(q, v, FPS)[:2], robot.mass)
+    both = [reference_dynamics(robot, q, v, a, s, wrench).torque_ratios
             for s in (planned, planned & detected)]
     assert not np.allclose(*both)
     np.testing.assert_allclose(np.abs(lin.torques.ratio).max(axis=1), np.maximum(*both),

@@ -114,12 +114,11 @@ def _missing(name: str, reason: str, **details) -> dict:
 EVAL_BLOCK_FRAMES = 2048
 
 
-def _reference_dynamics_blocked(robot, q, v, a, fps, support):
+def _reference_dynamics_blocked(robot, q, v, a, wrench, support):
     """:func:`reference_dynamics` over blocks of :data:`EVAL_BLOCK_FRAMES` frames (its figures
-    are per frame; the velocities, accelerations and the ground's wrench are the whole
+    are per frame; the velocities, accelerations and the ground's wrench (T, 6) are the whole
     motion's), merged."""
     B = EVAL_BLOCK_FRAMES
-    wrench = ground_wrench(robot, q, v, fps)
     if len(q) <= B:
         return reference_dynamics(robot, q, v, a, support, wrench)
     parts = [(s, reference_dynamics(robot, q[s:s + B], v[s:s + B], a[s:s + B],
@@ -330,8 +329,10 @@ def _kinematics_metrics(robot, q: np.ndarray, fps: float, soles: SoleTracks,
         position_joints=lim.position_joints, velocity_joints=lim.velocity_joints,
         acceleration_joints=lim.acceleration_joints)
     v, a = motion_derivatives(q, fps)
-    out.update(_dynamics_metrics(robot, q, v, a, fps, support))
-    out.update(_zmp_metrics(robot, q, v, fps, soles, support))
+    com, dh, _ = robot.centroidal_trajectory(q, v, fps)  # one pinocchio pass for both
+    out.update(_dynamics_metrics(robot, q, v, a, ground_wrench(q, com, dh, robot.mass),
+                                 support))
+    out.update(_zmp_metrics(robot, com, dh, soles, support))
     return out
 
 
@@ -372,13 +373,13 @@ def _sole_metrics(soles: SoleTracks, contacts: Contacts,
     return out
 
 
-def _dynamics_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, fps: float,
+def _dynamics_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, wrench: np.ndarray,
                       support: np.ndarray) -> dict[str, dict]:
     """``torque_ratio_ref`` and ``friction_ratio_max`` of the motion's inverse dynamics."""
     if not support.any():
         return {name: _missing(name, "no support frame detected")
                 for name in ("torque_ratio_ref", "friction_ratio_max")}
-    dyn = _reference_dynamics_blocked(robot, q, v, a, fps, support)
+    dyn = _reference_dynamics_blocked(robot, q, v, a, wrench, support)
     return {
         "torque_ratio_ref": _metric("torque_ratio_ref", dyn.torque_ratio,
                                     joint=dyn.torque_joint, frame=dyn.torque_frame,
@@ -389,17 +390,16 @@ def _dynamics_metrics(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, fps: f
     }
 
 
-def _zmp_metrics(robot, q: np.ndarray, v: np.ndarray, fps: float, soles: SoleTracks,
+def _zmp_metrics(robot, com: np.ndarray, dh: np.ndarray, soles: SoleTracks,
                  support: np.ndarray) -> dict[str, dict]:
     """``zmp_inside_fraction`` and ``zmp_error_mm`` of the multibody ZMP, with the frame counts
     of the support phases and the ZMP's frame-to-frame swing the central differences do not
     see (``zmp_jitter_mm``, :func:`imesh.metrics.zmp.zmp_jitter_mm`)."""
-    com, dh, _ = robot.centroidal_trajectory(q, v, fps)
     zmp = zmp_report(multibody_zmp(com, dh, robot.mass), soles, support)
     sup_frames = int(support.any(axis=1).sum())
     jitter = _clean(zmp_jitter_mm(com, soles.fps, np.asarray(support.any(axis=1))))
     phases = {"support_frames": sup_frames, "double_support_frames":
-              int(support.all(axis=1).sum()), "flight_frames": int(len(q) - sup_frames)}
+              int(support.all(axis=1).sum()), "flight_frames": int(len(com) - sup_frames)}
     if not sup_frames:
         reason = "no support frame detected: the soles never touch the ground"
         return {"zmp_inside_fraction": _missing("zmp_inside_fraction", reason, **phases),

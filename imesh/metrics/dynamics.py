@@ -86,17 +86,17 @@ def net_torque_map(J: np.ndarray) -> np.ndarray:
     return P
 
 
-def ground_wrench(robot, q: np.ndarray, v: np.ndarray, fps: float) -> np.ndarray:
+def ground_wrench(q: np.ndarray, com: np.ndarray, dh: np.ndarray, mass: float) -> np.ndarray:
     """(T, 6) the wrench the ground must exert on the robot, as a base wrench ``tau_b`` (force
     and moment about the base's origin, in the base frame: the six rows of RNEA's free-flyer):
-    ``f = m (c'' + g)`` and ``n = Ld`` about the CoM, the rates by differences of the samples
-    (:meth:`imesh.robot.Robot.centroidal_trajectory`), moved to the base.
+    ``f = m (c'' + g)`` and ``n = Ld`` about the CoM, moved to the base.
 
     Args:
-        q: (T, nq) configurations sampled at ``fps`` [1/s]; v: (T, nv) their velocities.
+        q: (T, nq) configurations; com: (T, 3) [m] their CoM and dh: (T, 6) the centroidal
+            momentum's rate, by differences of the samples
+            (:meth:`imesh.robot.Robot.centroidal_trajectory`); mass: [kg].
     """
-    com, dh, _ = robot.centroidal_trajectory(q, v, fps)
-    f = dh[:, :3] + robot.mass * np.array([0.0, 0.0, GRAVITY])
+    f = dh[:, :3] + mass * np.array([0.0, 0.0, GRAVITY])
     n = dh[:, 3:] + np.cross(com - q[:, :3], f)
     R = Rotation.from_quat(q[:, 3:7]).as_matrix()  # scipy and pinocchio: x, y, z, w
     return np.concatenate([np.einsum("tji,tj->ti", R, f), np.einsum("tji,tj->ti", R, n)], 1)

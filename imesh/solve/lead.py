@@ -69,8 +69,9 @@ class LeadFeet:
         corners: (2, 4, 3) sole corners in the sole frames [m].
         legs: per side (left, right) (k,) int indices into ``q[7:]`` of the leg's joints.
         q_first, q_last: (2, nq) the clip's first and last configurations with that side's
-            leg alone standing its sole on ``down_first`` / ``down_last`` (:func:`put_down`);
-            the clip's own where that footprint is on a prop's top.
+            leg alone standing its sole on ``down_first`` / ``down_last``, or as near as it
+            reaches from the clip's hips (:func:`put_down`); the clip's own where that
+            footprint is on a prop's top.
     """
 
     markers: tuple[np.ndarray, np.ndarray]

@@ -110,7 +110,7 @@ def build_qp(lin: Linearization, plan: Plan, q: np.ndarray, config: WholeBodyCon
     P, band = band_cost(P, lin, plan, zl, config, lay)
 
     # --- equalities: the auxiliaries, rest at both ends, held frames ---------------------------
-    eq, rhs = auxiliary_rows(lin, zl, lay)
+    eq, rhs = auxiliary_rows(lin, lay)
     rest, rest_rhs = rest_rows(lin, plan, q, lay)
     fixed = held_frames(plan, T)
     held, held_rhs = held_rows(fixed, lay)

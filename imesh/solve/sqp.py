@@ -274,14 +274,16 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
     com, dh, ag = robot.centroidal_trajectory(q, v, fps)
     m = robot.mass
     acc, ld = dh[:, :3] / m, dh[:, 3:]
+    dv_dq = velocity_jacobians(q, fps)  # the momentum's rows and the torques' share it
     # k_t = Ag_ang(q_t) v_t moves with the velocity's frames and with q_t itself
-    kj = np.einsum("tan,tsnm->tsam", ag[:, 3:], velocity_jacobians(q, fps))
+    kj = np.einsum("tan,tsnm->tsam", ag[:, 3:], dv_dq)
     kj[:, 1] += robot.momentum_jacobians(q, v)[:, 3:]
     zmp = multibody_zmp(com, dh, m)
     rot = _base_rotations(q)
     torques = None
     if support is not None:
-        torques = linearize_torques(robot, q, v, a, fps, support, soles, js, torque_limit)
+        torques = linearize_torques(robot, q, v, a, fps, support, soles, js, torque_limit,
+                                    dv_dq)
     collision = None
     if frames.capsules is not None:
         collision = linearize_collisions(frames.capsules, M[:, frames.capsule_frames],

@@ -34,7 +34,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..contacts.phases import SIDES
-from ..metrics.derivatives import velocity_jacobians
 from ..metrics.dynamics import net_torque_map
 from ..metrics.soles import SoleTracks
 from ..metrics.support import detect_support
@@ -75,7 +74,7 @@ class TorqueLinearization:
 
 def linearize_torques(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, fps: float,
                       support: np.ndarray, sole_poses: np.ndarray, sole_jacobians: np.ndarray,
-                      limit: float) -> TorqueLinearization:
+                      limit: float, dv_dq: np.ndarray) -> TorqueLinearization:
     """Net joint torques of the trajectory and the rows of those above ``ACTIVE * limit``,
     with the planned support and, where it counts fewer feet, the evaluator's (see the module
     docstring).
@@ -89,13 +88,15 @@ def linearize_torques(robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, fps: f
         sole_poses: (T, 2, 4, 4) world poses of the sole frames [left, right].
         sole_jacobians: (T, 2, 6, nv) world-aligned Jacobians of the sole frames.
         limit: the ratio the rows keep (1 - the torque margin).
+        dv_dq: (T, 3, nv, nv) the velocities' derivatives
+            (:func:`imesh.metrics.derivatives.velocity_jacobians` of q).
     """
     tau, _ = robot.inverse_dynamics_trajectory(q, v, a)
     splits = [support]
     counted = support & evaluator_support(robot, sole_poses, fps)
     if (counted != support).any():
         splits.append(np.where(counted.any(axis=1, keepdims=True), counted, support))
-    parts = [_linearize_split(robot, q, v, a, fps, s, sole_jacobians, limit, tau)
+    parts = [_linearize_split(robot, q, v, a, fps, s, sole_jacobians, limit, tau, dv_dq)
              for s in splits]
     ratio = parts[0].ratio
     for p in parts[1:]:
@@ -116,7 +117,7 @@ def evaluator_support(robot, sole_poses: np.ndarray, fps: float) -> np.ndarray:
     return detect_support(SoleTracks(corners=corners, centers=centers, fps=fps)).support
 
 
-def _linearize_split(robot, q, v, a, fps, support, sole_jacobians, limit, tau
+def _linearize_split(robot, q, v, a, fps, support, sole_jacobians, limit, tau, dv_dq
                      ) -> TorqueLinearization:
     """:func:`linearize_torques` with one support split; ``tau`` (T, nv) the RNEA forces."""
     T, nv = v.shape
@@ -146,7 +147,7 @@ def _linearize_split(robot, q, v, a, fps, support, sole_jacobians, limit, tau
     # forward differences of the sole Jacobians, one batched pass over nv steps per frame
     Pd = np.einsum("ajn,akns->akjs", P[active], dtau)
     Pd[:, 0] += _split_derivative(robot, q[active], support[active], tau[active], P[active])
-    Bv, Ba = _derivative_blocks(q, v, fps)
+    Bv, Ba = _derivative_blocks(dv_dq, fps)
     slot = np.searchsorted(active, tt)
     offsets = np.arange(-REACH, REACH + 1)
     coef = (np.einsum("rn,rwnm->rwm", Pd[slot, 1, jj], Bv[tt])
@@ -162,21 +163,20 @@ def _linearize_split(robot, q, v, a, fps, support, sole_jacobians, limit, tau
 
 
 
-def _derivative_blocks(q: np.ndarray, v: np.ndarray, fps: float
-                       ) -> tuple[np.ndarray, np.ndarray]:
+def _derivative_blocks(dv_dq: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
     """(T, W, nv, nv) ``dv_t / d dq_{t+o}`` and ``da_t / d dq_{t+o}``, o = -REACH..REACH, of
     the evaluator's finite differences (:func:`imesh.metrics.derivatives.motion_derivatives`):
-    ``v``'s from :func:`~imesh.metrics.derivatives.velocity_jacobians` (the base's turn between
-    the frames included), ``a = G v``. At the ends a neighbour that is the frame itself adds
-    to offset 0.
+    ``v``'s from ``dv_dq`` (:func:`~imesh.metrics.derivatives.velocity_jacobians`, the base's
+    turn between the frames included), ``a = G v``. At the ends a neighbour that is the frame
+    itself adds to offset 0.
     """
-    T, nv = v.shape
+    T, _, nv, _ = dv_dq.shape
     W = 2 * REACH + 1
     coo = gradient_operator(T, 1.0 / fps).tocoo()
     wG = np.zeros((T, W))
     wG[coo.row, coo.col - coo.row + REACH] = coo.data
     frames = np.arange(T)
-    Jv = velocity_jacobians(q, fps)  # (T, 3, nv, nv): prev, t, next
+    Jv = dv_dq  # (T, 3, nv, nv): prev, t, next
     Bv = np.zeros((T, W, nv, nv))
     Bv[:, REACH] = Jv[:, 1]
     for k, o in ((0, -1), (2, 1)):

@@ -155,7 +155,7 @@ def polygon_rows(out: Rows, lin: Linearization, plan: Plan, zl: ZmpLinearization
             np.full(R, np.inf))
 
 
-def auxiliary_rows(lin: Linearization, zl: ZmpLinearization, lay: Layout
+def auxiliary_rows(lin: Linearization, lay: Layout
                    ) -> tuple[list[sp.spmatrix], list[np.ndarray]]:
     """Equalities defining the auxiliaries: ``dc_t = J_c dq_t`` and
     ``dk_t = sum_s K_ts dq_s`` over the frames ``s = prev(t), t, next(t)`` whose difference is

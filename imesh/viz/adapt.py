@@ -79,7 +79,8 @@ def plot_wholebody(robot, motion, path: str | os.PathLike, title: str = "") -> N
     polys = support_polygons(soles, support)
     lo = np.array([p.min(axis=0) if p is not None else [np.nan, np.nan] for p in polys])
     hi = np.array([p.max(axis=0) if p is not None else [np.nan, np.nan] for p in polys])
-    dyn = reference_dynamics(robot, q, v, a, support, ground_wrench(robot, q, v, fps))
+    com, dh, _ = robot.centroidal_trajectory(q, v, fps)
+    dyn = reference_dynamics(robot, q, v, a, support, ground_wrench(q, com, dh, robot.mass))
     fig, axes = plt.subplots(4, 1, figsize=(10, 11), sharex=True)
     for k, axis in enumerate("xy"):
         ax = axes[k]

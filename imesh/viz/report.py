@@ -413,8 +413,9 @@ def motion_figures(robot, motion, physics=None) -> dict[str, str]:
                "soles": figure_soles(t, soles, support),
                "joints": figure_joints(t, robot, q, fps)}
     if support.any():
+        com, dh, _ = robot.centroidal_trajectory(q, v, fps)
         figures["torques"] = figure_torques(t, reference_dynamics(
-            robot, q, v, a, support, ground_wrench(robot, q, v, fps)))
+            robot, q, v, a, support, ground_wrench(q, com, dh, robot.mass)))
     adapted = motion.adapted
     if adapted is not None:
         figures["markers"] = figure_markers(t, keypoint_motion(robot, q, fps), adapted)
