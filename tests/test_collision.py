@@ -11,7 +11,12 @@ from imesh.robot.capsules.fit import capsule_excess, fit_capsules
 from imesh.robot.capsules.model import segment_closest_points
 from imesh.robot.capsules.pairs import NOMINAL_CLEARANCE_M, pairs_file, read_pairs_toml
 from imesh.robot.capsules.robot import capsule_ignore_rule, fit_robot_capsules
-from imesh.solve.collision import collision_qp_rows, collision_violation, linearize_collisions
+from imesh.solve.collision import (
+    colliding_frames,
+    collision_qp_rows,
+    collision_violation,
+    linearize_collisions,
+)
 from imesh.solve.qp import QpProblem, solve_qp
 
 ROBOTS = ("jvrc1", "g1", "hrp4c")
@@ -209,6 +214,34 @@ def test_two_frame_solve_stops_at_the_margin():
     kin = robot.trajectory_kinematics(q, m.frames)
     final = linearize_collisions(m, kin.placements, kin.jacobians, 0.02)
     assert collision_violation(final, margin) < 2e-4
+
+
+def test_frames_in_collision_are_the_ones_the_sqp_caps():
+    """The SQP caps the trust radii of the frames whose self-collision distance is more than
+    1 mm inside the margin (``colliding_frames``): of the G1 standing, the forearm in the
+    torso and the forearm at the margin, only the second."""
+    from imesh.solve import WholeBodyConfig
+
+    robot = load_test_robot("g1")
+    m = robot.capsule_model()
+    config = WholeBodyConfig()
+    margin = config.collision.margin_m
+    inside = _pose(robot, G1_FOREARM_IN_TORSO)
+    q = np.stack([robot.q_nominal, inside, inside])
+    # the third frame: the arm on its way from the nominal pose to the torso, where its
+    # distance is the margin (bisection on the way)
+    lo, hi = 0.0, 1.0
+    assert _distances(robot, robot.q_nominal).min() > margin
+    for _ in range(40):
+        q[2] = robot.q_nominal + 0.5 * (lo + hi) * (inside - robot.q_nominal)
+        lo, hi = (0.5 * (lo + hi), hi) if _distances(robot, q[2]).min() > margin else (
+            lo, 0.5 * (lo + hi))
+    kin = robot.trajectory_kinematics(q, m.frames)
+    collision = linearize_collisions(m, kin.placements, kin.jacobians, 0.02)
+    assert collision.min_distance[1] < -0.02
+    assert collision.min_distance[2] == pytest.approx(margin, abs=1e-4)
+    np.testing.assert_array_equal(colliding_frames(collision, 3, margin), [False, True, False])
+    np.testing.assert_array_equal(colliding_frames(None, 3, margin), [False] * 3)
 
 
 def test_capsule_cache_round_trip(tmp_path, monkeypatch, caplog):

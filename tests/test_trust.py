@@ -75,3 +75,18 @@ def test_a_coordinate_bouncing_between_its_radii_halves_alone():
     region = region.follow(-0.5 * steps[2], 0.5, 0.18, True)
     assert region.scale[0, 6] == pytest.approx(0.25)
     assert region.reversals[0, 6] == 3
+
+
+def test_a_frame_in_collision_has_its_radii_capped():
+    """``SqpOptions.collision_trust`` (0.1) caps every radius of the frames in self-collision
+    (salsa A on G1: the arms of one frame moved 0.12-0.3 rad at every iteration with the hands
+    40-56 mm into each other); the base's 0.06 m stay, the other frames keep 0.3 rad, and a
+    cap of 0 leaves every radius."""
+    region = TrustRegion.start(SqpOptions(), 4, 8)
+    frames = np.array([False, True, False, True])
+    radius = region.capped(frames, SqpOptions().collision_trust)
+    np.testing.assert_allclose(radius[frames][:, :3], 0.06)
+    np.testing.assert_allclose(radius[frames][:, 3:], 0.1)
+    np.testing.assert_allclose(radius[~frames], region.radius[~frames])
+    np.testing.assert_allclose(region.capped(frames, 0.0), region.radius)
+    np.testing.assert_allclose(region.radius[:, 3:], 0.3)  # the region itself unchanged

@@ -97,3 +97,12 @@ def collision_violation(lin: CollisionLinearization | None, margin: float) -> fl
     if lin is None:
         return 0.0
     return float(np.sum(np.maximum(margin - lin.min_distance, 0.0)))
+
+
+def colliding_frames(lin: CollisionLinearization | None, n_frames: int,
+                     margin: float) -> np.ndarray:
+    """(T,) bool the frames whose smallest distance is more than 1 mm inside ``margin`` [m]:
+    the SQP caps their trust radii (``SqpOptions.collision_trust``)."""
+    if lin is None or not len(lin.min_distance):
+        return np.zeros(n_frames, dtype=bool)
+    return lin.min_distance < margin - 1e-3

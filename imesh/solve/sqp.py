@@ -29,7 +29,7 @@ from ..metrics.derivatives import motion_derivatives, velocity_jacobians
 from ..metrics.props import ProxyPoints
 from ..metrics.zmp import desired_zmp, multibody_zmp
 from ..robot.capsules.obstacles import Obstacles
-from .collision import collision_violation, linearize_collisions
+from .collision import colliding_frames, collision_violation, linearize_collisions
 from .config import WholeBodyConfig
 from .contacts import sole_errors
 from .cwc import cone_violation, plan_cones
@@ -729,7 +729,9 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
 
     for it in range(n_iter):
         t0 = time.perf_counter()
-        qp = build_qp(lin, plan, q, config, elastic_speeds=elastic, radius=region.radius)
+        radius = region.capped(colliding_frames(lin.collision, T, config.collision.margin_m),
+                               config.sqp.collision_trust)
+        qp = build_qp(lin, plan, q, config, elastic_speeds=elastic, radius=radius)
         seconds["build"] += time.perf_counter() - t0
         try:
             sol = solve(qp, it)
@@ -743,8 +745,8 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
                      exc)
             elastic = True
             phi = merit(lin, plan, q, config, speeds=True)
-            sol = solve(build_qp(lin, plan, q, config, elastic_speeds=True,
-                                 radius=region.radius), it)
+            sol = solve(build_qp(lin, plan, q, config, elastic_speeds=True, radius=radius),
+                        it)
         seconds["qp"] += sol.seconds
         dq = sol.x.reshape(T, -1)[:, :nv].copy()
         # held frames: their equality rows hold to the QP's tolerance; keep them exact, so

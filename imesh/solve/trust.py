@@ -24,6 +24,11 @@ valid. The radii start at ``SqpOptions.trust_region`` (the base's translation at
   knee of the lead-in at +-0.3 rad on alternate iterations, 11-20, taken at half with the soles
   stuck 4.3 mm off their footprints). One reversal is an overshoot corrected: halving on it
   changed the HRP-4C veer's path to 20 iterations instead of 15.
+
+A frame in self-collision has every radius capped at
+``SqpOptions.collision_trust`` (:meth:`TrustRegion.capped`): the distance rows are linear in
+the update, the capsules round, so a long step along a row's tangent plane sinks the links
+into each other again.
 """
 
 from __future__ import annotations
@@ -89,6 +94,14 @@ class TrustRegion:
     def largest(self) -> float:
         """The largest radius [m or rad]."""
         return float(self.radius.max(initial=0.0))
+
+    def capped(self, frames: np.ndarray, cap: float) -> np.ndarray:
+        """(T, nv) the radii [m or rad], those of ``frames`` ((T,) bool) at most ``cap`` (0:
+        unchanged)."""
+        radius = self.radius
+        if cap > 0 and frames.any():
+            radius[frames] = np.minimum(radius[frames], cap)
+        return radius
 
     def shrink(self) -> TrustRegion:
         """After a step no length of which lowered the merit: every radius to a quarter."""
