@@ -367,16 +367,22 @@ def test_the_default_walk_stands_at_its_own_speed_with_the_toe_roll(request):
 def test_the_veer_stands_from_its_lead_in(tmp_path):
     """The CMU veer starts with G1's right foot lifted and pitched 85 deg: the lead-in puts it
     down and swings it up into the clip, its markers carried with the foot
-    (imesh.solve.lead.LeadFeet). The reference's sole rises at most 30 mm per frame in that
+    (imesh.solve.lead.LeadFeet). The reference's sole rises at most 40 mm per frame in that
     swing (it rose 99 mm and pitched 32 deg in one frame, and the robot was lost in the lead-in
     at 1.17 s), and the robot stands to the end with the base within 50 mm of the reference.
     On the clip's first 1.7 s (frames 0-200 at 120 fps: the lifted foot's swing and two more
     steps, ending with both feet down; with the lead-in and lead-out, 3.6 s in DART), measured:
-    12.98 mm rise at most, the base 1.8 mm off at the end (the whole 4.45 s veer: 12.81 mm and
-    2.0 mm, for 3.4 times the retarget's time)."""
+    32.8 mm rise at most (12.98 with a 0.5 s swing), the base 1.8 mm off at the end (the whole
+    4.45 s veer with a 0.5 s swing: 12.81 mm and 2.0 mm, for 3.4 times the retarget's time). The
+    swing takes the lead-in's last
+    ``RetargetConfig.lead_swing_s`` (0.15 s, 4 frames at 30 fps): the robot stands on its left
+    foot through it with the markers held at the clip's first frame, which that foot does not
+    balance; the lead's key points are 42.9 mm RMS off their markers (60.8 mm with a 0.5 s
+    swing, the trunk leaning over the stance foot)."""
     from conftest import mocap_path
 
     from imesh.evaluate import load_motion_file
+    from imesh.evaluate.scoreboard import evaluate_motion
     from imesh.io import load_motion
     from imesh.io.robot_motion import save_robot_motion
     from imesh.metrics.soles import sole_tracks
@@ -390,8 +396,12 @@ def test_the_veer_stands_from_its_lead_in(tmp_path):
     save_robot_motion(path, result.motion)
     motion = load_motion_file(path, robot)
     n_in = result.lead_frames[0]
+    right = result.support.support[:n_in, 1]
+    assert right[:n_in - 4].all() and not right[n_in - 4:].any()
+    rms = evaluate_motion(robot, result.motion, adapted=result.adapted)["marker_rms_mm"]
+    assert rms["lead_frames_mm"] <= 48.0
     low = sole_tracks(robot, motion.q, motion.fps).corners["right"][:n_in + 1, :, 2].min(axis=1)
-    assert np.diff(low).max() <= 0.03
+    assert np.diff(low).max() <= 0.04
     res = simulate_motion(robot, motion, config=PhysicsConfig())
     assert not res.fell, res.fall_reason
     assert res.base_drift_m <= 0.05

@@ -105,6 +105,13 @@ class RetargetConfig:
         lead_land_s: a foot in the air at the clip's first frame that lands within this
             time [s] stands through the lead-in into its landing (the end of a swing) instead
             of a step out of the lead-in (:func:`imesh.solve.add_lead`); alike at the end.
+        lead_swing_s: the swing of a foot that steps out of the lead-in into the clip's first
+            frame (or into the lead-out) [s]. The robot stands on the other foot through the
+            swing with the markers held at the clip's first frame, which a walk's first frame
+            does not balance on one foot: the CMU veer's toe-off held the trunk of JVRC-1
+            270 mm in front of its markers. At 0.5 s the veers of G1, JVRC-1 and HRP-4C read
+            58.5, 87.4 and 88.6 mm (marker RMS), at 0.15 s 46.4-46.7, 70.5-72.7 and 77.7
+            (3 to 5 frames at 30 fps; docs/wholebody.md).
         allow_flight: ``balance="nishiwaki"`` only: accept flight phases (both feet up):
             those frames get no support and no ZMP constraint, and the result lists them.
             False: refuse them with FlightPhaseError before any work. The whole-body solve
@@ -133,6 +140,7 @@ class RetargetConfig:
     nishiwaki: BalanceConfig | None = None
     lead_s: float = 1.0
     lead_land_s: float = 0.15
+    lead_swing_s: float = 0.15
     allow_flight: bool = False
     lowpass_hz: float | None = 8.0
     foot_weight: float = 10.0
@@ -148,6 +156,8 @@ class RetargetConfig:
             raise OptionError("lead_s", self.lead_s, "a number of seconds >= 0")
         if not (np.isfinite(self.lead_land_s) and self.lead_land_s >= 0):
             raise OptionError("lead_land_s", self.lead_land_s, "a number of seconds >= 0")
+        if not (np.isfinite(self.lead_swing_s) and self.lead_swing_s > 0):
+            raise OptionError("lead_swing_s", self.lead_swing_s, "a number of seconds > 0")
         if self.balance == "wholebody" and self.support is None:
             raise OptionError("support", None, "a SupportConfig: the whole-body solve plans "
                               "footprints from the support phases")
@@ -620,7 +630,7 @@ def solve_prepared(prepared: Prepared, motion: MarkerMotion, robot, config: Reta
         ends = (None if faces is None else tops_under_feet(
             fit_markers.positions_m[[0, -1]], fit_markers, scene, faces))
         ext = add_lead(q_init, fit_markers.positions_m, flat.support, n_lead, n_lead,
-                       step_frames=int(round(0.5 * source.fps)),
+                       step_frames=max(1, int(round(config.lead_swing_s * source.fps))),
                        land_frames=int(round(config.lead_land_s * source.fps)),
                        feet=lead_feet(robot, q_init, targets, ends))
         limits = joint_limits(robot, fit_config.limits)
