@@ -110,8 +110,8 @@ class RetargetConfig:
             swing with the markers held at the clip's first frame, which a walk's first frame
             does not balance on one foot: the CMU veer's toe-off held the trunk of JVRC-1
             270 mm in front of its markers. At 0.5 s the veers of G1, JVRC-1 and HRP-4C read
-            58.5, 87.4 and 88.6 mm (marker RMS), at 0.15 s 46.4-46.7, 70.5-72.7 and 77.7
-            (3 to 5 frames at 30 fps; docs/wholebody.md).
+            58.5, 87.4 and 88.6 mm (marker RMS), at 0.15 s (4 frames at 30 fps) 46.0, 71.6
+            and 77.4 (docs/wholebody.md).
         allow_flight: ``balance="nishiwaki"`` only: accept flight phases (both feet up):
             those frames get no support and no ZMP constraint, and the result lists them.
             False: refuse them with FlightPhaseError before any work. The whole-body solve
