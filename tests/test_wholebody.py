@@ -16,6 +16,7 @@ from imesh.fit.limits import joint_limits
 from imesh.fit.targets import compile_targets
 from imesh.morph.problem import MorphConfig
 from imesh.physics import ControlConfig, PhysicsConfig
+from imesh.pipeline.retarget import RetargetConfig
 from imesh.solve import (
     CostWeights,
     ForceOptions,
@@ -567,6 +568,8 @@ def test_torques_also_hold_with_the_evaluators_support(robot, mocap):
     (lambda: SqpOptions(iterations=0), "iterations"),
     (lambda: CostWeights(accel=float("nan")), "accel"),
     (lambda: ZmpOptions(band_m=-0.01), "band_m"),
+    (lambda: SqpOptions(collision_trust=-0.1), "collision_trust"),
+    (lambda: RetargetConfig(lead_swing_s=0.0), "lead_swing_s"),
 ])
 def test_each_part_of_the_config_validates_itself(build, field):
     """Every part of WholeBodyConfig rejects a bad value when built, naming the field."""
