@@ -72,6 +72,8 @@ class DistanceRows(Protocol):
     def distance(self) -> np.ndarray: ...  # (R,) signed distance [m]
     @property
     def rows(self) -> np.ndarray: ...  # (R, nv) gradient of the distance in dq_t
+    @property
+    def min_distance(self) -> np.ndarray: ...  # (T,) smallest signed distance per frame [m]
 
 
 def collision_qp_rows(lin: DistanceRows, n_frames: int, stride: int, slack: int,
@@ -99,10 +101,10 @@ def collision_violation(lin: CollisionLinearization | None, margin: float) -> fl
     return float(np.sum(np.maximum(margin - lin.min_distance, 0.0)))
 
 
-def colliding_frames(lin: CollisionLinearization | None, n_frames: int,
-                     margin: float) -> np.ndarray:
+def colliding_frames(lin: DistanceRows | None, n_frames: int, margin: float) -> np.ndarray:
     """(T,) bool the frames whose smallest distance is more than 1 mm inside ``margin`` [m]:
-    the SQP caps their trust radii (``SqpOptions.collision_trust``)."""
+    the SQP caps their trust radii (``SqpOptions.collision_trust``) and does not stop while
+    one is left (the self-collision's, the props' or the obstacles' distances)."""
     if lin is None or not len(lin.min_distance):
         return np.zeros(n_frames, dtype=bool)
     return lin.min_distance < margin - 1e-3

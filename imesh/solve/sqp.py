@@ -632,13 +632,10 @@ def _settled(lin: Linearization, plan: Plan, r: IterationReport, config: WholeBo
     use = use or 0.0
     if r.velocity_ratio > v_cap + 1e-6 or r.acceleration_ratio > a_cap + 1e-6:
         return False
-    if lin.collision is not None and len(lin.collision.min_distance) and \
-            (config.collision.margin_m - lin.collision.min_distance).max() > 1e-3:
+    T = len(lin.points)
+    if any(colliding_frames(d, T, config.collision.margin_m).any()
+           for d in (lin.collision, lin.props, lin.obstacles)):
         return False
-    for other in (lin.props, lin.obstacles):
-        if other is not None and len(other.min_distance) and \
-                (config.collision.margin_m - other.min_distance).max() > 1e-3:
-            return False
     if plan.points is not None and lin.held_points is not None and \
             touch_violation(lin.held_points, plan.points).max() > 1e-3:
         return False
