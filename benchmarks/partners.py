@@ -7,11 +7,13 @@ For every robot pair, the couple is retargeted together (one interaction mesh, r
 avoiding robot a and meeting its hands where the people hold hands), together without the
 avoidance (``no-avoid``: mesh and holds), and each person alone (own mesh, no avoidance, no
 holds; same world, same settings): the baseline of the inter-person close-pair error. One
-row per robot and mode with the single-robot gates and the pair's figures. ``--frames``
-takes clip frames; the clips are read at their capture rate, 60 fps (their headers say 120:
+row per robot and mode with the single-robot gates (marker RMS over all output frames, and
+"clip mm" over the window's own frames without the lead-in and lead-out, which hold the
+window's first and last poses still) and the pair's figures. ``--frames`` takes clip frames;
+the clips are read at their capture rate, 60 fps (their headers say 120:
 :mod:`imesh.human.timing`), so the default window 460:640 is 3 s, holds the couple's hand
-hold (clip frames 504-611) and not partner A's hop (304-318);
-``--frames all`` runs the whole clip. ``--plot DIR`` writes one figure per robot pair (the
+hold (clip frames 504-611) and not partner A's hop (304-318); ``--frames all`` runs the
+whole clip. ``--plot DIR`` writes one figure per robot pair (the
 held hands' distance and the robots' smallest distance per frame, per mode; docs/partners/).
 """
 
@@ -38,7 +40,8 @@ CLIP_B = MOCAP / "cmu_61_10_salsa_partnerB_sl_scaled.bvh"
 MODES = {"together": PairConfig(), "no-avoid": PairConfig(avoid=False),
          "alone": PairConfig(together=False)}
 
-HEADER = (f"{'robots':12s} {'mode':8s} {'robot':6s} {'frames':>6s} {'rms mm':>7s} {'lim':>4s} "
+HEADER = (f"{'robots':12s} {'mode':8s} {'robot':6s} {'frames':>6s} {'rms mm':>7s} {'clip mm':>7s} "
+          f"{'lim':>4s} "
           f"{'coll':>4s} {'sole mm':>8s} {'skid':>6s} {'zmp in':>6s} | {'pen mm':>7s} "
           f"{'pen fr':>6s} {'hold max':>8s} {'hold<=30':>8s} {'inter cpe':>9s} {'s':>6s}")
 
@@ -54,6 +57,9 @@ def rows(pair: str, mode: str, result, metrics) -> list[dict]:
         out.append({"robots": pair, "mode": mode, "robot": f"{key}:{res.arrangement.robot}",
                     "frames": res.motion.n_frames,
                     "marker_rms_mm": value(rep, "marker_rms_mm"),
+                    # the window's own frames: the lead-in and lead-out hold a mid-dance pose
+                    "clip_frames_mm": float(rep["marker_rms_mm"].get("clip_frames_mm",
+                                                                     float("nan"))),
                     "limit_violation_frames": value(rep, "limit_violation_frames"),
                     "self_collision_frames": value(rep, "self_collision_frames"),
                     "sole_deviation_mm": value(rep, "sole_deviation_mm"),
@@ -65,7 +71,8 @@ def rows(pair: str, mode: str, result, metrics) -> list[dict]:
 
 def line(r: dict) -> str:
     return (f"{r['robots']:12s} {r['mode']:8s} {r['robot'][:6]:6s} {r['frames']:6d} "
-            f"{r['marker_rms_mm']:7.1f} {r['limit_violation_frames']:4.0f} "
+            f"{r['marker_rms_mm']:7.1f} {r['clip_frames_mm']:7.1f} "
+            f"{r['limit_violation_frames']:4.0f} "
             f"{r['self_collision_frames']:4.0f} {r['sole_deviation_mm']:8.2f} "
             f"{r['foot_skid_mm_per_frame']:6.2f} {r['zmp_inside_fraction']:6.3f} | "
             f"{r['robot_penetration_mm']:7.1f} {r['penetration_frames']:6d} "
