@@ -414,3 +414,19 @@ def test_missing_pinocchio_is_reported(monkeypatch):
 def test_import_does_not_load_pinocchio():
     code = "import sys, imesh.robot; assert 'pinocchio' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_cross_product_matrices_match_numpy_cross():
+    """``imesh.core.skew.skew`` (the robot's Jacobian shifts, the controller's wrench transforms
+    and the derivatives of the orientation metrics use it) is ``np.cross`` as a matrix, for one
+    vector and for a batch, and antisymmetric."""
+    from imesh.core.skew import skew
+
+    rng = np.random.default_rng(3)
+    r, x = rng.normal(size=3), rng.normal(size=3)
+    assert np.allclose(skew(r) @ x, np.cross(r, x), atol=1e-15)
+    R, X = rng.normal(size=(4, 5, 3)), rng.normal(size=(4, 5, 3))
+    S = skew(R)
+    assert S.shape == (4, 5, 3, 3)
+    assert np.allclose(np.einsum("...ij,...j->...i", S, X), np.cross(R, X), atol=1e-15)
+    assert np.array_equal(S, -np.swapaxes(S, -1, -2))

@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..core.skew import skew
+
 
 def motion_derivatives(q: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
     """Velocities and accelerations of a configuration trajectory (pinocchio convention).
@@ -46,13 +48,6 @@ def motion_derivatives(q: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarra
     return v, a
 
 
-def _skew(w: np.ndarray) -> np.ndarray:
-    """(..., 3, 3) cross-product matrices of (..., 3) vectors."""
-    out = np.zeros((*w.shape[:-1], 3, 3))
-    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
-    return out - np.swapaxes(out, -1, -2)
-
-
 def _inverse_right_jacobian(phi: np.ndarray) -> np.ndarray:
     """(T, 3, 3) ``Jr^-1(phi)`` of SO(3): ``log(exp(phi) exp(d)) = phi + Jr^-1(phi) d + o(d)``."""
     theta = np.linalg.norm(phi, axis=-1)
@@ -60,7 +55,7 @@ def _inverse_right_jacobian(phi: np.ndarray) -> np.ndarray:
     t = np.where(small, 1.0, theta)
     coeff = np.where(small, 1.0 / 12.0,
                      1.0 / t ** 2 - (1.0 + np.cos(t)) / (2.0 * t * np.sin(t)))
-    K = _skew(phi)
+    K = skew(phi)
     return np.eye(3) + 0.5 * K + coeff[:, None, None] * (K @ K)
 
 
@@ -94,7 +89,7 @@ def velocity_jacobians(q: np.ndarray, fps: float) -> np.ndarray:
     v_lin = np.einsum("tji,tj->ti", R, q[nxt, :3] - q[prev, :3]) / span[:, None]
     out[:, 0, :3, :3] = -np.einsum("tji,tjk->tik", R, R[prev]) * inv_span
     out[:, 2, :3, :3] = np.einsum("tji,tjk->tik", R, R[nxt]) * inv_span
-    out[:, 1, :3, 3:6] = _skew(v_lin)
+    out[:, 1, :3, 3:6] = skew(v_lin)
     phi = (rot[prev].inv() * rot[nxt]).as_rotvec()
     out[:, 2, 3:6, 3:6] = _inverse_right_jacobian(phi) * inv_span
     out[:, 0, 3:6, 3:6] = -_inverse_right_jacobian(-phi) * inv_span  # Jl^-1(phi)

@@ -97,7 +97,7 @@ import numpy as np
 
 from ..balance.cwc import sole_wrench_cone
 from ..contacts.phases import SIDES
-from ..robot.configuration import skew
+from ..core.skew import skew
 from .config import WbcConfig
 from .so3 import log_so3, quat_xyzw_to_matrix
 from .track import ReferenceTrack, TrackPoint

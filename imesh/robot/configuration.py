@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..core.skew import skew
 from ..errors import ImeshError
 from .dynamics import Dynamics
 from .pin import _pinocchio
@@ -22,11 +23,6 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
 
 #: [m/s^2] gravity along -z.
 GRAVITY = 9.81
-
-
-def skew(r: np.ndarray) -> np.ndarray:
-    """(3, 3) cross-product matrix of ``r`` (3,): ``skew(r) @ x == np.cross(r, x)``."""
-    return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
 
 
 class Configuration:

@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..core.skew import skew
 from .config import SIDES
-from .configuration import skew
 from .errors import RobotConfigError
 from .pin import _pinocchio
 
