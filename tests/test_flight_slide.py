@@ -406,6 +406,39 @@ def test_a_slide_the_fit_did_not_follow_holds_still(robot):
                                                   0.35, 0.4, 0.45]
 
 
+def test_a_slide_footprint_moves_no_faster_than_the_slide_speed(robot):
+    """A sole the fit drags at 3 m/s (10 cm per 30-fps frame) from a planted phase: its slide
+    footprints follow at the slide speed (1 m/s: 33.3 mm per frame) from where the planted
+    footprint is, and a slide the fit moves slower than that keeps the fit's footprints."""
+    from imesh.solve.footprints import plan_footprints
+
+    T, fps = 12, 30.0
+    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
+                                                                                   "right")])
+    poses = {}
+    for k, side in enumerate(("left", "right")):
+        p = np.repeat(np.eye(4)[None], T, axis=0)
+        p[:, :3, :3] = level[k]
+        p[:, :3, 3] = -level[k] @ robot.soles[side].center  # sole centre at the origin
+        p[:, 1, 3] += 0.3 * (k - 0.5)
+        poses[side] = p
+    poses["left"][4:, 0, 3] += 0.1 * np.arange(1, T - 3)  # planted to frame 3, then 3 m/s
+    poses["right"][4:, 0, 3] += 0.01 * np.arange(1, T - 3)  # 0.3 m/s
+    support = np.ones((T, 2), dtype=bool)
+    sliding = np.zeros_like(support)
+    sliding[4:] = True
+    fps_ = plan_footprints(robot, poses, support, sliding=sliding, slide_step_m=1.0 / fps)
+    x = {(f.side, f.start): f.center_m[0] for f in fps_}
+    left = np.array([x["left", t] for t in range(4, T)])
+    np.testing.assert_allclose(np.diff(np.r_[x["left", 0], left]), 1.0 / fps, atol=1e-12)
+    right = np.array([x["right", t] for t in range(4, T)])
+    np.testing.assert_allclose(right, 0.01 * np.arange(1, T - 3), atol=1e-12)
+    # without the limit the footprints are the fit's
+    free = {(f.side, f.start): f.center_m[0]
+            for f in plan_footprints(robot, poses, support, sliding=sliding)}
+    assert free["left", T - 1] == pytest.approx(0.8)
+
+
 def test_robot_soles_stay_flat_through_the_walks_double_supports(mocap):
     """On the CMU walk the human passes the weight between a heel and a toe (neither foot
     flat): the robot's support keeps every frame of the source's double supports (3-4 frames

@@ -19,6 +19,7 @@ from imesh.physics import ControlConfig, PhysicsConfig
 from imesh.pipeline.retarget import RetargetConfig
 from imesh.solve import (
     CostWeights,
+    FootOptions,
     ForceOptions,
     LimitMargins,
     SqpOptions,
@@ -570,6 +571,7 @@ def test_torques_also_hold_with_the_evaluators_support(robot, mocap):
     (lambda: ZmpOptions(band_m=-0.01), "band_m"),
     (lambda: SqpOptions(collision_trust=-0.1), "collision_trust"),
     (lambda: RetargetConfig(lead_swing_s=0.0), "lead_swing_s"),
+    (lambda: FootOptions(slide_speed_m_s=0.0), "slide_speed_m_s"),
 ])
 def test_each_part_of_the_config_validates_itself(build, field):
     """Every part of WholeBodyConfig rejects a bad value when built, naming the field."""

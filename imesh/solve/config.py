@@ -129,6 +129,16 @@ class FootOptions(NonNegative):
         slide_reach_m: a slide frame whose initial sole is higher than this was not followed
             by the fit (joint speed): its sole holds the nearest followed frame's footprint
             (:func:`imesh.solve.footprints.plan_footprints`) [m].
+        slide_speed_m_s: a sliding or pivoting sole's footprint moves at most this fast
+            [m/s]; where the fit's sole moves faster (a foot swept over the floor, a pivoting
+            sole whipped round: the leap dance's right sole 6.5 m/s between two frames), the
+            footprint follows it at this speed (:func:`~imesh.solve.footprints.plan_footprints`).
+            A loaded sole dragged at the person's speed asks the legs for more than their
+            joint limits: with every slide footprint at the fit's sole the leap dance's G1
+            solve did not converge (23 iterations: soles 69 mm off, joint accelerations 1.56
+            times the limits, key points 187 mm RMS); at 2 m/s it stops at 20 with the soles
+            2.2 mm off (165 mm); at 1 m/s it converges in 24 (143 mm). The zombie walk's
+            slides (0.5-0.7 m/s) are below it. inf: no limit.
     """
 
     clearance_m: float = 0.0
@@ -137,11 +147,15 @@ class FootOptions(NonNegative):
     lift_off_m: float = 0.01
     under_zmp: str = "slides"
     slide_reach_m: float = 0.05
+    slide_speed_m_s: float = 1.0
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.under_zmp not in UNDER_ZMP:
             raise OptionError("under_zmp", self.under_zmp, UNDER_ZMP)
+        if not self.slide_speed_m_s > 0:
+            raise OptionError("slide_speed_m_s", self.slide_speed_m_s, "a speed > 0 [m/s] (inf: "
+                              "no limit)")
 
 
 @dataclass(frozen=True)

@@ -236,8 +236,8 @@ def ankle_reach(robot, side: str, load: float = 1.0) -> float:
 
 def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarray,
                     load: float = 1.0, margin: float = 0.0,
-                    sliding: np.ndarray | None = None, reach_m: float = np.inf
-                    ) -> list[Footprint]:
+                    sliding: np.ndarray | None = None, reach_m: float = np.inf,
+                    slide_step_m: float = np.inf) -> list[Footprint]:
     """One level footprint on z = 0 per support phase of each foot, and one per frame of a
     slide.
 
@@ -260,6 +260,10 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
         sliding: (T, 2) bool support frames in which the sole slides or pivots (None: none).
         reach_m: slide frames whose initial sole centre is higher than this [m] hold the
             nearest followed frame's footprint.
+        slide_step_m: a slide frame's footprint centre moves at most this far [m] from the
+            footprint of the frame before it (when that frame is a support frame of the same
+            foot): where the initial sole moves faster, the footprint follows it at this
+            speed (``FootOptions.slide_speed_m_s`` over the frame rate).
 
     Returns:
         Footprints of both feet, in order of side then time.
@@ -290,13 +294,21 @@ def plan_footprints(robot, sole_poses: dict[str, np.ndarray], support: np.ndarra
                 source[a0:b0] = ok[np.argmin(np.abs(t[:, None] - ok[None, :]), axis=1)]
         spans += [(int(t), int(t) + 1, int(source[t]), int(source[t]) + 1, True)
                   for t in np.flatnonzero(sliding[:, k])]
+        previous = None
         for start, stop, a, b, slide in sorted(spans):
             pose = level_placement(sole, rot_level, poses[a:b])
             R, c = pose[:3, :3], pose[:3, :3] @ sole.center + pose[:3, 3]
+            if slide and previous is not None and previous.stop == start:
+                step = c[:2] - previous.center_m[:2]
+                length = float(np.linalg.norm(step))
+                if length > slide_step_m:  # a loaded sole dragged faster than the leg follows
+                    pose[:2, 3] -= step * (1.0 - slide_step_m / length)
+                    c = pose[:3, :3] @ sole.center + pose[:3, 3]
             corners = sole.corners() @ R.T + pose[:3, 3]
-            out.append(Footprint(side=side, start=int(start), stop=int(stop), frame_pose=pose,
+            previous = Footprint(side=side, start=int(start), stop=int(stop), frame_pose=pose,
                                  center_m=c, corners_m=corners,
-                                 polygon_m=local @ R.T + pose[:3, 3], sliding=slide))
+                                 polygon_m=local @ R.T + pose[:3, 3], sliding=slide)
+            out.append(previous)
     return out
 
 

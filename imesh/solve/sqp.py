@@ -488,7 +488,8 @@ def plan_whole_body(robot, q_init: np.ndarray, markers: np.ndarray, targets: Com
     sliding = sliding | (pivots & support)
     footprints = plan_footprints(robot, poses, support, load=config.forces.max_normal,
                                  margin=config.zmp.margin, sliding=sliding,
-                                 reach_m=config.feet.slide_reach_m)
+                                 reach_m=config.feet.slide_reach_m,
+                                 slide_step_m=config.feet.slide_speed_m_s / fps)
     # on a prop's top the z = 0 ZMP is not the ZMP of the support (and a foot moved under it
     # can leave the top): those plans keep the person's footprints
     on_props = support_heights is not None and bool((support_heights[support] > 1e-3).any())
