@@ -380,12 +380,8 @@ def test_a_pirouette_without_a_foot_to_restep_on_pivots(robot):
     assert pivots[14:, 0].all() and not pivots[:10, 0].any()
 
 
-def test_a_slide_the_fit_did_not_follow_holds_still(robot):
-    """Slide frames whose initial sole flew up (the fit held back by the joint speeds) take the
-    footprint of the nearest frame the fit did follow."""
-    from imesh.solve.footprints import plan_footprints
-
-    T = 10
+def _level_sole_poses(robot, T: int) -> dict[str, np.ndarray]:
+    """(T, 4, 4) sole frame poses per side, level, the sole centres 0.3 m apart on y at x = 0."""
     level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
                                                                                    "right")])
     poses = {}
@@ -395,6 +391,16 @@ def test_a_slide_the_fit_did_not_follow_holds_still(robot):
         p[:, :3, 3] = -level[k] @ robot.soles[side].center  # sole centre at the origin
         p[:, 1, 3] += 0.3 * (k - 0.5)
         poses[side] = p
+    return poses
+
+
+def test_a_slide_the_fit_did_not_follow_holds_still(robot):
+    """Slide frames whose initial sole flew up (the fit held back by the joint speeds) take the
+    footprint of the nearest frame the fit did follow."""
+    from imesh.solve.footprints import plan_footprints
+
+    T = 10
+    poses = _level_sole_poses(robot, T)
     poses["left"][:, 0, 3] += 0.05 * np.arange(T)  # slides 5 cm per frame
     poses["left"][4:7, 2, 3] += 0.3  # frames 4-6: the fit's sole 30 cm up
     support = np.ones((T, 2), dtype=bool)
@@ -413,15 +419,7 @@ def test_a_slide_footprint_moves_no_faster_than_the_slide_speed(robot):
     from imesh.solve.footprints import plan_footprints
 
     T, fps = 12, 30.0
-    level = robot.frame_rotations(robot.q_nominal, [robot.soles[s].frame for s in ("left",
-                                                                                   "right")])
-    poses = {}
-    for k, side in enumerate(("left", "right")):
-        p = np.repeat(np.eye(4)[None], T, axis=0)
-        p[:, :3, :3] = level[k]
-        p[:, :3, 3] = -level[k] @ robot.soles[side].center  # sole centre at the origin
-        p[:, 1, 3] += 0.3 * (k - 0.5)
-        poses[side] = p
+    poses = _level_sole_poses(robot, T)
     poses["left"][4:, 0, 3] += 0.1 * np.arange(1, T - 3)  # planted to frame 3, then 3 m/s
     poses["right"][4:, 0, 3] += 0.01 * np.arange(1, T - 3)  # 0.3 m/s
     support = np.ones((T, 2), dtype=bool)
