@@ -414,7 +414,7 @@ def test_a_slide_the_fit_did_not_follow_holds_still(robot):
 
 def test_a_slide_footprint_moves_no_faster_than_the_slide_speed(robot):
     """A sole the fit drags at 3 m/s (10 cm per 30-fps frame) from a planted phase: its slide
-    footprints follow at the slide speed (1 m/s: 33.3 mm per frame) from where the planted
+    footprints follow at a slide speed of 1 m/s (33.3 mm per frame) from where the planted
     footprint is, and a slide the fit moves slower than that keeps the fit's footprints."""
     from imesh.solve.footprints import plan_footprints
 
