@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..robot.capsules.hulls import BodyHulls
 from ..robot.capsules.mesh_check import MeshCollisionChecker
 from ..robot.capsules.pairs import capsule_source
 
@@ -189,9 +190,11 @@ def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
 
     The capsule distances of every checked pair are computed for all frames at once (numpy, in
     blocks of ``block_frames``); the body pairs whose capsules are closer than ``broad_m`` in a
-    frame are then measured on the URDF's geometry with coal
+    frame, and whose convex hulls (:mod:`imesh.robot.capsules.hulls`) are too, are then
+    measured on the URDF's geometry with coal
     (:class:`imesh.robot.capsules.mesh_check.MeshCollisionChecker`, same pairs and ignore list).
-    The rest cannot touch (the capsules enclose the geometry) and count as clear.
+    The rest cannot touch (the capsules and the hulls enclose the geometry) and count as
+    clear.
 
     Args:
         robot: an :class:`imesh.robot.Robot`.
@@ -212,6 +215,8 @@ def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
     q = np.asarray(q, dtype=float)
     T = len(q)
     cap_keys = list(dict.fromkeys(model.pair_bodies))
+    hulls = BodyHulls(model.hulls) if model.hulls and mesh else None
+    frame = {f: i for i, f in enumerate(model.frames)}  # a body's capsules' frame is the body
     mesh_keys = cap_keys  # the same body pairs (a body without geometry: never measured)
     cap_hits: list = [[], [], [], []]
     mesh_hits: list = [[], [], [], []]
@@ -230,6 +235,15 @@ def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
             continue
         d = np.full((len(qb), len(mesh_keys)), np.inf)
         near = _body_distances(model, cap, mesh_keys) < broad_m
+        if near.any() and hulls is not None:
+            # the bodies' convex hulls enclose the geometry too: a pair whose hulls are apart
+            # needs no mesh (the solve keeps hulls, not capsules, apart: most capsule overlaps
+            # of a solved motion are such pairs)
+            tt, kk = np.nonzero(near)
+            first, second = zip(*(mesh_keys[k] for k in kk), strict=True)
+            near[tt, kk] = hulls.distances(placements[tt, [frame[b] for b in first]],
+                                           placements[tt, [frame[b] for b in second]],
+                                           list(first), list(second)) < broad_m
         if near.any() and checker is None:
             checker = MeshCollisionChecker(robot)
         if checker is not None:  # pairs of bodies with geometry

@@ -57,7 +57,8 @@ _HERE = Path(__file__).resolve().parent
 ROBOT_SOURCES = ("build.py", "collision.py", "config.py", "geometry.py", "markers_config.py",
                  "model.py", "model_cache.py", "standing.py")
 #: The same for the capsule entry (added to the robot's key).
-CAPSULE_SOURCES = ("capsules/bodies.py", "capsules/fit.py", "capsules/mesh_check.py",
+CAPSULE_SOURCES = ("capsules/bodies.py", "capsules/fit.py", "capsules/hulls.py",
+                   "capsules/mesh_check.py",
                    "capsules/model.py", "capsules/pairs.py", "capsules/robot.py")
 
 
@@ -256,13 +257,17 @@ def capsule_model(robot: Robot, key: str):
                             for n, b, f, a, e, r in zip(data["name"], data["body"], data["frame"],
                                                         data["a"], data["b"], data["radius"],
                                                         strict=True)]
+                ends = np.cumsum(data["hull_count"])
+                parts = np.split(data["hull_points"], ends[:-1]) if len(ends) else []
+                hulls = {str(b): p.copy() for b, p in zip(data["hull_body"], parts, strict=True)}
                 log.debug("robot %s: capsule model read from the robot cache", robot.name)
-                return CapsuleModel(capsules, _pair_set(data["ignored"]))
+                return CapsuleModel(capsules, _pair_set(data["ignored"]), hulls)
         except READ_ERRORS as exc:
             log.warning("capsule cache %s unreadable (%s): building again",
                         cache_file(CAPSULES_KIND, ckey), exc)
     model = build_capsule_model(robot)
     caps = model.capsules
+    hulls = model.hulls or {}
     write_cached(CAPSULES_KIND, ckey, version=np.array(ROBOT_CACHE_VERSION),
                  name=np.array([c.name for c in caps], dtype=str),
                  body=np.array([c.body for c in caps], dtype=str),
@@ -270,5 +275,8 @@ def capsule_model(robot: Robot, key: str):
                  a=np.array([c.a for c in caps], dtype=float).reshape(-1, 3),
                  b=np.array([c.b for c in caps], dtype=float).reshape(-1, 3),
                  radius=np.array([c.radius for c in caps], dtype=float),
-                 ignored=_pairs(model.ignored))
+                 ignored=_pairs(model.ignored),
+                 hull_body=np.array(list(hulls), dtype=str),
+                 hull_count=np.array([len(v) for v in hulls.values()], dtype=np.int64),
+                 hull_points=np.concatenate([np.zeros((0, 3)), *hulls.values()]))
     return model

@@ -16,7 +16,30 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 
+from ..robot.capsules.hulls import BodyHulls
 from ..robot.capsules.model import CapsuleModel, sample_rows
+
+
+@dataclass(frozen=True, eq=False)
+class HullShift:
+    """How much farther apart the bodies' convex hulls are than each of their capsule pairs,
+    per (frame, capsule pair) of one iterate: ``max(0, d_hull(A, B) - d_caps)``.
+
+    Attributes:
+        keys: (K,) int sorted ``frame * n_capsule_pairs + capsule pair``.
+        shift: (K,) [m] the shift of each.
+    """
+
+    keys: np.ndarray
+    shift: np.ndarray
+
+    def at(self, keys: np.ndarray) -> np.ndarray:
+        """(R,) [m] the shift of each of ``keys`` (0 for a sample this iterate did not have:
+        its capsules alone, the conservative bound)."""
+        if not len(self.keys):
+            return np.zeros(len(keys))
+        i = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
+        return np.where(self.keys[i] == keys, self.shift[i], 0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -24,12 +47,17 @@ class CollisionLinearization:
     """The self-collision samples of one iterate.
 
     Attributes:
-        frames: (R,) frame of each active sample (closer than the activation distance).
+        frames: (R,) frame of each active sample (capsules closer than the activation distance).
         pairs: (R,) index into ``model.pairs``.
-        distance: (R,) [m] signed distance of each sample.
+        distance: (R,) [m] signed distance of each sample: its capsules', raised to its
+            bodies' convex hulls' where that is larger (:func:`linearize_collisions`).
         rows: (R, nv) its gradient with respect to the tangent update of its frame.
         min_distance: (T,) [m] smallest signed distance of any checked pair per frame (+inf
             where no pair is within the activation distance).
+        capsule_distance: (R,) [m] the capsules' own distance of each sample.
+        shift: the hull shift the distances were raised by (None: capsules alone).
+        placements: (T, F, 4, 4) the capsule frames' placements (to evaluate the hulls again:
+            :func:`refresh_hull_shift`), or None without hulls.
     """
 
     frames: np.ndarray
@@ -37,18 +65,41 @@ class CollisionLinearization:
     distance: np.ndarray
     rows: np.ndarray
     min_distance: np.ndarray
+    capsule_distance: np.ndarray | None = None
+    shift: HullShift | None = None
+    placements: np.ndarray | None = None
 
 
 def linearize_collisions(model: CapsuleModel, placements: np.ndarray, jacobians: np.ndarray,
-                         activation: float) -> CollisionLinearization:
-    """Exact distances of every checked pair within the activation distance at every frame
+                         activation: float, hulls: BodyHulls | None = None,
+                         shift: HullShift | None = None) -> CollisionLinearization:
+    """Distances of every checked pair within the activation distance at every frame
     (bounding-sphere broad phase), and the rows of the active ones.
+
+    The capsules bound the geometry's distance from below, by 20-115 mm where a capsule bulges
+    beyond a box-shaped link (Talos's hip housings, docs/collision.md). With ``hulls``, each
+    active sample r, a capsule pair of bodies A and B, is raised to the bodies' convex hulls'
+    distance where that is larger,
+
+        d_r = d_caps,r + max(0, d_hull(A, B) - d_caps,r),
+
+    so the least row of a body pair is the larger of its two lower bounds of the geometry's
+    distance (the hulls enclose the geometry too). The rows keep the capsules' gradient: a
+    hull's distance is only piecewise smooth (its closest features jump between faces), and
+    its linearization carried the HRP-4C walk's legs 5 mm into each other in steps the QP
+    predicted clear. The shift is frozen over an SQP iteration: the line search's
+    linearizations take the iterate's (``shift``), so along a step the distance is the
+    capsules' plus a constant, and :func:`refresh_hull_shift` evaluates it again at the
+    accepted point.
 
     Args:
         model: the robot's capsules.
         placements: (T, F, 4, 4) world placements of ``model.frames``.
         jacobians: (T, F, 6, nv) their world-aligned Jacobians.
-        activation: [m] samples closer than this get a row.
+        activation: [m] samples whose capsules are closer than this get a row.
+        hulls: the bodies' convex hulls (:class:`imesh.robot.capsules.hulls.BodyHulls`), or
+            None for the capsules alone.
+        shift: the hull shift to use (default: evaluated at these placements).
     """
     T, nv = placements.shape[0], jacobians.shape[-1]
     if not len(model.pairs):
@@ -56,9 +107,61 @@ def linearize_collisions(model: CapsuleModel, placements: np.ndarray, jacobians:
         return CollisionLinearization(z, z, np.zeros(0), np.zeros((0, nv)), np.full(T, np.inf))
     dist = model.distances(placements, cutoff=activation)
     tt, pp = np.nonzero(dist.distance < activation)
+    caps = dist.distance[tt, pp]
     rows = sample_rows(model, placements, jacobians, tt, pp, dist)
-    return CollisionLinearization(frames=tt, pairs=pp, distance=dist.distance[tt, pp],
-                                  rows=rows, min_distance=dist.distance.min(axis=1))
+    if hulls is None:
+        return CollisionLinearization(frames=tt, pairs=pp, distance=caps, rows=rows,
+                                      min_distance=_least(T, tt, caps))
+    if shift is None:
+        shift = hull_shift(model, hulls, placements, tt, pp, caps)
+    return _shifted(model, tt, pp, caps, rows, shift, placements)
+
+
+def refresh_hull_shift(lin: CollisionLinearization, model: CapsuleModel,
+                       hulls: BodyHulls) -> CollisionLinearization:
+    """``lin`` with its hull shift evaluated at its own placements (an accepted SQP step)."""
+    assert lin.capsule_distance is not None and lin.placements is not None
+    shift = hull_shift(model, hulls, lin.placements, lin.frames, lin.pairs,
+                       lin.capsule_distance)
+    return _shifted(model, lin.frames, lin.pairs, lin.capsule_distance, lin.rows, shift,
+                    lin.placements)
+
+
+def _shifted(model: CapsuleModel, tt: np.ndarray, pp: np.ndarray, caps: np.ndarray,
+             rows: np.ndarray, shift: HullShift, placements: np.ndarray
+             ) -> CollisionLinearization:
+    d = caps + shift.at(_keys(model, tt, pp))
+    return CollisionLinearization(frames=tt, pairs=pp, distance=d, rows=rows,
+                                  min_distance=_least(len(placements), tt, d),
+                                  capsule_distance=caps, shift=shift, placements=placements)
+
+
+def hull_shift(model: CapsuleModel, hulls: BodyHulls, placements: np.ndarray,
+               tt: np.ndarray, pp: np.ndarray, caps: np.ndarray) -> HullShift:
+    """The :class:`HullShift` of the samples (tt, pp) whose capsule distances are ``caps``:
+    one hull distance per (frame, body pair)."""
+    body = tt * len(model.body_pairs) + model.pair_body_index[pp]
+    uniq, first, inverse = np.unique(body, return_index=True, return_inverse=True)
+    ca, cb = model.pairs[pp[first], 0], model.pairs[pp[first], 1]
+    t = tt[first]
+    d_hull = hulls.distances(placements[t, model.frame_index[ca]],
+                             placements[t, model.frame_index[cb]],
+                             [model.capsules[i].body for i in ca],
+                             [model.capsules[i].body for i in cb])
+    keys = _keys(model, tt, pp)
+    order = np.argsort(keys)
+    return HullShift(keys=keys[order],
+                     shift=np.maximum(d_hull[inverse] - caps, 0.0)[order])
+
+
+def _keys(model: CapsuleModel, tt: np.ndarray, pp: np.ndarray) -> np.ndarray:
+    return tt * len(model.pairs) + pp
+
+
+def _least(n_frames: int, tt: np.ndarray, d: np.ndarray) -> np.ndarray:
+    low = np.full(n_frames, np.inf)
+    np.minimum.at(low, tt, d)
+    return low
 
 
 class DistanceRows(Protocol):

@@ -251,18 +251,27 @@ class CollisionOptions:
     """Self-collision rows (docs/collision.md).
 
     Attributes:
-        enabled: keep the robot's capsules apart: every checked pair closer than
-            ``activation_m`` gets a row ``d + J dq >= margin_m``.
-        margin_m: the signed distance the capsules keep [m].
-        activation_m: pairs closer than this at the iterate get a row [m].
+        enabled: keep the robot's bodies apart: every checked capsule pair closer than
+            ``self_activation_m`` gets a row ``d + J dq >= margin_m``, ``d`` the larger of the
+            capsules' and the bodies' convex hulls' distance (:mod:`.collision`).
+        margin_m: the signed distance the bodies keep [m].
+        activation_m: links closer than this to a prop or a partner robot at the iterate get
+            a row [m].
+        self_activation_m: capsule pairs closer than this at the iterate get a self-collision
+            row [m]. 5 cm: the rows keep the hulls apart, which lets an arm closer to the body
+            than its capsules did, and a full step (0.3 rad) then carried a pair 2-5 cm apart
+            on the capsules, without a row, through each other (Romeo's wave: a wrist 112 mm
+            into the hip; every step length refused, the solve unconverged); at 2 cm the
+            capsules' own rows held the arm back.
     """
 
     enabled: bool = True
     margin_m: float = 0.005
     activation_m: float = 0.02
+    self_activation_m: float = 0.05
 
     def __post_init__(self) -> None:
-        require_finite(self, ("activation_m",), positive=False)
+        require_finite(self, ("activation_m", "self_activation_m"), positive=False)
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ trajectory, so a result can be checked.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from collections.abc import Callable
@@ -28,8 +29,15 @@ from ..mesh.interaction import build_interaction_mesh
 from ..metrics.derivatives import motion_derivatives, velocity_jacobians
 from ..metrics.props import ProxyPoints
 from ..metrics.zmp import desired_zmp, multibody_zmp
+from ..robot.capsules.hulls import BodyHulls
 from ..robot.capsules.obstacles import Obstacles
-from .collision import colliding_frames, collision_violation, linearize_collisions
+from .collision import (
+    HullShift,
+    colliding_frames,
+    collision_violation,
+    linearize_collisions,
+    refresh_hull_shift,
+)
 from .config import WholeBodyConfig
 from .contacts import sole_errors
 from .cwc import cone_violation, plan_cones
@@ -149,12 +157,17 @@ class _Frames:
         self.capsules = None
         self.capsule_frames = np.zeros(0, dtype=int)
         self.collision_activation = 0.0
+        self.hulls: BodyHulls | None = None
         if config is not None and config.collision.enabled and robot.config.collision.in_solve:
             self.capsules = robot.capsule_model()
             cf = [robot.frame_id(f) for f in self.capsules.frames]
             ids += [f for f in dict.fromkeys(cf) if f not in ids]
             self.capsule_frames = np.array([ids.index(f) for f in cf], dtype=int)
-            self.collision_activation = config.collision.activation_m
+            self.collision_activation = config.collision.self_activation_m
+            # the rows' distances are the bodies' convex hulls' where the capsules come close
+            # (imesh.solve.collision.linearize_collisions)
+            if self.capsules.hulls:
+                self.hulls = BodyHulls(self.capsules.hulls)
         # props (imesh.solve.props): the capsules of every body but the feet, whose ground
         # points stand in for them (skipped in their support frames)
         self.props = None
@@ -245,10 +258,13 @@ def _cross_rows(J: np.ndarray, r: np.ndarray) -> np.ndarray:
 
 
 def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
-              support: np.ndarray | None = None, torque_limit: float = 1.0) -> Linearization:
+              support: np.ndarray | None = None, torque_limit: float = 1.0,
+              hull_shift: HullShift | None = None) -> Linearization:
     """Key points, directions, soles, CoM and their Jacobians at every frame of ``q``; with the
     planned ``support`` (T, 2) also the net joint torques and the rows of those above 70 % of
-    ``torque_limit`` (a fraction of the effort limits, :mod:`.torque`)."""
+    ``torque_limit`` (a fraction of the effort limits, :mod:`.torque`). ``hull_shift``: the
+    self-collision distances' hull shift to keep (a line search's trial point; default:
+    evaluated at ``q``, :func:`imesh.solve.collision.linearize_collisions`)."""
     kin = robot.trajectory_kinematics(q, frames.ids)
     M, J = kin.placements, kin.jacobians
     R, p = M[..., :3, :3], M[..., :3, 3]
@@ -288,7 +304,8 @@ def linearize(robot, q: np.ndarray, frames: _Frames, fps: float,
     if frames.capsules is not None:
         collision = linearize_collisions(frames.capsules, M[:, frames.capsule_frames],
                                          J[:, frames.capsule_frames],
-                                         frames.collision_activation)
+                                         frames.collision_activation, frames.hulls,
+                                         hull_shift)
     prop_lin = None
     if frames.props is not None:
         model = frames.prop_model
@@ -756,7 +773,8 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
         for alpha in (1.0, 0.5, 0.25, 0.125):
             q_new = np.array([robot.integrate(q[t], alpha * dq[t]) for t in range(T)])
             lin_new = linearize(robot, q_new, frames, plan.fps, support,
-                                1.0 - config.margins.torque)
+                                1.0 - config.margins.torque,
+                                None if lin.collision is None else lin.collision.shift)
             phi_new = merit(lin_new, plan, q_new, config, speeds=elastic)
             # a step may not deepen the self-collisions, whatever else it gains: a long step
             # can carry a hand through a body, where the distance's gradient then points
@@ -789,6 +807,12 @@ def solve_whole_body(robot, plan: Plan, footprints: list[Footprint], targets: Co
             continue
         gain = phi - phi_new
         q, lin, phi = q_new, lin_new, phi_new
+        if frames.hulls is not None and frames.capsules is not None and \
+                lin.collision is not None:
+            # the accepted point's own hull shift (the step was judged with the last one's)
+            lin = dataclasses.replace(lin, collision=refresh_hull_shift(
+                lin.collision, frames.capsules, frames.hulls))
+            phi = merit(lin, plan, q, config, speeds=elastic)
         history.append(_report(lin, plan, q, step, sol.seconds, sol.iterations))
         r = history[-1]
         log.info("whole-body iteration %d: step %.2e (alpha %.3g), merit %.6g, soles %.2f mm / "

@@ -4,7 +4,7 @@ their gradient rows (:func:`sample_rows`); see :mod:`imesh.robot.capsules` for t
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -97,11 +97,15 @@ class CapsuleModel:
     Args:
         capsules: the capsules.
         ignored: body-name pairs (sorted tuples) never checked.
+        hulls: body -> (V, 3) [m] vertices of the convex hull of the geometry its capsules
+            enclose, in the body's frame (:mod:`imesh.robot.capsules.hulls`); None: not known.
     """
 
-    def __init__(self, capsules: Sequence[Capsule], ignored: set[tuple[str, str]]):
+    def __init__(self, capsules: Sequence[Capsule], ignored: set[tuple[str, str]],
+                 hulls: Mapping[str, np.ndarray] | None = None):
         self.capsules = list(capsules)
         self.ignored = set(ignored)
+        self.hulls = None if hulls is None else dict(hulls)
         self.frames = list(dict.fromkeys(c.frame for c in self.capsules))
         self.frame_index = np.array([self.frames.index(c.frame) for c in self.capsules])
         self.ends = np.stack([np.stack([c.a, c.b]) for c in self.capsules]) if capsules \
@@ -113,6 +117,11 @@ class CapsuleModel:
         self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
         self.pair_bodies = [pair_key(self.capsules[i].body, self.capsules[j].body)
                             for i, j in pairs]
+        #: the body pairs checked, and the index in it of each capsule pair's
+        self.body_pairs = list(dict.fromkeys(self.pair_bodies))
+        index = {key: k for k, key in enumerate(self.body_pairs)}
+        self.pair_body_index = np.array([index[key] for key in self.pair_bodies],
+                                        dtype=np.int64)
 
     def world_segments(self, placements: np.ndarray) -> np.ndarray:
         """(T, C, 2, 3) segment end points in the world from (T, F, 4, 4) placements of

@@ -9,10 +9,13 @@ import zipfile
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from ..collision import pair_key
 from .bodies import body_points, robot_bodies
 from .cache import capsule_cache_dir, fit_key, read_capsules, write_capsules
 from .fit import fit_capsules
+from .hulls import hull_vertices
 from .mesh_check import MeshCollisionChecker
 from .model import Capsule, CapsuleModel
 from .pairs import (
@@ -99,6 +102,18 @@ def capsule_ignore_rule(robot: Robot, capsules: Sequence[Capsule] | None = None
     return rule
 
 
+def body_hulls(robot: Robot) -> dict[str, np.ndarray]:
+    """body -> (V, 3) [m] vertices of the convex hull of its geometry (the points its capsules
+    enclose) in the body's frame (:mod:`imesh.robot.capsules.hulls`)."""
+    links, _ = robot_bodies(robot)
+    out = {}
+    for body, members in links.items():
+        pts, _ = body_points(robot, body, members)
+        if len(pts) >= 2:
+            out[body] = hull_vertices(pts)
+    return out
+
+
 def build_capsule_model(robot: Robot) -> CapsuleModel:
     """The robot's capsules with the ignore list of its ``collision_pairs.toml`` (the rule's
     output when the robot has no such file, e.g. a user's URDF)."""
@@ -110,7 +125,7 @@ def build_capsule_model(robot: Robot) -> CapsuleModel:
         ignored = set(capsule_ignore_rule(robot, capsules))
         log.info("robot %s has no %s: ignoring %d body pairs by rule", robot.name, PAIRS_FILE,
                  len(ignored))
-    model = CapsuleModel(capsules, ignored)
+    model = CapsuleModel(capsules, ignored, body_hulls(robot))
     log.info("robot %s: %d capsules on %d bodies, %d pairs checked", robot.name,
              len(capsules), len({c.body for c in capsules}), len(model.pairs))
     return model
