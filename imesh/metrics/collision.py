@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..robot.capsules.hulls import BodyHulls
 from ..robot.capsules.mesh_check import MeshCollisionChecker
 from ..robot.capsules.pairs import capsule_source
 
@@ -214,9 +213,8 @@ def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
     checker: MeshCollisionChecker | None = None
     q = np.asarray(q, dtype=float)
     T = len(q)
-    cap_keys = list(dict.fromkeys(model.pair_bodies))
-    hulls = BodyHulls(model.hulls) if model.hulls and mesh else None
-    frame = {f: i for i, f in enumerate(model.frames)}  # a body's capsules' frame is the body
+    cap_keys = model.body_pairs
+    hulls = model.body_hulls() if mesh else None
     mesh_keys = cap_keys  # the same body pairs (a body without geometry: never measured)
     cap_hits: list = [[], [], [], []]
     mesh_hits: list = [[], [], [], []]
@@ -240,10 +238,7 @@ def check_self_collisions(robot, q: np.ndarray, depth: float = SELF_COLLISION_DE
             # needs no mesh (the solve keeps hulls, not capsules, apart: most capsule overlaps
             # of a solved motion are such pairs)
             tt, kk = np.nonzero(near)
-            first, second = zip(*(mesh_keys[k] for k in kk), strict=True)
-            near[tt, kk] = hulls.distances(placements[tt, [frame[b] for b in first]],
-                                           placements[tt, [frame[b] for b in second]],
-                                           list(first), list(second)) < broad_m
+            near[tt, kk] = hulls.pair_distances(model, placements, tt, kk) < broad_m
         if near.any() and checker is None:
             checker = MeshCollisionChecker(robot)
         if checker is not None:  # pairs of bodies with geometry

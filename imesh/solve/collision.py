@@ -140,14 +140,10 @@ def hull_shift(model: CapsuleModel, hulls: BodyHulls, placements: np.ndarray,
                tt: np.ndarray, pp: np.ndarray, caps: np.ndarray) -> HullShift:
     """The :class:`HullShift` of the samples (tt, pp) whose capsule distances are ``caps``:
     one hull distance per (frame, body pair)."""
-    body = tt * len(model.body_pairs) + model.pair_body_index[pp]
-    uniq, first, inverse = np.unique(body, return_index=True, return_inverse=True)
-    ca, cb = model.pairs[pp[first], 0], model.pairs[pp[first], 1]
-    t = tt[first]
-    d_hull = hulls.distances(placements[t, model.frame_index[ca]],
-                             placements[t, model.frame_index[cb]],
-                             [model.capsules[i].body for i in ca],
-                             [model.capsules[i].body for i in cb])
+    bp = model.pair_body_index[pp]
+    body, inverse = np.unique(tt * len(model.body_pairs) + bp, return_inverse=True)
+    d_hull = hulls.pair_distances(model, placements, body // len(model.body_pairs),
+                                  body % len(model.body_pairs))
     keys = _keys(model, tt, pp)
     order = np.argsort(keys)
     return HullShift(keys=keys[order],

@@ -166,8 +166,7 @@ class _Frames:
             self.collision_activation = config.collision.self_activation_m
             # the rows' distances are the bodies' convex hulls' where the capsules come close
             # (imesh.solve.collision.linearize_collisions)
-            if self.capsules.hulls:
-                self.hulls = BodyHulls(self.capsules.hulls)
+            self.hulls = self.capsules.body_hulls()
         # props (imesh.solve.props): the capsules of every body but the feet, whose ground
         # points stand in for them (skipped in their support frames)
         self.props = None

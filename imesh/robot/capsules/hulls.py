@@ -18,10 +18,14 @@ intersect give their penetration depth (GJK/EPA, coal), as the mesh check does f
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ...core.lazy import optional
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from .model import CapsuleModel
 
 
 def hull_vertices(points: np.ndarray) -> np.ndarray:
@@ -66,3 +70,12 @@ class BodyHulls:
                                    self.hulls[b], coal.Transform3s(Mb[:3, :3], Mb[:3, 3]),
                                    self._request, coal.DistanceResult())
         return out
+
+    def pair_distances(self, model: CapsuleModel, placements: np.ndarray, frames: np.ndarray,
+                       body_pairs: np.ndarray) -> np.ndarray:
+        """(R,) [m] the hull distance of body pair ``model.body_pairs[body_pairs[r]]`` at time
+        ``frames[r]`` of ``placements`` ((T, F, 4, 4) world placements of ``model.frames``)."""
+        fa, fb = model.body_pair_frames[body_pairs].T
+        return self.distances(placements[frames, fa], placements[frames, fb],
+                              [model.body_pair_bodies[k][0] for k in body_pairs],
+                              [model.body_pair_bodies[k][1] for k in body_pairs])

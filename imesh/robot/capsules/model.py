@@ -6,10 +6,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..collision import pair_key
+
+if TYPE_CHECKING:  # pragma: no cover - typing only (hulls needs coal, imported on use)
+    from .hulls import BodyHulls
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,6 +126,27 @@ class CapsuleModel:
         index = {key: k for k, key in enumerate(self.body_pairs)}
         self.pair_body_index = np.array([index[key] for key in self.pair_bodies],
                                         dtype=np.int64)
+        # each body pair as its first capsule pair orders it (the bodies' capsules are listed
+        # body by body, so every capsule pair of two bodies orders them alike)
+        first: dict[int, tuple[int, int]] = {}
+        for (i, j), k in zip(pairs, self.pair_body_index, strict=True):
+            first.setdefault(int(k), (i, j))
+        ends = [first[k] for k in range(len(self.body_pairs))]
+        #: (B, 2) the index in ``frames`` of each body pair's two bodies' frame, and their names
+        #: in that order
+        self.body_pair_frames = np.array([[self.frame_index[i], self.frame_index[j]]
+                                          for i, j in ends], dtype=np.int64).reshape(-1, 2)
+        self.body_pair_bodies = [(self.capsules[i].body, self.capsules[j].body) for i, j in ends]
+        self._body_hulls: BodyHulls | None = None
+
+    def body_hulls(self) -> BodyHulls | None:
+        """The bodies' convex hulls as coal shapes (:class:`imesh.robot.capsules.hulls.BodyHulls`,
+        built on first use: 60 ms for the G1's), or None without :attr:`hulls`."""
+        if self._body_hulls is None and self.hulls:
+            from .hulls import BodyHulls
+
+            self._body_hulls = BodyHulls(self.hulls)
+        return self._body_hulls
 
     def world_segments(self, placements: np.ndarray) -> np.ndarray:
         """(T, C, 2, 3) segment end points in the world from (T, F, 4, 4) placements of
