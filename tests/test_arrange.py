@@ -124,6 +124,42 @@ def test_failed_marker_gate_names_the_worst_key_points():
                                           "shoulder_r 125 mm, shoulder_l 122 mm, chest 86 mm")
     assert "worst key points: head 159 mm" in str(VerificationError("the wave", failed))
     assert "worst head 159 mm, neck 151 mm" in format_table({"marker_rms_mm": entry})
+    # ... and when (the evaluator's ``worst_window``): the motion's frames, the clip's seconds
+    entry["worst_window"] = {"frames": [58, 73], "seconds": [1.93, 2.43],
+                             "clip_seconds": [0.93, 1.43], "rms_mm": 421.4}
+    text = str(VerificationError("the dance", failed_gates({"marker_rms_mm": entry})))
+    assert ("worst half second: frames 58-72 (1.93-2.43 s; the clip's 0.93-1.43 s), "
+            "421 mm RMS") in text
+
+
+def test_worst_window_is_the_half_second_farthest_from_the_markers():
+    """``marker_rms_worst_window``: the window of frames whose key points are farthest from
+    their markers, and its RMS over the valid samples; the evaluator reports it for half a
+    second of the motion."""
+    from imesh.core.motion import MarkerMotion
+    from imesh.metrics.markers import marker_rms_mm, marker_rms_worst_window
+
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(100, 3, 3))
+    names = ("head", "hand_l", "pelvis")
+    make = lambda p, v=None: MarkerMotion(  # noqa: E731
+        positions_m=p, fps=30.0, names=names,
+        valid=np.ones(p.shape[:2], bool) if v is None else v, bones=np.zeros((0, 2), np.int64))
+    b = a.copy()
+    b[40:55, 1, 0] += 0.1  # the hand 100 mm off over frames 40-54, the rest exact
+    b[:, 2, 2] += 0.001  # and the pelvis 1 mm off throughout
+    start, stop, rms = marker_rms_worst_window(make(a), make(b), 15)
+    assert (start, stop) == (40, 55)
+    assert rms == pytest.approx(1e3 * np.sqrt((0.1 ** 2 + 0.001 ** 2) / 3), rel=1e-9)
+    # the hand invalid throughout: out of every window's samples
+    valid = np.ones((100, 3), bool)
+    valid[:, 1] = False
+    _, _, rms = marker_rms_worst_window(make(a), make(b, valid), 15)
+    assert rms == pytest.approx(np.sqrt(0.5), rel=1e-9)  # the pelvis 1 mm, the head 0
+    # a window longer than the motion is the whole motion, whose RMS is marker_rms_mm's
+    start, stop, rms = marker_rms_worst_window(make(a), make(b), 500)
+    assert (start, stop) == (0, 100)
+    assert rms == pytest.approx(marker_rms_mm(make(a), make(b)), rel=1e-12)
 
 
 def test_by_marker_rms_matches_the_total():

@@ -90,6 +90,14 @@ def test_marker_rms_splits_the_clips_frames_from_the_lead(g1_walk):
     recombined = np.sqrt((n_clip * whole["clip_frames_mm"] ** 2
                           + n_lead * whole["lead_frames_mm"] ** 2) / motion.n_frames)
     assert recombined == pytest.approx(whole["value"], abs=0.1)
+    # the worst half second: 15 frames at 30 fps, at least as far as the whole motion and as
+    # any half second of the clip alone; its seconds also on the clip's clock
+    w, wc = whole["worst_window"], cut["worst_window"]
+    (w0, w1), fps = w["frames"], motion.fps
+    assert w1 - w0 == 15 and wc["frames"][1] - wc["frames"][0] == 15
+    assert w["rms_mm"] >= max(whole["value"], wc["rms_mm"] - 0.05)
+    assert w["clip_seconds"] == [round((w0 - a) / fps, 2), round((w1 - a) / fps, 2)]
+    assert "clip_seconds" not in wc  # a slice has no provenance
 
 
 def test_another_clip_is_refused_by_hash(g1_walk, mocap, capsys):

@@ -43,6 +43,7 @@ from ..metrics.markers import (
     keypoint_motion,
     marker_rms_by_name_mm,
     marker_rms_mm,
+    marker_rms_worst_window,
 )
 from ..metrics.skid import SKID_THRESHOLD_MM, sole_deviation
 from ..metrics.soles import SoleTracks, sole_tracks
@@ -108,6 +109,10 @@ def _metric(name: str, value, **details) -> dict:
 def _missing(name: str, reason: str, **details) -> dict:
     return {"value": None, "unit": UNITS[name], "reason": reason, **details}
 
+
+#: Length [s] of the window ``marker_rms_mm`` names as the motion's worst (``worst_window``):
+#: half a second, a step or a gesture, so a refusal says when as well as where.
+WORST_WINDOW_S = 0.5
 
 #: Frames the evaluator's memory-hungry checks (capsule distances, inverse dynamics with the
 #: soles' Jacobians) take at a time; all frames at once took 9 GB on a 30-minute clip.
@@ -253,11 +258,20 @@ def _marker_metrics(robot, motion: RobotMotion, source, adapted, resample: bool
         kp_n, markers_n = kp_ref.frames(0, n).subset(common), aligned.frames(0, n)
         value = marker_rms_mm(kp_n, markers_n)
         by_name = marker_rms_by_name_mm(kp_n, markers_n)
+        # when: the half second of the motion farthest from its markers
+        a_w, b_w, rms_w = marker_rms_worst_window(kp_n, markers_n,
+                                                  round(WORST_WINDOW_S * kp_n.fps))
+        worst_window = {"frames": [a_w, b_w], "seconds": [round(a_w / kp_n.fps, 2),
+                                                          round(b_w / kp_n.fps, 2)],
+                        "rms_mm": round(rms_w, 1)}
         split = {}
         if kp_ref is kp_all and motion.provenance is not None and n == motion.n_frames:
             # the clip's own frames and the lead-in/out apart: the lead's targets are the
             # clip's first and last frames held still, not the performer's
             a, b = motion.provenance.clip_frames(n)
+            # the worst window on the clip's own clock too
+            worst_window["clip_seconds"] = [round((a_w - a) / kp_n.fps, 2),
+                                            round((b_w - a) / kp_n.fps, 2)]
             lead = np.r_[0:a, b:n]
             split = {"clip_frames_mm": round(marker_rms_mm(kp_n.frames(a, b),
                                                            markers_n.frames(a, b)), 1)}
@@ -268,6 +282,7 @@ def _marker_metrics(robot, motion: RobotMotion, source, adapted, resample: bool
         out["marker_rms_mm"] = _metric("marker_rms_mm", value, reference=ref_kind,
                                        markers=len(common), frames=n, **split,
                                        by_marker_mm={k: round(v, 1) for k, v in by_name.items()},
+                                       worst_window=worst_window,
                                        note=note.rstrip("; ") or None)
     if src is None:
         out["close_pair_error"] = _missing("close_pair_error", "needs the source clip "

@@ -45,8 +45,9 @@ def _note(name: str, entry: dict) -> str:
     if name == "limit_violation_frames":
         return f"position {entry['position']}, velocity {entry['velocity']}"
     if name == "marker_rms_mm":
-        worst = worst_markers(entry)
-        return f"vs {entry['reference']}" + (f"; worst {worst}" if worst else "")
+        worst, when = worst_markers(entry), worst_window(entry)
+        return (f"vs {entry['reference']}" + (f"; worst {worst}" if worst else "")
+                + (f"; worst half second: {when}" if when else ""))
     if name == "physics_fell":
         text = entry.get("fall_reason") or f"real-time factor {entry['real_time_factor']:.2f}"
         if entry.get("props"):
@@ -64,6 +65,20 @@ def worst_markers(entry: Mapping, count: int = 5) -> str:
     by_marker = entry.get("by_marker_mm") or {}
     worst = sorted(by_marker.items(), key=lambda kv: -kv[1])[:count]
     return ", ".join(f"{k} {v:.0f} mm" for k, v in worst)
+
+
+def worst_window(entry: Mapping) -> str:
+    """The window of a ``marker_rms_mm`` entry farthest from its markers, as "frames 58-72
+    (1.93-2.43 s; the clip's 0.93-1.43 s), 421 mm RMS": the motion's frames and seconds, its
+    lead-in included, then the clip's own seconds when the motion's provenance names its
+    lead-in (negative: in the lead-in); "" when the entry has no window."""
+    w = entry.get("worst_window")
+    if not w:
+        return ""
+    (a, b), (t0, t1) = w["frames"], w["seconds"]
+    clip = w.get("clip_seconds")
+    when = f"{t0:.2f}-{t1:.2f} s" + (f"; the clip's {clip[0]:.2f}-{clip[1]:.2f} s" if clip else "")
+    return f"frames {a}-{b - 1} ({when}), {w['rms_mm']:.0f} mm RMS"
 
 
 def format_table(report: Mapping[str, dict]) -> str:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from ..errors import VerificationError
 from .scoreboard import evaluate_motion, metric_values
-from .table import worst_markers
+from .table import worst_markers, worst_window
 
 
 @dataclass(frozen=True)
@@ -57,8 +57,10 @@ def failed_gates(report: dict, gates: Gates | None = None, balanced: bool = True
         ok = value <= limit if op == "<=" else value >= limit
         if not ok:
             gate = f"{op} {limit}"
-            if name == "marker_rms_mm" and worst_markers(report.get(name, {})):
-                gate += f"; worst key points: {worst_markers(report[name])}"
+            if name == "marker_rms_mm":  # where and when
+                where, when = worst_markers(report[name]), worst_window(report[name])
+                gate += (f"; worst key points: {where}" if where else "") + \
+                    (f"; worst half second: {when}" if when else "")
             out[name] = (value, gate)
     return out
 

@@ -124,6 +124,35 @@ def marker_rms_by_name_mm(keypoints: MarkerMotion, markers: MarkerMotion) -> dic
     return dict(sorted(out.items(), key=lambda kv: -kv[1]))
 
 
+def marker_rms_worst_window(keypoints: MarkerMotion, markers: MarkerMotion, frames: int
+                            ) -> tuple[int, int, float]:
+    """The ``frames`` consecutive frames farthest from the markers: ``[start, stop)`` and their
+    RMS distance [mm] (the when of :func:`marker_rms_mm`, as :func:`marker_rms_by_name_mm` is
+    its where).
+
+    The RMS of a window is ``sqrt(sum_t sum_k d_tk^2 / n)`` over its valid (frame, marker)
+    samples; windows are compared by it (a motion shorter than ``frames`` is one window).
+
+    Args:
+        keypoints: (T, K, 3) robot key points (:func:`keypoint_motion`).
+        markers: (T, M, 3) the markers they fit.
+        frames: window length (>= 1).
+
+    Raises:
+        InvalidMotionError: different frame counts or no common marker name.
+    """
+    _, d2, valid = _matched(keypoints, markers)
+    T = len(d2)
+    w = int(min(max(frames, 1), T))
+    # windowed sums from cumulative sums over frames: (T - w + 1,) per window
+    total = np.concatenate([[0.0], np.cumsum(np.where(valid, d2, 0.0).sum(axis=1))])
+    count = np.concatenate([[0], np.cumsum(valid.sum(axis=1))])
+    sums, counts = total[w:] - total[:-w], count[w:] - count[:-w]
+    rms = np.sqrt(sums / np.maximum(counts, 1))
+    start = int(np.argmax(np.where(counts > 0, rms, -1.0)))
+    return start, start + w, float(1e3 * rms[start])
+
+
 def marker_rms_mm(keypoints: MarkerMotion, markers: MarkerMotion) -> float:
     """RMS distance [mm] between robot key points and the markers they fit.
 
