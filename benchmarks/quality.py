@@ -15,6 +15,7 @@ balancing.
     python benchmarks/quality.py --no-physics --json quality.json --plots plots/
     python benchmarks/quality.py --torque-limit-scale 10      # falls that are not about torque
     python benchmarks/quality.py --motions /tmp/final40         # score written motions only
+    python benchmarks/quality.py --motions NEW --baseline OLD   # ... and against an older tree's
 
 With ``--motions DIR`` nothing is retargeted: every ``<clip stem>_<robot>.npz`` in DIR (as
 ``imesh retarget`` writes it, adapted markers inside) is scored by ``evaluate_motion`` with its
@@ -22,7 +23,10 @@ source clip from IMESH_DATA/mocap, and one line per motion gives self-collision 
 geometry against the capsules (frames deeper than 5 mm, deepest mm, worst pair),
 ``marker_rms_mm`` (over all frames and over the clip's), ``close_pair_error`` (on the clip's
 frames), the trunk's worst key point (chest, neck, head, shoulders: issue 33, part 2) and the
-evaluator's time.
+evaluator's time. With ``--baseline OLD`` the same-named motions of OLD (written by an older
+tree's ``benchmarks/wholebody.py --out OLD``) are scored too, and a second table gives each
+run's marker RMS and close-pair error beside the baseline's, the runs whose close-pair error is
+higher marked (issue 33, part 4: not worse than before on any run).
 """
 
 from __future__ import annotations
@@ -313,6 +317,33 @@ def print_motion_table(rows: list[dict]) -> None:
               + (f"{'-'.join(worst['pair'])} {worst['max_depth_mm']} mm" if worst else "-"))
 
 
+def print_baseline_table(rows: list[dict], baseline: list[dict]) -> None:
+    """Marker RMS and close-pair error of each scored motion beside the same run's in
+    ``baseline`` (:func:`motion_rows` of an older tree's motions); ``worse`` marks a higher
+    close-pair error."""
+    before = {(r["robot"], r["clip"]): r["report"] for r in baseline}
+    print("\nAgainst the baseline: marker RMS [mm] over all frames and close-pair error on the "
+          "clip's frames, baseline -> this folder")
+    print(f"{'robot':<6} {'clip':<30} {'mkRMS before':>12} {'after':>6} {'close before':>12} "
+          f"{'after':>7} {'change':>8}")
+    worse = 0
+    for r in rows:
+        old = before.get((r["robot"], r["clip"]))
+        if old is None:
+            continue
+        rep = r["report"]
+        m0, m1 = old["marker_rms_mm"]["value"], rep["marker_rms_mm"]["value"]
+        c0, c1 = old["close_pair_error"]["value"], rep["close_pair_error"]["value"]
+        flag = ""
+        if c0 is not None and c1 is not None and c1 > c0:
+            flag, worse = "worse", worse + 1
+        print(f"{r['robot']:<6} {r['clip'][:30]:<30} "
+              f"{'-' if m0 is None else f'{m0:.1f}':>12} {'-' if m1 is None else f'{m1:.1f}':>6} "
+              f"{'-' if c0 is None else f'{c0:.4f}':>12} {'-' if c1 is None else f'{c1:.4f}':>7} "
+              f"{'-' if c0 is None or c1 is None else f'{c1 - c0:+.4f}':>8} {flag}")
+    print(f"close-pair error higher than the baseline's on {worse} run(s)")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", nargs="+", default=list(ROBOTS), choices=ROBOTS)
@@ -327,6 +358,8 @@ def main(argv=None) -> int:
     parser.add_argument("--plots", help="folder for one DART figure per run")
     parser.add_argument("--motions", help="score the written motions of this folder "
                         "(<clip>_<robot>.npz) instead of retargeting")
+    parser.add_argument("--baseline", help="with --motions: also score this folder's "
+                        "same-named motions and compare (an older tree's)")
     parser.add_argument("-v", "--verbose", action="store_true")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
@@ -335,6 +368,8 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         rows = motion_rows(Path(args.motions), args.robots)
         print_motion_table(rows)
+        if args.baseline:
+            print_baseline_table(rows, motion_rows(Path(args.baseline), args.robots))
         print(f"\ntotal {time.perf_counter() - t0:.0f} s")
         if args.json:
             from imesh.io.atomic import write_json
