@@ -321,6 +321,9 @@ def print_baseline_table(rows: list[dict], baseline: list[dict]) -> None:
     """Marker RMS and close-pair error of each scored motion beside the same run's in
     ``baseline`` (:func:`motion_rows` of an older tree's motions); ``worse`` marks a higher
     close-pair error."""
+    def num(v, spec: str) -> str:
+        return "-" if v is None else format(v, spec)
+
     before = {(r["robot"], r["clip"]): r["report"] for r in baseline}
     print("\nAgainst the baseline: marker RMS [mm] over all frames and close-pair error on the "
           "clip's frames, baseline -> this folder")
@@ -334,13 +337,11 @@ def print_baseline_table(rows: list[dict], baseline: list[dict]) -> None:
         rep = r["report"]
         m0, m1 = old["marker_rms_mm"]["value"], rep["marker_rms_mm"]["value"]
         c0, c1 = old["close_pair_error"]["value"], rep["close_pair_error"]["value"]
-        flag = ""
-        if c0 is not None and c1 is not None and c1 > c0:
-            flag, worse = "worse", worse + 1
-        print(f"{r['robot']:<6} {r['clip'][:30]:<30} "
-              f"{'-' if m0 is None else f'{m0:.1f}':>12} {'-' if m1 is None else f'{m1:.1f}':>6} "
-              f"{'-' if c0 is None else f'{c0:.4f}':>12} {'-' if c1 is None else f'{c1:.4f}':>7} "
-              f"{'-' if c0 is None or c1 is None else f'{c1 - c0:+.4f}':>8} {flag}")
+        change = None if c0 is None or c1 is None else c1 - c0
+        worse += bool(change is not None and change > 0)
+        print(f"{r['robot']:<6} {r['clip'][:30]:<30} {num(m0, '.1f'):>12} {num(m1, '.1f'):>6} "
+              f"{num(c0, '.4f'):>12} {num(c1, '.4f'):>7} {num(change, '+.4f'):>8}"
+              + (" worse" if change is not None and change > 0 else ""))
     print(f"close-pair error higher than the baseline's on {worse} run(s)")
 
 
@@ -362,19 +363,22 @@ def main(argv=None) -> int:
                         "same-named motions and compare (an older tree's)")
     parser.add_argument("-v", "--verbose", action="store_true")
     args = parser.parse_args(argv)
+    if args.baseline and not args.motions:
+        parser.error("--baseline compares written motions: give --motions DIR too")
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     if args.motions:
         t0 = time.perf_counter()
         rows = motion_rows(Path(args.motions), args.robots)
         print_motion_table(rows)
-        if args.baseline:
-            print_baseline_table(rows, motion_rows(Path(args.baseline), args.robots))
+        baseline = motion_rows(Path(args.baseline), args.robots) if args.baseline else []
+        if baseline:
+            print_baseline_table(rows, baseline)
         print(f"\ntotal {time.perf_counter() - t0:.0f} s")
         if args.json:
             from imesh.io.atomic import write_json
 
-            write_json(args.json, {"rows": rows})
+            write_json(args.json, {"rows": rows, "baseline": baseline})
         return 0
     from imesh.physics import ControlConfig, PhysicsConfig
 
