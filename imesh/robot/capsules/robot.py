@@ -34,7 +34,22 @@ if TYPE_CHECKING:  # pragma: no cover - typing only (the Robot uses this package
 log = logging.getLogger(__name__)
 
 
-def fit_robot_capsules(robot: Robot, cache: bool = True) -> list[Capsule]:
+#: (body, (P, 3) points [m], (K, 3) triangles or None) of a body's collision geometry in its
+#: frame
+BodyGeometry = tuple[str, np.ndarray, "np.ndarray | None"]
+
+
+def body_geometry(robot: Robot) -> list[BodyGeometry]:
+    """Every body with geometry (two points or more), its points and triangles
+    (:func:`imesh.robot.capsules.bodies.body_points`): what the capsules are fitted to and the
+    hulls spanned over. Reading the meshes is the slow part (G1: 2 s in a new process)."""
+    links, _ = robot_bodies(robot)
+    inputs = [(body, *body_points(robot, body, members)) for body, members in links.items()]
+    return [(body, pts, tris) for body, pts, tris in inputs if len(pts) >= 2]
+
+
+def fit_robot_capsules(robot: Robot, cache: bool = True,
+                       bodies: Sequence[BodyGeometry] | None = None) -> list[Capsule]:
     """Capsules of every body of the robot (:func:`imesh.robot.capsules.fit.fit_capsules` on
     its URDF collision geometry, in the body's frame).
 
@@ -48,10 +63,9 @@ def fit_robot_capsules(robot: Robot, cache: bool = True) -> list[Capsule]:
     Args:
         robot: an :class:`imesh.robot.Robot`.
         cache: read and write the cache (when it is enabled).
+        bodies: the robot's :func:`body_geometry`, when the caller has read it already.
     """
-    links, _ = robot_bodies(robot)
-    inputs = [(body, *body_points(robot, body, members)) for body, members in links.items()]
-    inputs = [(body, pts, tris) for body, pts, tris in inputs if len(pts) >= 2]
+    inputs = body_geometry(robot) if bodies is None else list(bodies)
     split_excess = capsule_split_excess(robot)
     folder = capsule_cache_dir() if cache else None
     path = (folder / f"capsules-{fit_key(inputs, split_excess)}.npz" if folder is not None
@@ -102,22 +116,17 @@ def capsule_ignore_rule(robot: Robot, capsules: Sequence[Capsule] | None = None
     return rule
 
 
-def body_hulls(robot: Robot) -> dict[str, np.ndarray]:
+def body_hulls(bodies: Sequence[BodyGeometry]) -> dict[str, np.ndarray]:
     """body -> (V, 3) [m] vertices of the convex hull of its geometry (the points its capsules
-    enclose) in the body's frame (:mod:`imesh.robot.capsules.hulls`)."""
-    links, _ = robot_bodies(robot)
-    out = {}
-    for body, members in links.items():
-        pts, _ = body_points(robot, body, members)
-        if len(pts) >= 2:
-            out[body] = hull_vertices(pts)
-    return out
+    enclose; :func:`body_geometry`) in the body's frame (:mod:`imesh.robot.capsules.hulls`)."""
+    return {body: hull_vertices(pts) for body, pts, _ in bodies}
 
 
 def build_capsule_model(robot: Robot) -> CapsuleModel:
     """The robot's capsules with the ignore list of its ``collision_pairs.toml`` (the rule's
     output when the robot has no such file, e.g. a user's URDF)."""
-    capsules = fit_robot_capsules(robot)
+    bodies = body_geometry(robot)  # read once, for the capsules and the hulls
+    capsules = fit_robot_capsules(robot, bodies=bodies)
     path = pairs_file(robot)
     if path.is_file():
         ignored = read_pairs_toml(path)
@@ -125,7 +134,7 @@ def build_capsule_model(robot: Robot) -> CapsuleModel:
         ignored = set(capsule_ignore_rule(robot, capsules))
         log.info("robot %s has no %s: ignoring %d body pairs by rule", robot.name, PAIRS_FILE,
                  len(ignored))
-    model = CapsuleModel(capsules, ignored, body_hulls(robot))
+    model = CapsuleModel(capsules, ignored, body_hulls(bodies))
     log.info("robot %s: %d capsules on %d bodies, %d pairs checked", robot.name,
              len(capsules), len({c.body for c in capsules}), len(model.pairs))
     return model
